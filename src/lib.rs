@@ -1,0 +1,31 @@
+//! # pomc — layered omnidirectional RGB-D panoramas
+//!
+//! A POMC (*panorama omnidirecional com múltiplas camadas*) is a set of layers over the sphere of
+//! directions, each a continuous piece of surface (colour, distance along the ray, optional normals…).
+//! This crate is the reference implementation of the POMC 1 format described in `spec/`.
+//!
+//! Module tree mirrors the format:
+//! - [`mapping`]: pixel ↔ direction for the equirect and 3×2 cube-map parametrisations;
+//! - [`resample`]: sphere-aware sampling and equirect ↔ cube conversion;
+//! - [`manifest`]: the XML manifest (`panorama.xml`), with source positions for diagnostics;
+//! - [`layer`]: in-memory layer images and the depth/coverage encodings;
+//! - [`layer_io`]: reading and writing layer files (native EXR and the thesis PNG+EXR form);
+//! - [`pack`]: patch-packed compression (patch table + atlas);
+//! - [`panorama`]: a whole panorama directory (manifest + layers);
+//! - [`validate`]: the validator and its stable codes;
+//! - [`raster`]: the plain interleaved image container used everywhere;
+//! - [`fsutil`]: atomic writes and bounded reads.
+
+pub mod error;
+pub mod fsutil;
+pub mod layer;
+pub mod layer_io;
+pub mod manifest;
+pub mod mapping;
+pub mod pack;
+pub mod panorama;
+pub mod raster;
+pub mod resample;
+pub mod validate;
+
+pub use error::{Error, Result};

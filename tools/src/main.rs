@@ -1,0 +1,4 @@
+//! `pomc` command line. STUB.
+fn main() {
+    println!("pomc");
+}
