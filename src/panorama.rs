@@ -1,12 +1,271 @@
-//! A panorama directory. STUB.
+//! A panorama on disk: a directory holding `panorama.xml` and its layer files (spec §1.3).
+//!
+//! [`Panorama::open`] takes the directory or the manifest's path. Layer files are resolved
+//! relative to the directory and must stay inside it ([`Panorama::resolve`]). Reading a layer
+//! gives its full canvas whatever the storage (native EXR, thesis PNG+EXR, patch-packed atlas).
 
+use std::path::{Component, Path, PathBuf};
+
+use crate::error::Error;
+use crate::layer::LayerImage;
+use crate::layer_io::{self, ReadLimits, WriteOptions};
+use crate::manifest::{self, LayerDecl, LayerSource, Manifest, Packing};
+use crate::pack::{self, PackOptions, PackedLayer};
+
+/// File name of the manifest inside a panorama directory.
+pub const MANIFEST_NAME: &str = "panorama.xml";
+
+/// Largest manifest accepted, in bytes (bounded before reading).
+pub const MAX_MANIFEST_BYTES: u64 = 16 << 20;
+
+/// Errors specific to panorama directories.
 #[derive(Debug, thiserror::Error)]
 pub enum PanoramaError {
-    #[error("not a panorama")]
-    NotAPanorama,
+    #[error("{path}: no panorama here; give a directory holding {MANIFEST_NAME} or the manifest's path")]
+    NotFound { path: PathBuf },
+    #[error("{manifest}: layer file `{file}` resolves outside the panorama directory {dir}; use a path relative to the directory without `..`")]
+    PathEscapes { manifest: PathBuf, file: String, dir: PathBuf },
+    #[error("{manifest}: layer {index} does not exist (the manifest has {count} layers)")]
+    NoSuchLayer { manifest: PathBuf, index: usize, count: usize },
+    #[error("{file}: stored image is {found:?} but the manifest declares {declared:?} for layer {index}; fix the manifest's width/height (or <Packing atlas>) or re-export the file")]
+    SizeMismatch { file: PathBuf, index: usize, declared: (usize, usize), found: (usize, usize) },
+    #[error("{file}: layer {index} is packed but its canvas size is not declared; add width and height to the <Layer>")]
+    PackedWithoutCanvas { file: PathBuf, index: usize },
 }
+
 impl PanoramaError {
     pub fn code(&self) -> &'static str {
-        "PANORAMA_NOT_FOUND"
+        match self {
+            PanoramaError::NotFound { .. } => "PANORAMA_NOT_FOUND",
+            PanoramaError::PathEscapes { .. } => "LAYER_PATH_ESCAPES",
+            PanoramaError::NoSuchLayer { .. } => "PANORAMA_NO_SUCH_LAYER",
+            PanoramaError::SizeMismatch { .. } => "LAYER_SIZE_MISMATCH",
+            PanoramaError::PackedWithoutCanvas { .. } => "PATCH_CANVAS_UNDECLARED",
+        }
+    }
+}
+
+/// An opened panorama: where it is and what its manifest says.
+#[derive(Clone, Debug)]
+pub struct Panorama {
+    /// The directory layer paths are relative to.
+    pub dir: PathBuf,
+    /// The manifest file.
+    pub manifest_path: PathBuf,
+    pub manifest: Manifest,
+}
+
+/// Locate the manifest for a directory or manifest path.
+pub fn manifest_path(path: &Path) -> Result<PathBuf, PanoramaError> {
+    if path.is_dir() {
+        let m = path.join(MANIFEST_NAME);
+        if m.is_file() {
+            return Ok(m);
+        }
+    } else if path.is_file() {
+        return Ok(path.to_path_buf());
+    }
+    Err(PanoramaError::NotFound { path: path.to_path_buf() })
+}
+
+impl Panorama {
+    /// Open a panorama from its directory or its manifest's path (first fatal manifest error).
+    pub fn open(path: &Path) -> Result<Panorama, Error> {
+        let manifest_path = manifest_path(path)?;
+        let bytes = crate::fsutil::read_limited(&manifest_path, MAX_MANIFEST_BYTES)?;
+        let manifest = manifest::parse(&bytes, &manifest_path.display().to_string())?;
+        let dir = manifest_path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Ok(Panorama { dir, manifest_path, manifest })
+    }
+
+    /// Resolve a file named in the manifest, refusing absolute paths and paths that leave the
+    /// panorama directory (lexically, and through symbolic links when the file exists).
+    pub fn resolve(&self, file: &str) -> Result<PathBuf, PanoramaError> {
+        resolve_inside(&self.dir, file).ok_or_else(|| PanoramaError::PathEscapes {
+            manifest: self.manifest_path.clone(),
+            file: file.to_string(),
+            dir: self.dir.clone(),
+        })
+    }
+
+    /// The layer declaration `index`.
+    pub fn layer(&self, index: usize) -> Result<&LayerDecl, PanoramaError> {
+        self.manifest.layers.get(index).ok_or(PanoramaError::NoSuchLayer {
+            manifest: self.manifest_path.clone(),
+            index,
+            count: self.manifest.layers.len(),
+        })
+    }
+
+    /// The image file as stored (an atlas for packed layers), without unpacking.
+    pub fn read_stored(&self, index: usize, limits: &ReadLimits) -> Result<LayerImage, Error> {
+        let decl = self.layer(index)?;
+        Ok(match &decl.source {
+            LayerSource::Native { file } => layer_io::read_exr(&self.resolve(file)?, limits)?,
+            LayerSource::Thesis { mapname, depthname, normals } => {
+                let map = self.resolve(mapname)?;
+                let depth = self.resolve(depthname)?;
+                let normals = normals.as_deref().map(|n| self.resolve(n)).transpose()?;
+                layer_io::read_thesis_layer(&map, &depth, normals.as_deref(), limits)?
+            }
+        })
+    }
+
+    /// The layer's full canvas: unpacked when packed, size-checked against the manifest.
+    pub fn read_layer(&self, index: usize, limits: &ReadLimits) -> Result<LayerImage, Error> {
+        let decl = self.layer(index)?;
+        let stored = self.read_stored(index, limits)?;
+        let file = self.stored_file(decl);
+        let found = (stored.width, stored.height);
+        match &decl.packing {
+            None => {
+                if let Some((w, h)) = decl.size() {
+                    let declared = (w as usize, h as usize);
+                    if declared != found {
+                        return Err(PanoramaError::SizeMismatch { file, index, declared, found }.into());
+                    }
+                }
+                Ok(stored)
+            }
+            Some(packing) => {
+                let declared = (packing.atlas_width as usize, packing.atlas_height as usize);
+                if declared != found {
+                    return Err(PanoramaError::SizeMismatch { file, index, declared, found }.into());
+                }
+                let (cw, ch) = decl.size().ok_or(PanoramaError::PackedWithoutCanvas { file, index })?;
+                let packed = PackedLayer {
+                    canvas_width: cw,
+                    canvas_height: ch,
+                    atlas: stored,
+                    patches: packing.patches.clone(),
+                };
+                Ok(pack::unpack(&packed)?)
+            }
+        }
+    }
+
+    /// Path of the file holding a layer's pixels (the colour file for the thesis form).
+    pub fn stored_file(&self, decl: &LayerDecl) -> PathBuf {
+        let name = match &decl.source {
+            LayerSource::Native { file } => file,
+            LayerSource::Thesis { mapname, .. } => mapname,
+        };
+        self.dir.join(name)
+    }
+}
+
+/// Lexical and physical containment check of `file` inside `dir`.
+fn resolve_inside(dir: &Path, file: &str) -> Option<PathBuf> {
+    let rel = Path::new(file);
+    if file.is_empty() || rel.is_absolute() {
+        return None;
+    }
+    let mut depth = 0i32;
+    for c in rel.components() {
+        match c {
+            Component::Normal(_) => depth += 1,
+            Component::CurDir => {}
+            Component::ParentDir => {
+                depth -= 1;
+                if depth < 0 {
+                    return None;
+                }
+            }
+            Component::RootDir | Component::Prefix(_) => return None,
+        }
+    }
+    let joined = dir.join(rel);
+    // A symbolic link inside the directory may still point outside it.
+    if let (Ok(real_dir), Ok(real_file)) = (dir.canonicalize(), joined.canonicalize()) {
+        if !real_file.starts_with(&real_dir) {
+            return None;
+        }
+    }
+    Some(joined)
+}
+
+/// How [`write_panorama`] stores layers.
+#[derive(Clone, Copy, Debug)]
+pub struct SaveOptions {
+    /// Patch-pack layers whose atlas would be smaller than `pack_threshold` × their canvas.
+    pub pack: bool,
+    /// Pack only when the atlas is at most this fraction of the canvas (default 0.5).
+    pub pack_threshold: f64,
+    pub pack_options: PackOptions,
+    pub exr: WriteOptions,
+}
+
+impl Default for SaveOptions {
+    fn default() -> Self {
+        SaveOptions { pack: true, pack_threshold: 0.5, pack_options: PackOptions::default(), exr: WriteOptions::default() }
+    }
+}
+
+/// Write a native panorama: one EXR per layer (named after the layer's `Image file`) and the
+/// manifest last, each atomically. `manifest.layers[k]` must be `Native` sources; the canvas
+/// sizes and packing tables are filled in from `layers`.
+pub fn write_panorama(
+    dir: &Path,
+    manifest: &Manifest,
+    layers: &[LayerImage],
+    options: &SaveOptions,
+) -> Result<Manifest, Error> {
+    std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
+    let mut out = manifest.clone();
+    for (k, (decl, image)) in out.layers.iter_mut().zip(layers).enumerate() {
+        let file = match &decl.source {
+            LayerSource::Native { file } => file.clone(),
+            LayerSource::Thesis { .. } => format!("layer{k}.exr"),
+        };
+        let path = resolve_inside(dir, &file).ok_or_else(|| PanoramaError::PathEscapes {
+            manifest: dir.join(MANIFEST_NAME),
+            file: file.clone(),
+            dir: dir.to_path_buf(),
+        })?;
+        decl.source = LayerSource::Native { file };
+        decl.width = Some(image.width as u32);
+        decl.height = Some(image.height as u32);
+        decl.packing = None;
+        let packed = if options.pack { Some(pack::pack_layer(image, &options.pack_options)?) } else { None };
+        let canvas = image.width as f64 * image.height as f64;
+        match packed {
+            Some(p) if (p.atlas_area() as f64) <= options.pack_threshold * canvas => {
+                layer_io::write_exr(&path, &p.atlas, &options.exr)?;
+                decl.packing = Some(Packing {
+                    atlas_width: p.atlas.width as u32,
+                    atlas_height: p.atlas.height as u32,
+                    patches: p.patches,
+                });
+            }
+            _ => layer_io::write_exr(&path, image, &options.exr)?,
+        }
+    }
+    crate::fsutil::write_bytes_atomic(&dir.join(MANIFEST_NAME), out.to_xml().as_bytes())?;
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resolve_refuses_escapes() {
+        let d = tempfile::tempdir().unwrap();
+        assert!(resolve_inside(d.path(), "a.exr").is_some());
+        assert!(resolve_inside(d.path(), "sub/../a.exr").is_some());
+        assert!(resolve_inside(d.path(), "../a.exr").is_none());
+        assert!(resolve_inside(d.path(), "sub/../../a.exr").is_none());
+        assert!(resolve_inside(d.path(), "/etc/passwd").is_none());
+        assert!(resolve_inside(d.path(), "").is_none());
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn resolve_refuses_symlink_escape() {
+        let d = tempfile::tempdir().unwrap();
+        let outside = tempfile::tempdir().unwrap();
+        std::fs::write(outside.path().join("x.exr"), b"x").unwrap();
+        std::os::unix::fs::symlink(outside.path().join("x.exr"), d.path().join("link.exr")).unwrap();
+        assert!(resolve_inside(d.path(), "link.exr").is_none());
     }
 }

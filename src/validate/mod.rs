@@ -1,1 +1,435 @@
-//! The validator. STUB.
+//! The validator (spec §6): checks a panorama directory against POMC 1 and reports every problem
+//! with a stable code, a severity and a location. Codes are data ([`codes::CODES`]); each has a
+//! test that triggers it.
+//!
+//! Pixel-level findings are aggregated: one issue per (layer, code) with the number of pixels and
+//! the first one found, so a broken 8K layer gives a readable report, not millions of lines.
+
+pub mod codes;
+pub mod report;
+
+use std::path::Path;
+
+use rayon::prelude::*;
+
+use crate::layer::{LayerImage, Sample, SampleType};
+use crate::layer_io::{self, ReadLimits};
+use crate::manifest::{self, LayerDecl, LayerSource, MappingKind as DeclKind};
+use crate::mapping::{AnyMapping, Mapping, MappingKind};
+use crate::pack;
+use crate::panorama::{self, Panorama};
+
+pub use codes::CODES;
+pub use report::{Issue, Report, Severity};
+
+/// Tuning of [`validate`].
+#[derive(Clone, Copy, Debug)]
+pub struct ValidateOptions {
+    /// Size limits for layer files (checked from headers before decoding).
+    pub limits: ReadLimits,
+    /// Relative depth jump between 4-neighbours of one layer reported as a discontinuity:
+    /// `|a − b| / min(a, b) > jump_threshold`.
+    pub jump_threshold: f64,
+    /// Tolerance on `|N| = 1` for normals (half precision stores ~1e-3).
+    pub normal_tolerance: f32,
+}
+
+impl Default for ValidateOptions {
+    fn default() -> Self {
+        ValidateOptions { limits: ReadLimits::default(), jump_threshold: 0.5, normal_tolerance: 0.01 }
+    }
+}
+
+/// Validate the panorama at `path` (its directory or manifest). I/O problems with the panorama
+/// itself (no manifest) are errors of the call; everything about its content goes in the report.
+pub fn validate(path: &Path, options: &ValidateOptions) -> Result<Report, crate::Error> {
+    let manifest_path = panorama::manifest_path(path)?;
+    let name = manifest_path.display().to_string();
+    let mut issues = Vec::new();
+    let bytes = match crate::fsutil::read_limited(&manifest_path, panorama::MAX_MANIFEST_BYTES) {
+        Ok(b) => b,
+        Err(e) => {
+            issues.push(issue("XML_TOO_LARGE", e.to_string(), name.clone()));
+            return Ok(Report::from_issues(issues));
+        }
+    };
+    let diagnosed = manifest::diagnose(&bytes, &name);
+    for d in &diagnosed.diagnostics {
+        issues.push(Issue {
+            code: d.code,
+            severity: d.severity.into(),
+            message: d.message.clone(),
+            location: format!("{name}:{}:{} {}", d.line, d.col, d.path),
+        });
+    }
+    let Some(manifest) = diagnosed.manifest else {
+        return Ok(Report::from_issues(issues));
+    };
+    let dir = manifest_path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let pano = Panorama { dir, manifest_path: manifest_path.clone(), manifest };
+    let kind = match pano.manifest.mapping.kind {
+        DeclKind::LatLong => MappingKind::Equirect,
+        DeclKind::Cube => MappingKind::Cube3x2,
+    };
+
+    let mut domains: Vec<(AnyMapping, Vec<bool>)> = Vec::new();
+    let mut all_layers_read = true;
+    for (k, decl) in pano.manifest.layers.iter().enumerate() {
+        match check_layer(&pano, k, decl, kind, options, &mut issues) {
+            Some(d) => domains.push(d),
+            None => all_layers_read = false,
+        }
+    }
+    if all_layers_read && !domains.is_empty() {
+        check_coverage(&name, &domains, &mut issues);
+    }
+    Ok(Report::from_issues(issues))
+}
+
+fn issue(code: &'static str, message: String, location: String) -> Issue {
+    Issue { code, severity: codes::severity(code), message, location }
+}
+
+fn layer_label(k: usize, decl: &LayerDecl) -> String {
+    match &decl.name {
+        Some(n) => format!("layer[{k}] \"{n}\""),
+        None => format!("layer[{k}]"),
+    }
+}
+
+/// Check one layer's files and pixels; returns its mapping and domain when it could be read.
+fn check_layer(
+    pano: &Panorama,
+    k: usize,
+    decl: &LayerDecl,
+    kind: MappingKind,
+    options: &ValidateOptions,
+    issues: &mut Vec<Issue>,
+) -> Option<(AnyMapping, Vec<bool>)> {
+    let label = layer_label(k, decl);
+    let file = pano.stored_file(decl);
+    let loc = format!("{} {label}", file.display());
+
+    // Header checks first: cheap, and they refuse hostile sizes before any decode.
+    if let LayerSource::Native { file: f } = &decl.source {
+        let path = match pano.resolve(f) {
+            Ok(p) => p,
+            Err(e) => {
+                issues.push(issue(e.code(), e.to_string(), loc));
+                return None;
+            }
+        };
+        match layer_io::read_header(&path, &options.limits) {
+            Ok(h) => {
+                if let Some((_, t)) = h.channels.iter().find(|(n, _)| n == "Z") {
+                    if *t != SampleType::F32 {
+                        issues.push(issue(
+                            "LAYER_DEPTH_NOT_FLOAT32",
+                            format!("depth channel Z is stored as {t:?}; POMC requires float32, re-export the depth as 32-bit float"),
+                            loc.clone(),
+                        ));
+                    }
+                }
+            }
+            Err(e) => {
+                issues.push(issue(e.code(), e.to_string(), loc));
+                return None;
+            }
+        }
+    }
+    if let Some(p) = &decl.packing {
+        if let Some((cw, ch)) = decl.size() {
+            for prob in pack::check_table(cw, ch, p.atlas_width, p.atlas_height, &p.patches) {
+                let ploc = decl
+                    .origin
+                    .patches
+                    .get(prob.patch)
+                    .map(|o| format!("{}:{}:{} {}", pano.manifest_path.display(), o.pos.line, o.pos.col, o.path))
+                    .unwrap_or_else(|| format!("{loc} patch {}", prob.patch));
+                issues.push(issue(prob.code(), prob.to_string(), ploc));
+            }
+            if issues.iter().any(|i| i.code.starts_with("PATCH_") && i.severity == Severity::Error) {
+                return None;
+            }
+        }
+    }
+
+    let image = match pano.read_layer(k, &options.limits) {
+        Ok(img) => img,
+        Err(e) => {
+            issues.push(issue(e.code(), e.to_string(), loc));
+            return None;
+        }
+    };
+    let mapping = match AnyMapping::new(kind, image.width, image.height) {
+        Ok(m) => m,
+        Err(e) => {
+            issues.push(issue(
+                "LAYER_DIMENSIONS_MAPPING",
+                format!("{e}; the canvas of a {kind:?} layer must be {}", kind_shape(kind)),
+                loc,
+            ));
+            return None;
+        }
+    };
+    check_pixels(&image, &mapping, decl, options, &loc, issues);
+    let domain = image.domain();
+    Some((mapping, domain))
+}
+
+fn kind_shape(kind: MappingKind) -> &'static str {
+    match kind {
+        MappingKind::Equirect => "2:1 (width = 2 × height)",
+        MappingKind::Cube3x2 => "3:2 with square faces (3N × 2N)",
+    }
+}
+
+/// Aggregated pixel findings of one code in one layer.
+#[derive(Default)]
+struct Tally {
+    count: usize,
+    first: Option<(usize, usize)>,
+}
+
+impl Tally {
+    fn add(&mut self, i: usize, w: usize) {
+        self.count += 1;
+        if self.first.is_none() {
+            self.first = Some((i % w, i / w));
+        }
+    }
+}
+
+fn push_tally(issues: &mut Vec<Issue>, code: &'static str, t: &Tally, what: &str, loc: &str, channel: &str) {
+    if let Some((x, y)) = t.first {
+        issues.push(issue(
+            code,
+            format!("{} pixel(s) {what}; first at ({x},{y})", t.count),
+            format!("{loc} channel {channel} pixel ({x},{y})"),
+        ));
+    }
+}
+
+/// Per-layer pixel findings, one tally per code.
+#[derive(Default)]
+struct PixelTallies {
+    neg: Tally,
+    zero: Tally,
+    nan: Tally,
+    range: Tally,
+    mask_bad: Tally,
+    mask_disagree: Tally,
+    colour_bad: Tally,
+    inside: usize,
+}
+
+fn check_pixels(
+    image: &LayerImage,
+    mapping: &AnyMapping,
+    decl: &LayerDecl,
+    options: &ValidateOptions,
+    loc: &str,
+    issues: &mut Vec<Issue>,
+) {
+    let w = image.width;
+    let n = image.width * image.height;
+    let Some(z) = image.depth() else {
+        issues.push(issue(
+            "LAYER_NO_DEPTH",
+            "the layer has no depth channel Z; store the distance along the ray in a float32 channel named Z".into(),
+            loc.to_string(),
+        ));
+        return;
+    };
+    let a = image.coverage();
+    let mut t = PixelTallies::default();
+    let colour: Vec<&[f32]> =
+        ["R", "G", "B"].iter().filter_map(|c| image.channel(c).map(|c| c.data.as_slice())).collect();
+    for i in 0..n {
+        if let Some(a) = a {
+            let av = a[i];
+            if !(0.0..=1.0).contains(&av) {
+                t.mask_bad.add(i, w);
+            } else if av == 0.0 && z[i] >= 0.0 {
+                t.mask_disagree.add(i, w);
+            }
+        }
+        match image.sample(i) {
+            Sample::Outside => continue,
+            Sample::Unknown => t.nan.add(i, w),
+            Sample::Infinite => {}
+            Sample::Surface(d) => {
+                if d < 0.0 {
+                    t.neg.add(i, w);
+                } else if d == 0.0 {
+                    t.zero.add(i, w);
+                } else if let Some((lo, hi)) = decl.depth_range {
+                    if d < lo || d > hi {
+                        t.range.add(i, w);
+                    }
+                }
+            }
+        }
+        t.inside += 1;
+        if colour.iter().any(|c| !c[i].is_finite()) {
+            t.colour_bad.add(i, w);
+        }
+    }
+    push_tally(issues, "DEPTH_NEGATIVE_IN_DOMAIN", &t.neg, "inside the domain (A > 0) have negative depth; set A = 0 there or store the true distance", loc, "Z");
+    push_tally(issues, "DEPTH_ZERO_IN_DOMAIN", &t.zero, "inside the domain have depth 0, which is no surface; store NaN for unknown depth or mark them outside", loc, "Z");
+    push_tally(issues, "DEPTH_UNKNOWN_IN_DOMAIN", &t.nan, "inside the domain have unknown depth (NaN)", loc, "Z");
+    push_tally(issues, "DEPTH_OUT_OF_RANGE", &t.range, "have depths outside the layer's declared depthrange; fix the range or the depths", loc, "Z");
+    push_tally(issues, "MASK_OUT_OF_RANGE", &t.mask_bad, "have coverage A outside [0, 1] or NaN", loc, "A");
+    push_tally(issues, "MASK_DEPTH_DISAGREE", &t.mask_disagree, "have A = 0 (outside) but a non-negative depth; write Z = -1 outside the domain", loc, "A");
+    push_tally(issues, "COLOUR_NOT_FINITE", &t.colour_bad, "inside the domain have NaN or infinite colour", loc, "R,G,B");
+    if t.inside == 0 {
+        issues.push(issue(
+            "LAYER_EMPTY",
+            "the layer has no pixel inside its domain; remove it from the manifest".into(),
+            loc.to_string(),
+        ));
+    }
+    check_channel_sets(image, loc, issues);
+    check_normals(image, options, loc, issues);
+    check_continuity(image, mapping, options, loc, issues);
+}
+
+fn check_channel_sets(image: &LayerImage, loc: &str, issues: &mut Vec<Issue>) {
+    for (group, names) in [("colour", ["R", "G", "B"]), ("normal", ["N.X", "N.Y", "N.Z"])] {
+        let present = names.iter().filter(|c| image.channel(c).is_some()).count();
+        if present != 0 && present != 3 {
+            issues.push(issue(
+                "CHANNELS_INCOMPLETE",
+                format!("{group} channels {names:?} are only partly present ({present} of 3); store all three or none"),
+                loc.to_string(),
+            ));
+        }
+    }
+}
+
+fn check_normals(image: &LayerImage, options: &ValidateOptions, loc: &str, issues: &mut Vec<Issue>) {
+    let (Some(nx), Some(ny), Some(nz)) = (image.channel("N.X"), image.channel("N.Y"), image.channel("N.Z")) else {
+        return;
+    };
+    let mut bad = Tally::default();
+    for i in 0..image.width * image.height {
+        if image.sample(i) == Sample::Outside {
+            continue;
+        }
+        let len = (nx.data[i].powi(2) + ny.data[i].powi(2) + nz.data[i].powi(2)).sqrt();
+        if !((len - 1.0).abs() <= options.normal_tolerance) {
+            bad.add(i, image.width);
+        }
+    }
+    push_tally(issues, "NORMALS_NOT_UNIT", &bad, "inside the domain have normals whose length is not 1", loc, "N.X,N.Y,N.Z");
+}
+
+/// Depth continuity inside the layer: 4-neighbours (wrapping across the equirect seam; within
+/// each cube face) whose finite depths jump by more than the relative threshold.
+fn check_continuity(
+    image: &LayerImage,
+    mapping: &AnyMapping,
+    options: &ValidateOptions,
+    loc: &str,
+    issues: &mut Vec<Issue>,
+) {
+    let (w, h) = (image.width, image.height);
+    let face = match mapping {
+        AnyMapping::Cube(_) => h / 2,
+        AnyMapping::Equirect(_) => 0,
+    };
+    let finite = |i: usize| match image.sample(i) {
+        Sample::Surface(d) if d > 0.0 => Some(d as f64),
+        _ => None,
+    };
+    let jump = |a: usize, b: usize| match (finite(a), finite(b)) {
+        (Some(x), Some(y)) => (x - y).abs() / x.min(y) > options.jump_threshold,
+        _ => false,
+    };
+    let rows: Vec<(usize, usize)> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut count = 0;
+            let mut first = usize::MAX;
+            for x in 0..w {
+                let i = y * w + x;
+                let right = if x + 1 < w {
+                    (face == 0 || (x + 1) % face != 0).then_some(i + 1)
+                } else {
+                    (face == 0).then_some(y * w) // equirect seam
+                };
+                let down = (y + 1 < h && (face == 0 || (y + 1) % face != 0)).then_some(i + w);
+                for j in [right, down].into_iter().flatten() {
+                    if jump(i, j) {
+                        count += 1;
+                        first = first.min(i);
+                    }
+                }
+            }
+            (count, first)
+        })
+        .collect();
+    let count: usize = rows.iter().map(|r| r.0).sum();
+    if count > 0 {
+        let first = rows.iter().map(|r| r.1).min().unwrap_or(0);
+        let (x, y) = (first % w, first / w);
+        issues.push(issue(
+            "DEPTH_DISCONTINUITY",
+            format!(
+                "{count} neighbour pair(s) jump by more than {:.0}% in depth inside the layer (first at ({x},{y})); a layer must be continuous in depth: split it at the discontinuity",
+                options.jump_threshold * 100.0
+            ),
+            format!("{loc} channel Z pixel ({x},{y})"),
+        ));
+    }
+}
+
+/// The union of all layer domains must cover the sphere. Sampled at the pixel centres of the
+/// finest layer; other layers are looked up by direction.
+fn check_coverage(name: &str, domains: &[(AnyMapping, Vec<bool>)], issues: &mut Vec<Issue>) {
+    let finest = domains
+        .iter()
+        .enumerate()
+        .max_by_key(|(_, (m, _))| m.width() * m.height())
+        .map(|(k, _)| k)
+        .unwrap_or(0);
+    let (fm, _) = &domains[finest];
+    let (w, h) = (fm.width(), fm.height());
+    let holes: Vec<(usize, usize)> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut count = 0;
+            let mut first = usize::MAX;
+            for x in 0..w {
+                let d = fm.pixel_dir(x, y);
+                let covered = domains.iter().any(|(m, dom)| {
+                    let (i, j) = m.pixel_of(d);
+                    dom[j * m.width() + i]
+                });
+                if !covered {
+                    count += 1;
+                    first = first.min(y * w + x);
+                }
+            }
+            (count, first)
+        })
+        .collect();
+    let count: usize = holes.iter().map(|r| r.0).sum();
+    if count > 0 {
+        let first = holes.iter().map(|r| r.1).min().unwrap_or(0);
+        let (x, y) = (first % w, first / w);
+        let dir = fm.pixel_dir(x, y);
+        issues.push(issue(
+            "COVERAGE_INCOMPLETE",
+            format!(
+                "{count} of {} directions ({:.3}%) are in no layer's domain (first at pixel ({x},{y}) of layer {finest}, direction ({:.4}, {:.4}, {:.4})); the layers together must cover the whole sphere: extend the background layer",
+                w * h,
+                100.0 * count as f64 / (w * h) as f64,
+                dir.x,
+                dir.y,
+                dir.z
+            ),
+            format!("{name} layer[{finest}] pixel ({x},{y})"),
+        ));
+    }
+}
