@@ -1,0 +1,133 @@
+//! `pomc info PATH [--json]`: describe a panorama, one layer file, or a plain image.
+
+use std::path::{Path, PathBuf};
+
+use pomc::layer::Sample;
+use pomc::layer_io::{self, ReadLimits};
+use pomc::manifest::LayerSource;
+use pomc::panorama::Panorama;
+
+use crate::output::Output;
+use crate::Failure;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Panorama directory, panorama.xml, a layer EXR, or an image.
+    path: PathBuf,
+    /// Also decode the layers to report depth ranges and domain sizes (slower).
+    #[arg(long)]
+    stats: bool,
+}
+
+pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
+    let is_exr = args.path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if args.path.is_file() && !is_xml(&args.path) {
+        return if is_exr { exr_info(&args.path, out) } else { image_info(&args.path, out) };
+    }
+    panorama_info(&args.path, args.stats, out)
+}
+
+fn is_xml(p: &Path) -> bool {
+    p.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+}
+
+fn exr_info(path: &Path, out: Output) -> Result<u8, Failure> {
+    let h = layer_io::read_header(path, &ReadLimits::default()).map_err(pomc::Error::from)?;
+    let channels: Vec<_> = h.channels.iter().map(|(n, t)| serde_json::json!({"name": n, "type": t})).collect();
+    out.json(&serde_json::json!({
+        "kind": "exr", "path": path, "width": h.width, "height": h.height,
+        "channels": channels, "compression": h.compression.name(), "tiled": h.tiled,
+    }));
+    out.say(format!("{}: EXR {}x{}, {} compression", path.display(), h.width, h.height, h.compression.name()));
+    for (n, t) in &h.channels {
+        out.say(format!("  channel {n:8} {t:?}"));
+    }
+    Ok(0)
+}
+
+fn image_info(path: &Path, out: Output) -> Result<u8, Failure> {
+    let (w, h) = image::image_dimensions(path).map_err(|e| Failure {
+        code: "IMAGE_UNREADABLE",
+        message: format!("{}: cannot read image header ({e})", path.display()),
+        exit: 2,
+    })?;
+    out.json(&serde_json::json!({"kind": "image", "path": path, "width": w, "height": h}));
+    out.say(format!("{}: image {w}x{h}", path.display()));
+    Ok(0)
+}
+
+fn panorama_info(path: &Path, stats: bool, out: Output) -> Result<u8, Failure> {
+    let pano = Panorama::open(path)?;
+    let m = &pano.manifest;
+    let l2w = m.local_to_world();
+    let mut layers = Vec::new();
+    out.say(format!(
+        "{}: POMC {} {} mapping, freedom radius {} m, {} layer(s)",
+        pano.manifest_path.display(),
+        m.version,
+        m.mapping.kind.primary_name(),
+        m.freedom_radius,
+        m.layers.len()
+    ));
+    out.say(format!("  LocalToWorld: {:?}", l2w));
+    for (k, decl) in m.layers.iter().enumerate() {
+        let file = match &decl.source {
+            LayerSource::Native { file } => file.clone(),
+            LayerSource::Thesis { mapname, depthname, .. } => format!("{mapname} + {depthname}"),
+        };
+        let mut row = serde_json::json!({
+            "index": k, "name": decl.name, "role": decl.role.map(|r| r.as_str()), "order": decl.order,
+            "file": file, "width": decl.width, "height": decl.height,
+            "depth_range": decl.depth_range,
+            "packed": decl.packing.as_ref().map(|p| serde_json::json!({
+                "atlas": [p.atlas_width, p.atlas_height], "patches": p.patches.len()})),
+        });
+        let mut line = format!(
+            "  [{k}] {} role={} order={} file={file}",
+            decl.name.as_deref().unwrap_or("-"),
+            decl.role.map_or("-", |r| r.as_str()),
+            decl.order.map_or("-".to_string(), |o| o.to_string()),
+        );
+        if let Some(p) = &decl.packing {
+            line += &format!(" packed {}x{} atlas, {} patches", p.atlas_width, p.atlas_height, p.patches.len());
+        }
+        if stats {
+            let img = pano.read_layer(k, &ReadLimits::default())?;
+            let (mut lo, mut hi, mut inf, mut unknown, mut inside) = (f32::INFINITY, 0f32, 0usize, 0usize, 0usize);
+            for i in 0..img.width * img.height {
+                match img.sample(i) {
+                    Sample::Outside => continue,
+                    Sample::Surface(d) => {
+                        lo = lo.min(d);
+                        hi = hi.max(d);
+                    }
+                    Sample::Infinite => inf += 1,
+                    Sample::Unknown => unknown += 1,
+                }
+                inside += 1;
+            }
+            let channels: Vec<_> = img.channels.iter().map(|c| c.name.clone()).collect();
+            line += &format!(
+                " {}x{} domain {:.2}% depth [{lo}, {hi}] m, {inf} infinite, {unknown} unknown, channels {channels:?}",
+                img.width,
+                img.height,
+                100.0 * inside as f64 / (img.width * img.height).max(1) as f64
+            );
+            row["stats"] = serde_json::json!({
+                "canvas": [img.width, img.height], "domain_pixels": inside,
+                "depth_min": if inside > inf + unknown { Some(lo) } else { None },
+                "depth_max": if inside > inf + unknown { Some(hi) } else { None },
+                "infinite_pixels": inf, "unknown_pixels": unknown, "channels": channels,
+            });
+        }
+        out.say(line);
+        layers.push(row);
+    }
+    let cols = l2w.to_cols_array();
+    out.json(&serde_json::json!({
+        "kind": "panorama", "manifest": pano.manifest_path, "version": m.version,
+        "mapping": m.mapping.kind.primary_name(), "freedom_radius": m.freedom_radius,
+        "local_to_world_cols": cols, "layers": layers,
+    }));
+    Ok(0)
+}

@@ -1,0 +1,57 @@
+//! `pomc validate PATH [--json]`.
+
+use std::path::PathBuf;
+
+use pomc::validate::{self, Severity, ValidateOptions};
+
+use crate::output::Output;
+use crate::Failure;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Panorama directory or its panorama.xml.
+    path: PathBuf,
+    /// Relative depth jump inside a layer reported as a discontinuity (0.5 = 50 %).
+    #[arg(long, default_value_t = 0.5)]
+    jump_threshold: f64,
+    /// List every validation code with its severity and meaning, then exit.
+    #[arg(long)]
+    list_codes: bool,
+}
+
+pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
+    if args.list_codes {
+        let codes = validate::codes::all();
+        if out.json {
+            let rows: Vec<_> = codes
+                .iter()
+                .map(|(c, s, d)| serde_json::json!({"code": c, "severity": s.as_str(), "description": d}))
+                .collect();
+            out.json(&serde_json::Value::Array(rows));
+        } else {
+            for (c, s, d) in codes {
+                println!("{c:32} {:8} {d}", s.as_str());
+            }
+        }
+        return Ok(0);
+    }
+    let options = ValidateOptions { jump_threshold: args.jump_threshold, ..Default::default() };
+    let report = validate::validate(&args.path, &options)?;
+    if out.json {
+        out.json(&serde_json::to_value(&report).expect("report serialises"));
+    } else if !out.quiet {
+        for i in &report.issues {
+            println!("{}[{}]: {}\n  --> {}", i.severity.as_str(), i.code, i.message, i.location);
+        }
+        let infos = report.issues.iter().filter(|i| i.severity == Severity::Info).count();
+        println!(
+            "{}: {} ({} error(s), {} warning(s), {} note(s))",
+            args.path.display(),
+            if report.valid { "valid" } else { "INVALID" },
+            report.errors,
+            report.warnings,
+            infos
+        );
+    }
+    Ok(if report.valid { 0 } else { 1 })
+}
