@@ -51,7 +51,8 @@ pub enum Sample {
 pub fn classify(depth: f32, coverage: Option<f32>) -> Sample {
     let inside = match coverage {
         Some(a) => a > 0.0,
-        None => !(depth < 0.0),
+        // NaN (unknown) counts as inside: only a negative depth marks outside.
+        None => depth >= 0.0 || depth.is_nan(),
     };
     if !inside {
         Sample::Outside

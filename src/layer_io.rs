@@ -1,12 +1,156 @@
-//! Layer file I/O. STUB.
+//! Layer file I/O (spec §4): native single-part OpenEXR layers, and the thesis form (8-bit PNG
+//! colour + EXR depth). INTERFACE STUB.
+//!
+//! Every reader checks the header against [`ReadLimits`] before decoding pixels.
 
+use std::path::{Path, PathBuf};
+
+use crate::layer::{LayerImage, SampleType};
+
+/// Size limits checked from file headers before any pixel is decoded.
+#[derive(Clone, Copy, Debug)]
+pub struct ReadLimits {
+    /// Largest width or height accepted.
+    pub max_dimension: usize,
+    /// Largest pixel count accepted.
+    pub max_pixels: u64,
+    /// Largest channel count accepted.
+    pub max_channels: usize,
+}
+
+impl Default for ReadLimits {
+    fn default() -> Self {
+        // 16K × 8K equirect, a few attribute channels.
+        ReadLimits { max_dimension: 1 << 15, max_pixels: 1 << 28, max_channels: 64 }
+    }
+}
+
+/// EXR compression used when writing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Compression {
+    None,
+    Rle,
+    Zip1,
+    Zip16,
+    Piz,
+    Pxr24,
+    B44,
+    B44a,
+    Dwaa,
+    Dwab,
+    Other,
+}
+
+impl Compression {
+    pub fn name(self) -> &'static str {
+        match self {
+            Compression::None => "none",
+            Compression::Rle => "rle",
+            Compression::Zip1 => "zips",
+            Compression::Zip16 => "zip",
+            Compression::Piz => "piz",
+            Compression::Pxr24 => "pxr24",
+            Compression::B44 => "b44",
+            Compression::B44a => "b44a",
+            Compression::Dwaa => "dwaa",
+            Compression::Dwab => "dwab",
+            Compression::Other => "other",
+        }
+    }
+}
+
+/// How layers are written.
+#[derive(Clone, Copy, Debug)]
+pub struct WriteOptions {
+    /// Lossless compression only (ZIP by default) so round trips are bit-exact.
+    pub compression: Compression,
+}
+
+impl Default for WriteOptions {
+    fn default() -> Self {
+        WriteOptions { compression: Compression::Zip16 }
+    }
+}
+
+/// What an EXR header says, read without decoding pixels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExrHeader {
+    pub width: usize,
+    pub height: usize,
+    /// Channel names and sample types, in file order.
+    pub channels: Vec<(String, SampleType)>,
+    pub compression: Compression,
+    pub tiled: bool,
+}
+
+/// Errors reading or writing layer files. Each names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum LayerIoError {
-    #[error("unreadable")]
-    Unreadable,
+    #[error("{path}: file not found; check the file name in the manifest")]
+    NotFound { path: PathBuf },
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: not a readable image: {reason}")]
+    Unreadable { path: PathBuf, reason: String },
+    #[error("{path}: the file ends before its data does ({reason}); re-export it")]
+    Truncated { path: PathBuf, reason: String },
+    #[error("{path}: declares {width}x{height} pixels × {channels} channels, beyond the reader limit ({limit}); refused before decoding")]
+    TooLarge { path: PathBuf, width: u64, height: u64, channels: usize, limit: String },
+    #[error(
+        "{path}: has {parts} parts; a POMC 1 layer is a single-part EXR, split it into one file per layer"
+    )]
+    MultiPart { path: PathBuf, parts: usize },
+    #[error("{path}: holds deep data; POMC 1 layers are flat images")]
+    Deep { path: PathBuf },
+    #[error("{path}: {what} is not supported")]
+    Unsupported { path: PathBuf, what: String },
+    #[error("{path}: size {found:?} differs from {expected:?} of {other}; the files of one layer must have the same size")]
+    SizeMismatch { path: PathBuf, found: (usize, usize), expected: (usize, usize), other: PathBuf },
 }
+
 impl LayerIoError {
     pub fn code(&self) -> &'static str {
-        "LAYER_UNREADABLE"
+        match self {
+            LayerIoError::NotFound { .. } => "LAYER_NOT_FOUND",
+            LayerIoError::Io { .. } => "LAYER_IO_ERROR",
+            LayerIoError::Unreadable { .. } => "LAYER_UNREADABLE",
+            LayerIoError::Truncated { .. } => "LAYER_TRUNCATED",
+            LayerIoError::TooLarge { .. } => "LAYER_TOO_LARGE",
+            LayerIoError::MultiPart { .. } => "LAYER_MULTIPART",
+            LayerIoError::Deep { .. } => "LAYER_DEEP",
+            LayerIoError::Unsupported { .. } => "LAYER_UNSUPPORTED",
+            LayerIoError::SizeMismatch { .. } => "LAYER_SIZE_MISMATCH",
+        }
     }
+}
+
+/// Read an EXR header (no pixels), checking it against `limits`.
+pub fn read_header(_path: &Path, _limits: &ReadLimits) -> Result<ExrHeader, LayerIoError> {
+    todo!("layer_io::read_header")
+}
+
+/// Read a native layer EXR (all channels, as f32 in memory with their file types recorded).
+pub fn read_exr(_path: &Path, _limits: &ReadLimits) -> Result<LayerImage, LayerIoError> {
+    todo!("layer_io::read_exr")
+}
+
+/// Write a layer EXR atomically (single part, scanlines, lossless compression).
+pub fn write_exr(_path: &Path, _image: &LayerImage, _options: &WriteOptions) -> Result<(), crate::Error> {
+    todo!("layer_io::write_exr")
+}
+
+/// Read the thesis form: colour image (8/16-bit PNG, RGB or RGBA; alpha = coverage), depth EXR
+/// (a `Z`, `Y`, `R` or single channel; negative = outside), optional normals EXR.
+pub fn read_thesis_layer(
+    _map: &Path,
+    _depth: &Path,
+    _normals: Option<&Path>,
+    _limits: &ReadLimits,
+) -> Result<LayerImage, LayerIoError> {
+    todo!("layer_io::read_thesis_layer")
 }

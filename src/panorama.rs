@@ -197,7 +197,12 @@ pub struct SaveOptions {
 
 impl Default for SaveOptions {
     fn default() -> Self {
-        SaveOptions { pack: true, pack_threshold: 0.5, pack_options: PackOptions::default(), exr: WriteOptions::default() }
+        SaveOptions {
+            pack: true,
+            pack_threshold: 0.5,
+            pack_options: PackOptions::default(),
+            exr: WriteOptions::default(),
+        }
     }
 }
 

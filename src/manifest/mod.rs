@@ -1,12 +1,259 @@
-//! The XML manifest. STUB.
+//! The XML manifest `panorama.xml` (spec §2). INTERFACE STUB: bodies to be implemented.
+//!
+//! Two entry points: [`parse`] (first fatal error, for readers) and [`diagnose`] (every problem
+//! with line:col and element path, for the validator). [`Manifest::to_xml`] writes it back.
 
-#[derive(Debug, thiserror::Error)]
-pub enum ManifestError {
-    #[error("malformed")]
-    Malformed,
+use glam::DMat4;
+
+use crate::pack::Patch;
+
+/// Severity of a manifest diagnostic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Severity {
+    Error,
+    Warning,
+    Info,
 }
+
+/// The manifest's validation codes: code, severity, meaning (spec/02-manifest.md lists them).
+pub const CODES: &[(&str, Severity, &str)] =
+    &[("XML_MALFORMED", Severity::Error, "The manifest is not well-formed XML.")];
+
+/// A position in the manifest source: 1-based line and column.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Pos {
+    pub line: u32,
+    pub col: u32,
+}
+
+/// Where an element came from: its position and element path such as `/Panorama/Layer[2]/Textures`.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Origin {
+    pub pos: Pos,
+    pub path: String,
+}
+
+/// Source origins of a layer's parts (for diagnostics that come after parsing).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LayerOrigin {
+    pub layer: Origin,
+    /// One per patch of the packing table, in order.
+    pub patches: Vec<Origin>,
+}
+
+/// The parametrisation declared by `<Mapping type=…>`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MappingKind {
+    /// `LatLongMapping` (also accepted: `Equirect`, `EquirectMapping`).
+    LatLong,
+    /// `CubeMapping` 3×2 (also accepted: `Cube`, `Cube3x2`).
+    Cube,
+}
+
+impl MappingKind {
+    /// The name written by [`Manifest::to_xml`].
+    pub fn primary_name(self) -> &'static str {
+        match self {
+            MappingKind::LatLong => "LatLongMapping",
+            MappingKind::Cube => "CubeMapping",
+        }
+    }
+}
+
+/// `<Mapping>`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MappingDecl {
+    pub kind: MappingKind,
+}
+
+/// One operation of `<TransformGroup>`, in document order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Transform {
+    Translate([f64; 3]),
+    /// Axis (need not be unit) and angle in degrees, right-handed.
+    Rotate {
+        axis: [f64; 3],
+        angle_deg: f64,
+    },
+    Scale([f64; 3]),
+}
+
+/// What a layer holds (spec §2, `role` attribute).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    Background,
+    Object,
+    Floor,
+    Ceiling,
+    Wall,
+    Infinity,
+    Light,
+}
+
+impl Role {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Role::Background => "background",
+            Role::Object => "object",
+            Role::Floor => "floor",
+            Role::Ceiling => "ceiling",
+            Role::Wall => "wall",
+            Role::Infinity => "infinity",
+            Role::Light => "light",
+        }
+    }
+}
+
+/// Where a layer's pixels are stored.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LayerSource {
+    /// POMC 1 native: one EXR (`<Image file=…>`).
+    Native { file: String },
+    /// The thesis form: `<Textures mapname depthname normals>`; `normals=""` means none.
+    Thesis { mapname: String, depthname: String, normals: Option<String> },
+}
+
+/// `<Packing>`: the atlas size and the patch table (spec §5).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Packing {
+    pub atlas_width: u32,
+    pub atlas_height: u32,
+    pub patches: Vec<Patch>,
+}
+
+/// One `<Layer>`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LayerDecl {
+    pub name: Option<String>,
+    pub role: Option<Role>,
+    /// Painter's order from the centre: smaller is drawn first (farther).
+    pub order: Option<u32>,
+    pub source: LayerSource,
+    /// Full canvas size (required when packed).
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    /// Declared `[min, max]` of finite depths, metres.
+    pub depth_range: Option<(f32, f32)>,
+    pub mip_levels: Option<u32>,
+    pub packing: Option<Packing>,
+    /// Elements this reader does not know, kept verbatim for round trips (optional attributes).
+    pub extra: Vec<String>,
+    pub origin: LayerOrigin,
+}
+
+impl LayerDecl {
+    /// A native layer stored in `file`, nothing else declared.
+    pub fn native(file: &str) -> Self {
+        LayerDecl {
+            name: None,
+            role: None,
+            order: None,
+            source: LayerSource::Native { file: file.to_string() },
+            width: None,
+            height: None,
+            depth_range: None,
+            mip_levels: None,
+            packing: None,
+            extra: Vec::new(),
+            origin: LayerOrigin::default(),
+        }
+    }
+
+    /// The declared canvas size, when both width and height are given.
+    pub fn size(&self) -> Option<(u32, u32)> {
+        Some((self.width?, self.height?))
+    }
+}
+
+/// A parsed manifest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Manifest {
+    /// `version` attribute of `<Panorama>`; "1" when absent (the thesis form).
+    pub version: String,
+    pub transforms: Vec<Transform>,
+    pub mapping: MappingDecl,
+    /// Freedom radius, metres.
+    pub freedom_radius: f64,
+    pub layers: Vec<LayerDecl>,
+}
+
+impl Manifest {
+    /// The 4×4 LocalToWorld matrix (spec §2.3 gives the composition order).
+    pub fn local_to_world(&self) -> DMat4 {
+        todo!("manifest::local_to_world")
+    }
+
+    /// Serialise as POMC 1 XML (UTF-8).
+    pub fn to_xml(&self) -> String {
+        todo!("manifest::to_xml")
+    }
+}
+
+/// One finding of [`diagnose`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diagnostic {
+    pub code: &'static str,
+    pub severity: Severity,
+    pub message: String,
+    pub line: u32,
+    pub col: u32,
+    /// Element path, e.g. `/Panorama/Layer[2]/Textures`.
+    pub path: String,
+}
+
+/// Every diagnostic, plus the manifest when it has no error.
+#[derive(Clone, Debug, Default)]
+pub struct Diagnosed {
+    pub diagnostics: Vec<Diagnostic>,
+    pub manifest: Option<Manifest>,
+}
+
+/// The first error of [`diagnose`], as an error value.
+#[derive(Debug, thiserror::Error)]
+#[error("{file}:{line}:{col} {path}: {message}")]
+pub struct ManifestError {
+    pub code: &'static str,
+    pub file: String,
+    pub line: u32,
+    pub col: u32,
+    pub path: String,
+    pub message: String,
+}
+
 impl ManifestError {
     pub fn code(&self) -> &'static str {
-        "MANIFEST_XML_MALFORMED"
+        self.code
+    }
+}
+
+/// Check a manifest's bytes; `file` names it in messages.
+pub fn diagnose(_bytes: &[u8], _file: &str) -> Diagnosed {
+    todo!("manifest::diagnose")
+}
+
+/// Parse a manifest, failing on its first error.
+pub fn parse(bytes: &[u8], file: &str) -> Result<Manifest, ManifestError> {
+    let d = diagnose(bytes, file);
+    match d.manifest {
+        Some(m) => Ok(m),
+        None => {
+            let first = d.diagnostics.into_iter().find(|x| x.severity == Severity::Error);
+            let first = first.unwrap_or(Diagnostic {
+                code: "XML_MALFORMED",
+                severity: Severity::Error,
+                message: "the manifest could not be read".into(),
+                line: 1,
+                col: 1,
+                path: String::new(),
+            });
+            Err(ManifestError {
+                code: first.code,
+                file: file.to_string(),
+                line: first.line,
+                col: first.col,
+                path: first.path,
+                message: first.message,
+            })
+        }
     }
 }

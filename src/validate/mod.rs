@@ -144,7 +144,9 @@ fn check_layer(
                     .origin
                     .patches
                     .get(prob.patch)
-                    .map(|o| format!("{}:{}:{} {}", pano.manifest_path.display(), o.pos.line, o.pos.col, o.path))
+                    .map(|o| {
+                        format!("{}:{}:{} {}", pano.manifest_path.display(), o.pos.line, o.pos.col, o.path)
+                    })
                     .unwrap_or_else(|| format!("{loc} patch {}", prob.patch));
                 issues.push(issue(prob.code(), prob.to_string(), ploc));
             }
@@ -236,7 +238,8 @@ fn check_pixels(
     let Some(z) = image.depth() else {
         issues.push(issue(
             "LAYER_NO_DEPTH",
-            "the layer has no depth channel Z; store the distance along the ray in a float32 channel named Z".into(),
+            "the layer has no depth channel Z; store the distance along the ray in a float32 channel named Z"
+                .into(),
             loc.to_string(),
         ));
         return;
@@ -275,13 +278,48 @@ fn check_pixels(
             t.colour_bad.add(i, w);
         }
     }
-    push_tally(issues, "DEPTH_NEGATIVE_IN_DOMAIN", &t.neg, "inside the domain (A > 0) have negative depth; set A = 0 there or store the true distance", loc, "Z");
+    push_tally(
+        issues,
+        "DEPTH_NEGATIVE_IN_DOMAIN",
+        &t.neg,
+        "inside the domain (A > 0) have negative depth; set A = 0 there or store the true distance",
+        loc,
+        "Z",
+    );
     push_tally(issues, "DEPTH_ZERO_IN_DOMAIN", &t.zero, "inside the domain have depth 0, which is no surface; store NaN for unknown depth or mark them outside", loc, "Z");
-    push_tally(issues, "DEPTH_UNKNOWN_IN_DOMAIN", &t.nan, "inside the domain have unknown depth (NaN)", loc, "Z");
-    push_tally(issues, "DEPTH_OUT_OF_RANGE", &t.range, "have depths outside the layer's declared depthrange; fix the range or the depths", loc, "Z");
+    push_tally(
+        issues,
+        "DEPTH_UNKNOWN_IN_DOMAIN",
+        &t.nan,
+        "inside the domain have unknown depth (NaN)",
+        loc,
+        "Z",
+    );
+    push_tally(
+        issues,
+        "DEPTH_OUT_OF_RANGE",
+        &t.range,
+        "have depths outside the layer's declared depthrange; fix the range or the depths",
+        loc,
+        "Z",
+    );
     push_tally(issues, "MASK_OUT_OF_RANGE", &t.mask_bad, "have coverage A outside [0, 1] or NaN", loc, "A");
-    push_tally(issues, "MASK_DEPTH_DISAGREE", &t.mask_disagree, "have A = 0 (outside) but a non-negative depth; write Z = -1 outside the domain", loc, "A");
-    push_tally(issues, "COLOUR_NOT_FINITE", &t.colour_bad, "inside the domain have NaN or infinite colour", loc, "R,G,B");
+    push_tally(
+        issues,
+        "MASK_DEPTH_DISAGREE",
+        &t.mask_disagree,
+        "have A = 0 (outside) but a non-negative depth; write Z = -1 outside the domain",
+        loc,
+        "A",
+    );
+    push_tally(
+        issues,
+        "COLOUR_NOT_FINITE",
+        &t.colour_bad,
+        "inside the domain have NaN or infinite colour",
+        loc,
+        "R,G,B",
+    );
     if t.inside == 0 {
         issues.push(issue(
             "LAYER_EMPTY",
@@ -308,7 +346,8 @@ fn check_channel_sets(image: &LayerImage, loc: &str, issues: &mut Vec<Issue>) {
 }
 
 fn check_normals(image: &LayerImage, options: &ValidateOptions, loc: &str, issues: &mut Vec<Issue>) {
-    let (Some(nx), Some(ny), Some(nz)) = (image.channel("N.X"), image.channel("N.Y"), image.channel("N.Z")) else {
+    let (Some(nx), Some(ny), Some(nz)) = (image.channel("N.X"), image.channel("N.Y"), image.channel("N.Z"))
+    else {
         return;
     };
     let mut bad = Tally::default();
@@ -317,11 +356,19 @@ fn check_normals(image: &LayerImage, options: &ValidateOptions, loc: &str, issue
             continue;
         }
         let len = (nx.data[i].powi(2) + ny.data[i].powi(2) + nz.data[i].powi(2)).sqrt();
-        if !((len - 1.0).abs() <= options.normal_tolerance) {
+        // A NaN length is not unit either.
+        if (len - 1.0).abs() > options.normal_tolerance || len.is_nan() {
             bad.add(i, image.width);
         }
     }
-    push_tally(issues, "NORMALS_NOT_UNIT", &bad, "inside the domain have normals whose length is not 1", loc, "N.X,N.Y,N.Z");
+    push_tally(
+        issues,
+        "NORMALS_NOT_UNIT",
+        &bad,
+        "inside the domain have normals whose length is not 1",
+        loc,
+        "N.X,N.Y,N.Z",
+    );
 }
 
 /// Depth continuity inside the layer: 4-neighbours (wrapping across the equirect seam; within

@@ -33,12 +33,19 @@ fn is_xml(p: &Path) -> bool {
 
 fn exr_info(path: &Path, out: Output) -> Result<u8, Failure> {
     let h = layer_io::read_header(path, &ReadLimits::default()).map_err(pomc::Error::from)?;
-    let channels: Vec<_> = h.channels.iter().map(|(n, t)| serde_json::json!({"name": n, "type": t})).collect();
+    let channels: Vec<_> =
+        h.channels.iter().map(|(n, t)| serde_json::json!({"name": n, "type": t})).collect();
     out.json(&serde_json::json!({
         "kind": "exr", "path": path, "width": h.width, "height": h.height,
         "channels": channels, "compression": h.compression.name(), "tiled": h.tiled,
     }));
-    out.say(format!("{}: EXR {}x{}, {} compression", path.display(), h.width, h.height, h.compression.name()));
+    out.say(format!(
+        "{}: EXR {}x{}, {} compression",
+        path.display(),
+        h.width,
+        h.height,
+        h.compression.name()
+    ));
     for (n, t) in &h.channels {
         out.say(format!("  channel {n:8} {t:?}"));
     }
@@ -89,11 +96,13 @@ fn panorama_info(path: &Path, stats: bool, out: Output) -> Result<u8, Failure> {
             decl.order.map_or("-".to_string(), |o| o.to_string()),
         );
         if let Some(p) = &decl.packing {
-            line += &format!(" packed {}x{} atlas, {} patches", p.atlas_width, p.atlas_height, p.patches.len());
+            line +=
+                &format!(" packed {}x{} atlas, {} patches", p.atlas_width, p.atlas_height, p.patches.len());
         }
         if stats {
             let img = pano.read_layer(k, &ReadLimits::default())?;
-            let (mut lo, mut hi, mut inf, mut unknown, mut inside) = (f32::INFINITY, 0f32, 0usize, 0usize, 0usize);
+            let (mut lo, mut hi, mut inf, mut unknown, mut inside) =
+                (f32::INFINITY, 0f32, 0usize, 0usize, 0usize);
             for i in 0..img.width * img.height {
                 match img.sample(i) {
                     Sample::Outside => continue,

@@ -35,8 +35,9 @@ pub struct UnpackArgs {
 }
 
 pub fn run_pack(args: PackArgs, out: Output) -> Result<u8, Failure> {
-    let pack_options = PackOptions { padding: args.padding, ..PackOptions::default() };
-    let options = SaveOptions { pack: true, pack_threshold: args.threshold, pack_options, ..Default::default() };
+    let pack_options = PackOptions { padding: args.padding };
+    let options =
+        SaveOptions { pack: true, pack_threshold: args.threshold, pack_options, ..Default::default() };
     rewrite(&args.input, &args.output, &options, out, "packing")
 }
 

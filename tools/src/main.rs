@@ -16,7 +16,11 @@ use clap::{Parser, Subcommand};
 use output::Output;
 
 #[derive(Parser, Debug)]
-#[command(name = "pomc", version, about = "Layered omnidirectional RGB-D panoramas (POMC): validate, inspect, convert, pack")]
+#[command(
+    name = "pomc",
+    version,
+    about = "Layered omnidirectional RGB-D panoramas (POMC): validate, inspect, convert, pack"
+)]
 struct Cli {
     /// Machine-readable JSON on stdout (no progress bars).
     #[arg(long, global = true)]
