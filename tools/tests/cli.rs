@@ -1,0 +1,124 @@
+//! The `pomc` binary end to end: exit codes, JSON shapes, errors that name the file, atomic
+//! outputs, and pack → unpack round trips on the room fixture.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use pomc::layer_io::ReadLimits;
+use pomc::mapping::{AnyMapping, MappingKind};
+use pomc::panorama::Panorama;
+
+fn pomc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pomc")).args(args).output().expect("pomc runs")
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("stdout is not JSON ({e}): {}", String::from_utf8_lossy(&out.stdout)))
+}
+
+fn room(dir: &Path) {
+    let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
+    pomc_fixtures::layers::write_room(dir, &m).unwrap();
+}
+
+#[test]
+fn validate_exit_codes_and_json() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path());
+    let ok = pomc(&["validate", dir.path().to_str().unwrap(), "--json"]);
+    assert_eq!(ok.status.code(), Some(0), "{}", String::from_utf8_lossy(&ok.stderr));
+    let v = json(&ok);
+    assert_eq!(v["valid"], true);
+    assert_eq!(v["errors"], 0);
+    assert!(v["issues"].is_array());
+
+    // The manifest path works as well as the directory.
+    let by_manifest = pomc(&["validate", dir.path().join("panorama.xml").to_str().unwrap()]);
+    assert_eq!(by_manifest.status.code(), Some(0));
+
+    // Break a layer: invalid (exit 1) with the code in JSON.
+    std::fs::write(dir.path().join("room.exr"), b"garbage").unwrap();
+    let bad = pomc(&["validate", dir.path().to_str().unwrap(), "--json"]);
+    assert_eq!(bad.status.code(), Some(1));
+    let v = json(&bad);
+    assert_eq!(v["valid"], false);
+    let issue = &v["issues"][0];
+    assert_eq!(issue["code"], "LAYER_UNREADABLE");
+    assert_eq!(issue["severity"], "error");
+    assert!(issue["location"].as_str().unwrap().contains("room.exr"));
+
+    // No panorama at all: usage/I-O error (exit 2), and the error names the path.
+    let none = pomc(&["validate", "/nonexistent/pano"]);
+    assert_eq!(none.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&none.stderr).contains("/nonexistent/pano"));
+}
+
+#[test]
+fn list_codes_covers_manifest_and_layer_codes() {
+    let out = pomc(&["validate", "--list-codes", "--json", "."]);
+    assert_eq!(out.status.code(), Some(0));
+    let v = json(&out);
+    let codes: Vec<&str> = v.as_array().unwrap().iter().map(|r| r["code"].as_str().unwrap()).collect();
+    assert!(codes.contains(&"XML_MALFORMED") && codes.contains(&"COVERAGE_INCOMPLETE"));
+}
+
+#[test]
+fn pack_unpack_round_trip_is_bit_exact() {
+    let src = tempfile::tempdir().unwrap();
+    room(src.path());
+    let unpacked = tempfile::tempdir().unwrap();
+    let repacked = tempfile::tempdir().unwrap();
+    let out =
+        pomc(&["unpack", src.path().to_str().unwrap(), "-o", unpacked.path().to_str().unwrap(), "--json"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let out =
+        pomc(&["pack", unpacked.path().to_str().unwrap(), "-o", repacked.path().to_str().unwrap(), "--json"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let report = json(&out);
+    let objects = &report["layers"][1];
+    assert_eq!(objects["packed"], true);
+    assert!(objects["occupancy"].as_f64().unwrap() >= 0.5, "occupancy {}", objects["occupancy"]);
+
+    let a = Panorama::open(src.path()).unwrap();
+    let b = Panorama::open(unpacked.path()).unwrap();
+    let c = Panorama::open(repacked.path()).unwrap();
+    assert!(b.manifest.layers.iter().all(|l| l.packing.is_none()));
+    for k in 0..2 {
+        let la = a.read_layer(k, &ReadLimits::default()).unwrap();
+        for other in [&b, &c] {
+            let lb = other.read_layer(k, &ReadLimits::default()).unwrap();
+            assert_eq!((la.width, la.height), (lb.width, lb.height));
+            for ca in &la.channels {
+                let cb = lb.channel(&ca.name).unwrap();
+                assert_eq!(ca.sample_type, cb.sample_type);
+                assert!(
+                    ca.data.iter().zip(&cb.data).all(|(x, y)| x.to_bits() == y.to_bits()),
+                    "layer {k} channel {} differs after the round trip",
+                    ca.name
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn info_describes_a_panorama() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path());
+    let out = pomc(&["info", dir.path().to_str().unwrap(), "--stats", "--json"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let v = json(&out);
+    assert_eq!(v["mapping"], "LatLongMapping");
+    assert_eq!(v["layers"].as_array().unwrap().len(), 2);
+    assert_eq!(v["layers"][0]["stats"]["domain_pixels"], 256 * 128);
+    assert!(v["layers"][0]["stats"]["depth_min"].as_f64().unwrap() > 1.0);
+}
+
+#[test]
+fn failures_are_json_with_a_code_when_asked() {
+    let out = pomc(&["info", "/nonexistent/pano", "--json"]);
+    assert_eq!(out.status.code(), Some(2));
+    let v = json(&out);
+    assert_eq!(v["error"]["code"], "PANORAMA_NOT_FOUND");
+}
