@@ -10,7 +10,8 @@ use crate::Failure;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Panorama directory or its panorama.xml.
-    path: PathBuf,
+    #[arg(required_unless_present = "list_codes")]
+    path: Option<PathBuf>,
     /// Relative depth jump inside a layer reported as a discontinuity (0.5 = 50 %).
     #[arg(long, default_value_t = 0.5)]
     jump_threshold: f64,
@@ -36,7 +37,8 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         return Ok(0);
     }
     let options = ValidateOptions { jump_threshold: args.jump_threshold, ..Default::default() };
-    let report = validate::validate(&args.path, &options)?;
+    let path = args.path.unwrap_or_default();
+    let report = validate::validate(&path, &options)?;
     if out.json {
         out.json(&serde_json::to_value(&report).expect("report serialises"));
     } else if !out.quiet {
@@ -46,7 +48,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         let infos = report.issues.iter().filter(|i| i.severity == Severity::Info).count();
         println!(
             "{}: {} ({} error(s), {} warning(s), {} note(s))",
-            args.path.display(),
+            path.display(),
             if report.valid { "valid" } else { "INVALID" },
             report.errors,
             report.warnings,

@@ -56,7 +56,7 @@ fn validate_exit_codes_and_json() {
 
 #[test]
 fn list_codes_covers_manifest_and_layer_codes() {
-    let out = pomc(&["validate", "--list-codes", "--json", "."]);
+    let out = pomc(&["validate", "--list-codes", "--json"]);
     assert_eq!(out.status.code(), Some(0));
     let v = json(&out);
     let codes: Vec<&str> = v.as_array().unwrap().iter().map(|r| r["code"].as_str().unwrap()).collect();
