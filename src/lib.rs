@@ -16,6 +16,7 @@
 //! - [`raster`]: the plain interleaved image container used everywhere;
 //! - [`fsutil`]: atomic writes and bounded reads.
 
+pub mod build;
 pub mod error;
 pub mod fsutil;
 pub mod layer;

@@ -1,0 +1,109 @@
+//! The 8-neighbourhood of every pixel on the sphere: across the equirect seam, over the poles
+//! (the row beyond a pole is the same row shifted by W/2) and across cube-face edges, so that
+//! every stage of layer building sees one continuous canvas.
+
+use glam::DVec3;
+
+use crate::mapping::{AnyMapping, Mapping};
+
+/// Offsets of the 8 neighbours, `(dx, dy)`; the first four are the 4-neighbours.
+pub const OFFSETS: [(i32, i32); 8] = [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)];
+
+/// Neighbour lookup for one canvas.
+#[derive(Clone, Copy, Debug)]
+pub struct Neighbours {
+    mapping: AnyMapping,
+    width: usize,
+    height: usize,
+}
+
+impl Neighbours {
+    pub fn new(mapping: AnyMapping) -> Self {
+        Neighbours { mapping, width: mapping.width(), height: mapping.height() }
+    }
+
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    pub fn len(&self) -> usize {
+        self.width * self.height
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    pub fn mapping(&self) -> &AnyMapping {
+        &self.mapping
+    }
+
+    /// Neighbour `k` (index into [`OFFSETS`]) of pixel index `p`; `None` only where the sphere
+    /// has no distinct neighbour (a cube corner's missing diagonal).
+    #[inline]
+    pub fn get(&self, p: usize, k: usize) -> Option<usize> {
+        let (x, y) = ((p % self.width) as i64, (p / self.width) as i64);
+        let (dx, dy) = OFFSETS[k];
+        let (nx, ny) = (x + dx as i64, y + dy as i64);
+        match self.mapping {
+            AnyMapping::Equirect(_) => {
+                let (w, h) = (self.width as i64, self.height as i64);
+                let (mut nx, mut ny) = (nx, ny);
+                if ny < 0 || ny >= h {
+                    // Over the pole: same latitude band, opposite azimuth.
+                    ny = if ny < 0 { -ny - 1 } else { 2 * h - ny - 1 };
+                    nx += w / 2;
+                }
+                let nx = nx.rem_euclid(w);
+                Some((ny * w + nx) as usize)
+            }
+            AnyMapping::Cube(_) => {
+                let n = self.height as i64 / 2;
+                let (fx, fy) = (x / n, y / n);
+                let (lx, ly) = (nx - fx * n, ny - fy * n);
+                if (0..n).contains(&lx) && (0..n).contains(&ly) {
+                    return Some((ny * self.width as i64 + nx) as usize);
+                }
+                if !(0..n).contains(&lx) && !(0..n).contains(&ly) {
+                    // Diagonal step past a face corner: three faces meet there, no fourth pixel.
+                    let corner_x = if lx < 0 { 0 } else { n - 1 };
+                    let corner_y = if ly < 0 { 0 } else { n - 1 };
+                    if (x - fx * n, y - fy * n) == (corner_x, corner_y) {
+                        return None;
+                    }
+                }
+                // Leave the face through its plane: extend the face's own parametrisation past
+                // [-1, 1] and let the mapping find the pixel on the adjacent face.
+                let face = (fy * 3 + fx) as usize;
+                let s = 2.0 * (lx as f64 + 0.5) / n as f64 - 1.0;
+                let t = 2.0 * (ly as f64 + 0.5) / n as f64 - 1.0;
+                let (i, j) = self.mapping.pixel_of(face_dir(face, s, t));
+                let q = j * self.width + i;
+                (q != p).then_some(q)
+            }
+        }
+    }
+
+    /// All existing neighbours of `p` (up to 8).
+    #[inline]
+    pub fn all(&self, p: usize) -> impl Iterator<Item = usize> + '_ {
+        (0..8).filter_map(move |k| self.get(p, k))
+    }
+}
+
+/// Direction of face-local coordinates `(s, t)` (thesis A.3 inverse table; `s, t` may leave
+/// `[-1, 1]`, which continues the face's plane).
+fn face_dir(face: usize, s: f64, t: f64) -> DVec3 {
+    match face {
+        0 => DVec3::new(1.0, -s, -t),
+        1 => DVec3::new(s, 1.0, -t),
+        2 => DVec3::new(-s, -t, 1.0),
+        3 => DVec3::new(-1.0, s, -t),
+        4 => DVec3::new(-s, -1.0, -t),
+        _ => DVec3::new(s, -t, -1.0),
+    }
+}

@@ -1,0 +1,464 @@
+//! Building a layered panorama from a plain RGB-D panorama (thesis 6.2.4 and 6.3.1; spec §7).
+//!
+//! Stages: (1) classify depths (unknown, finite, infinitely far), (2) normals (given or estimated),
+//! (3) links between 8-neighbours across the seam, poles and cube-face edges: smooth, fold or
+//! jump, (4) segments and their occlusion levels — the minimal layering, (5) the infinity layer
+//! for content whose parallax stays under a pixel, (6) fill each layer behind its occluders in the
+//! parallax band of the freedom radius, (7) painter's order (farthest first) and layer images.
+
+pub mod edges;
+pub mod fill;
+pub mod graph;
+pub mod segment;
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::layer::{LayerImage, SampleType, OUTSIDE_DEPTH};
+use crate::manifest::{LayerDecl, Manifest, MappingDecl, MappingKind as DeclKind, Role, Transform};
+use crate::mapping::{AnyMapping, Mapping, MappingKind};
+use fill::{fill_layer, FillContext};
+use graph::Neighbours;
+use segment::{segment, SegmentOptions, NO_SEGMENT};
+
+/// A plain RGB-D panorama: one surface per ray.
+#[derive(Clone, Debug)]
+pub struct RgbdInput {
+    pub mapping: AnyMapping,
+    /// Linear (or display-referred, carried through untouched) RGB, planar.
+    pub rgb: [Vec<f32>; 3],
+    /// Distance along the ray (m). `NaN`, `0` or negative = unknown; `+inf` = infinitely far.
+    pub depth: Vec<f32>,
+    /// Unit normals (panorama frame), if the input has them.
+    pub normals: Option<Vec<Vec3>>,
+}
+
+/// Tuning of [`build`].
+#[derive(Clone, Debug)]
+pub struct BuildOptions {
+    /// Freedom radius (m): cameras within it must see no holes.
+    pub freedom_radius: f64,
+    pub segment: SegmentOptions,
+    /// Split layers further by depth: boundaries in metres (thesis 6.2.4.1). Empty = no split.
+    pub depth_bands: Vec<f64>,
+    /// Write normals into the layers.
+    pub normals_out: bool,
+    /// Put infinitely far content and content beyond `d_dirmin` in a direction-only layer.
+    pub infinity: bool,
+    /// Extra fill band in pixels beyond the parallax band (reconstruction filters reach ~1-2 px).
+    pub margin_px: f64,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions {
+            freedom_radius: 0.5,
+            segment: SegmentOptions::default(),
+            depth_bands: Vec::new(),
+            normals_out: false,
+            infinity: true,
+            margin_px: 2.0,
+        }
+    }
+}
+
+/// Errors of [`build`].
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error("colour is {colour} pixels but depth is {depth}; give colour and depth of the same size")]
+    SizeMismatch { colour: usize, depth: usize },
+    #[error("freedom radius {0} m is not a positive finite number")]
+    BadRadius(f64),
+}
+
+impl BuildError {
+    pub fn code(&self) -> &'static str {
+        match self {
+            BuildError::SizeMismatch { .. } => "BUILD_SIZE_MISMATCH",
+            BuildError::BadRadius(_) => "BUILD_BAD_RADIUS",
+        }
+    }
+}
+
+/// One output layer.
+#[derive(Clone, Debug)]
+pub struct BuiltLayer {
+    pub name: String,
+    pub role: Role,
+    /// Painter's order from the centre (0 = drawn first, farthest).
+    pub order: u32,
+    pub image: LayerImage,
+    /// Pixels seen from the centre on this layer.
+    pub own_pixels: usize,
+    /// Pixels filled behind nearer layers.
+    pub filled_pixels: usize,
+    pub depth_range: Option<(f32, f32)>,
+}
+
+/// Per-layer figures of the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct LayerStats {
+    pub name: String,
+    pub role: &'static str,
+    pub order: u32,
+    pub own_pixels: usize,
+    pub filled_pixels: usize,
+    pub depth_range: Option<(f32, f32)>,
+}
+
+/// What [`build`] did, for `--json` / `--report`.
+#[derive(Clone, Debug, Serialize)]
+pub struct BuildReport {
+    pub width: usize,
+    pub height: usize,
+    /// Seconds per stage, in order.
+    pub stages: Vec<(&'static str, f64)>,
+    pub layers: Vec<LayerStats>,
+    /// Fraction of the sphere's pixels in at least one layer (1 for a valid result).
+    pub coverage: f64,
+    pub unknown_pixels: usize,
+    pub segments: usize,
+    /// Distance beyond which content goes to the infinity layer (m).
+    pub d_dirmin: f64,
+    /// Widest fill band used, degrees.
+    pub max_band_deg: f64,
+    pub freedom_radius: f64,
+    pub jump_threshold: f64,
+    pub fold_deg: Option<f64>,
+    pub margin_px: f64,
+}
+
+/// The result of [`build`].
+#[derive(Clone, Debug)]
+pub struct Built {
+    pub layers: Vec<BuiltLayer>,
+    /// Layer (index into `layers`) each pixel was seen on from the centre.
+    pub layer_of: Vec<u32>,
+    pub report: BuildReport,
+}
+
+/// Angular size of a pixel (radians) used for the one-pixel parallax threshold: the equirect
+/// row height `π/H`, or the cube face-centre pixel `(π/2)/N`.
+pub fn pixel_angle(m: &AnyMapping) -> f64 {
+    match m {
+        AnyMapping::Equirect(_) => std::f64::consts::PI / m.height() as f64,
+        AnyMapping::Cube(c) => std::f64::consts::FRAC_PI_2 / c.face_size() as f64,
+    }
+}
+
+/// `d_dirmin` (thesis 6.2.4.3): the smallest distance whose parallax, for any camera within `r`
+/// of the centre, stays under one pixel: `asin(r/d) < α  ⇔  d > r / sin α`.
+pub fn d_dirmin(r: f64, pixel_angle: f64) -> f64 {
+    r / pixel_angle.sin()
+}
+
+/// Build layers from an RGB-D panorama. `progress` is told each stage's name as it starts.
+pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Result<Built, BuildError> {
+    let m = input.mapping;
+    let n = m.width() * m.height();
+    for c in &input.rgb {
+        if c.len() != n || input.depth.len() != n {
+            return Err(BuildError::SizeMismatch { colour: c.len(), depth: input.depth.len() });
+        }
+    }
+    if !(o.freedom_radius > 0.0 && o.freedom_radius.is_finite()) {
+        return Err(BuildError::BadRadius(o.freedom_radius));
+    }
+    let mut stages = Vec::new();
+    let mut clock = Instant::now();
+    let mut lap = |name: &'static str, stages: &mut Vec<(&'static str, f64)>| {
+        stages.push((name, clock.elapsed().as_secs_f64()));
+        clock = Instant::now();
+    };
+
+    // (1) Depth classes. Unknown → NaN; far content → +inf (direction only).
+    progress("classify");
+    let alpha = pixel_angle(&m);
+    let dmin = d_dirmin(o.freedom_radius, alpha);
+    let mut depth: Vec<f32> = input
+        .depth
+        .par_iter()
+        .map(|&d| {
+            if d.is_nan() || d <= 0.0 {
+                f32::NAN
+            } else if o.infinity && (d as f64) > dmin {
+                f32::INFINITY
+            } else {
+                d
+            }
+        })
+        .collect();
+    let unknown_pixels = depth.iter().filter(|d| d.is_nan()).count();
+    let nb = Neighbours::new(m);
+    let dirs: Vec<Vec3> =
+        (0..n).into_par_iter().map(|p| m.pixel_dir(p % m.width(), p / m.width()).as_vec3()).collect();
+    lap("classify", &mut stages);
+
+    // (2) Normals.
+    progress("normals");
+    let normals: Vec<Vec3> = match &input.normals {
+        Some(given) if given.len() == n => given
+            .par_iter()
+            .zip(&dirs)
+            .map(|(&nv, &d)| {
+                let nv = nv.normalize_or_zero();
+                if nv.dot(d) > 0.0 {
+                    -nv
+                } else {
+                    nv
+                }
+            })
+            .collect(),
+        _ => edges::estimate_normals(&nb, &depth, &o.segment.edges),
+    };
+    lap("normals", &mut stages);
+
+    // (3, 4) Links, segments, levels.
+    progress("segments");
+    let seg = segment(&nb, &depth, Some(&normals), &o.segment);
+    lap("segments", &mut stages);
+
+    // (5) Layer keys: infinity first, then (level, depth band far→near).
+    progress("layers");
+    let band_of = |d: f32| o.depth_bands.iter().filter(|&&b| (d as f64) >= b).count() as u32;
+    let nbands = o.depth_bands.len() as u32 + 1;
+    let key_of = |p: usize| -> Option<u64> {
+        let s = seg.id[p];
+        if s == NO_SEGMENT {
+            return None;
+        }
+        let level = seg.level[s as usize] as u64;
+        // Farther bands come first within a level.
+        Some(level * nbands as u64 + (nbands - 1 - band_of(depth[p])) as u64)
+    };
+    let has_infinity = depth.iter().any(|d| d.is_infinite());
+    let mut keys: Vec<u64> =
+        (0..n).filter_map(key_of).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+    if keys.is_empty() && !has_infinity {
+        keys.push(0); // all unknown: one background layer of unknown depths
+    }
+    let first = has_infinity as u32;
+    let mut layer_of: Vec<u32> = (0..n)
+        .map(|p| match key_of(p) {
+            Some(k) => first + keys.binary_search(&k).expect("key collected") as u32,
+            None if depth[p].is_infinite() => 0,
+            None => u32::MAX,
+        })
+        .collect();
+    assign_unknown(&nb, &mut depth, &mut layer_of, first);
+    lap("layers", &mut stages);
+
+    // (6) Fill behind occluders.
+    progress("fill");
+    let count = first as usize + keys.len();
+    let cx = FillContext {
+        nb: &nb,
+        dirs: &dirs,
+        depth: &depth,
+        normals: &normals,
+        layer_of: &layer_of,
+        freedom_radius: o.freedom_radius,
+        margin: o.margin_px * alpha,
+        edges: o.segment.edges,
+    };
+    let fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(&cx, k)).collect();
+    lap("fill", &mut stages);
+
+    // (7) Images, names, roles, order.
+    progress("images");
+    let mut layers = Vec::new();
+    let mut level_count = std::collections::BTreeMap::<u64, u32>::new();
+    for (k, f) in fills.iter().enumerate() {
+        let (name, role) = if has_infinity && k == 0 {
+            ("infinity".to_string(), Role::Infinity)
+        } else {
+            let key = keys[k - first as usize];
+            let level = key / nbands as u64;
+            let idx = level_count.entry(level).or_default();
+            *idx += 1;
+            let suffix = if *idx > 1 { format!("-{idx}") } else { String::new() };
+            if level == 0 {
+                (format!("background{suffix}"), Role::Background)
+            } else {
+                (format!("objects-{level}{suffix}"), Role::Object)
+            }
+        };
+        let layer = layer_image(input, &depth, &normals, &layer_of, k as u32, f, o.normals_out);
+        layers.push(BuiltLayer {
+            name,
+            role,
+            order: k as u32,
+            own_pixels: layer_of.iter().filter(|&&l| l == k as u32).count(),
+            filled_pixels: f.pixels.len(),
+            depth_range: finite_range(layer.depth().unwrap_or_default()),
+            image: layer,
+        });
+    }
+    // Leave out what the scene does not need: a layer with no pixel is dropped.
+    layers.retain(|l| l.own_pixels + l.filled_pixels > 0);
+    for (k, l) in layers.iter_mut().enumerate() {
+        l.order = k as u32;
+    }
+    lap("images", &mut stages);
+
+    let covered = (0..n).filter(|&p| layer_of[p] != u32::MAX).count();
+    let max_band_deg = fills.iter().map(|f| f.max_angle).fold(0.0, f64::max).to_degrees();
+    let report = BuildReport {
+        width: m.width(),
+        height: m.height(),
+        stages,
+        layers: layers
+            .iter()
+            .map(|l| LayerStats {
+                name: l.name.clone(),
+                role: l.role.as_str(),
+                order: l.order,
+                own_pixels: l.own_pixels,
+                filled_pixels: l.filled_pixels,
+                depth_range: l.depth_range,
+            })
+            .collect(),
+        coverage: covered as f64 / n as f64,
+        unknown_pixels,
+        segments: seg.size.len(),
+        d_dirmin: dmin,
+        max_band_deg,
+        freedom_radius: o.freedom_radius,
+        jump_threshold: o.segment.edges.jump,
+        fold_deg: o.segment.edges.fold_deg,
+        margin_px: o.margin_px,
+    };
+    Ok(Built { layers, layer_of, report })
+}
+
+/// Unknown-depth pixels join the layer of the farthest known neighbour and take its depth,
+/// growing inwards from the hole's rim (a hole in a wall stays on the wall, at the wall's
+/// distance; no surface appears at distance 0 and no NaN reaches the output). With no known
+/// depth anywhere, pixels become direction-only (+inf) in the first finite layer.
+fn assign_unknown(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [u32], first_finite: u32) {
+    let n = layer_of.len();
+    let mut frontier: Vec<usize> =
+        (0..n).filter(|&p| layer_of[p] == u32::MAX && nb.all(p).any(|q| layer_of[q] != u32::MAX)).collect();
+    while !frontier.is_empty() {
+        let mut next = Vec::new();
+        let updates: Vec<(usize, usize)> = frontier
+            .iter()
+            .filter(|&&p| layer_of[p] == u32::MAX)
+            .filter_map(|&p| {
+                nb.all(p)
+                    .filter(|&q| layer_of[q] != u32::MAX)
+                    .max_by(|&a, &b| depth[a].total_cmp(&depth[b]).then(b.cmp(&a)))
+                    .map(|q| (p, q))
+            })
+            .collect();
+        for &(p, q) in &updates {
+            layer_of[p] = layer_of[q];
+            depth[p] = depth[q];
+        }
+        for &(p, _) in &updates {
+            next.extend(nb.all(p).filter(|&q| layer_of[q] == u32::MAX));
+        }
+        next.sort_unstable();
+        next.dedup();
+        frontier = next;
+    }
+    for (l, d) in layer_of.iter_mut().zip(depth.iter_mut()) {
+        if *l == u32::MAX {
+            *l = first_finite;
+            *d = f32::INFINITY;
+        }
+    }
+}
+
+/// The image of layer `k`: its own pixels (as seen from the centre) plus its fill.
+fn layer_image(
+    input: &RgbdInput,
+    depth: &[f32],
+    normals: &[Vec3],
+    layer_of: &[u32],
+    k: u32,
+    fill: &fill::Fill,
+    with_normals: bool,
+) -> LayerImage {
+    let m = input.mapping;
+    let n = m.width() * m.height();
+    let mut z = vec![OUTSIDE_DEPTH; n];
+    let mut src = vec![usize::MAX; n];
+    for p in 0..n {
+        if layer_of[p] == k {
+            z[p] = depth[p];
+            src[p] = p;
+        }
+    }
+    for &(p, d, c) in &fill.pixels {
+        z[p] = d;
+        src[p] = c;
+    }
+    let mut img = LayerImage::new(m.width(), m.height());
+    let half = |v: f32| half::f16::from_f32(v).to_f32();
+    for (c, name) in ["R", "G", "B"].iter().enumerate() {
+        let data = src.iter().map(|&s| if s == usize::MAX { 0.0 } else { half(input.rgb[c][s]) }).collect();
+        img.set_channel(name, SampleType::F16, data);
+    }
+    img.set_channel("Z", SampleType::F32, z);
+    if with_normals {
+        for (c, name) in ["N.X", "N.Y", "N.Z"].iter().enumerate() {
+            let data = src
+                .iter()
+                .map(|&s| if s == usize::MAX { 0.0 } else { half(normals[s].to_array()[c]) })
+                .collect();
+            img.set_channel(name, SampleType::F16, data);
+        }
+    }
+    img
+}
+
+fn finite_range(z: &[f32]) -> Option<(f32, f32)> {
+    let mut r: Option<(f32, f32)> = None;
+    for &d in z {
+        if d > 0.0 && d.is_finite() {
+            r = Some(match r {
+                Some((lo, hi)) => (lo.min(d), hi.max(d)),
+                None => (d, d),
+            });
+        }
+    }
+    r
+}
+
+/// A manifest for built layers: one native EXR per layer named after it, painter's order,
+/// roles and depth ranges.
+pub fn manifest(
+    built: &Built,
+    kind: MappingKind,
+    freedom_radius: f64,
+    transforms: Vec<Transform>,
+) -> Manifest {
+    let layers = built
+        .layers
+        .iter()
+        .map(|l| {
+            let mut d = LayerDecl::native(&format!("{}.exr", l.name));
+            d.name = Some(l.name.clone());
+            d.role = Some(l.role);
+            d.order = Some(l.order);
+            d.depth_range = l.depth_range;
+            d
+        })
+        .collect();
+    Manifest {
+        version: "1".into(),
+        transforms,
+        mapping: MappingDecl {
+            kind: match kind {
+                MappingKind::Equirect => DeclKind::LatLong,
+                MappingKind::Cube3x2 => DeclKind::Cube,
+            },
+        },
+        freedom_radius,
+        layers,
+    }
+}
