@@ -16,6 +16,10 @@ pub enum Error {
     Resample(#[from] crate::resample::ResampleError),
     #[error(transparent)]
     Panorama(#[from] crate::panorama::PanoramaError),
+    #[error(transparent)]
+    Build(#[from] crate::build::BuildError),
+    #[error(transparent)]
+    Input(#[from] crate::build::input::InputError),
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -33,6 +37,8 @@ impl Error {
             Error::Pack(e) => e.code(),
             Error::Resample(e) => e.code(),
             Error::Panorama(e) => e.code(),
+            Error::Build(e) => e.code(),
+            Error::Input(e) => e.code(),
             Error::Io { .. } => "IO_ERROR",
         }
     }

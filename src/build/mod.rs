@@ -9,6 +9,7 @@
 pub mod edges;
 pub mod fill;
 pub mod graph;
+pub mod input;
 pub mod segment;
 
 use std::time::Instant;

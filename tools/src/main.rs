@@ -3,6 +3,7 @@
 //!
 //! Exit codes: 0 success, 1 the input is invalid (`validate`), 2 usage, I/O or processing error.
 
+mod cmd_build;
 mod cmd_convert;
 mod cmd_info;
 mod cmd_pack;
@@ -19,7 +20,7 @@ use output::Output;
 #[command(
     name = "pomc",
     version,
-    about = "Layered omnidirectional RGB-D panoramas (POMC): validate, inspect, convert, pack"
+    about = "Layered omnidirectional RGB-D panoramas (POMC): build, validate, inspect, convert, pack"
 )]
 struct Cli {
     /// Machine-readable JSON on stdout (no progress bars).
@@ -40,6 +41,8 @@ enum Command {
     Info(cmd_info::Args),
     /// Convert images or layers between equirect and 3×2 cube-map mappings.
     Convert(cmd_convert::Args),
+    /// Build a layered POMC from a plain RGB-D panorama (colour + depth).
+    Build(cmd_build::Args),
     /// Patch-pack the sparse layers of a panorama (atlas + patch table).
     Pack(cmd_pack::PackArgs),
     /// Restore full canvases of packed layers.
@@ -66,6 +69,7 @@ fn main() -> ExitCode {
         Command::Validate(a) => cmd_validate::run(a, out),
         Command::Info(a) => cmd_info::run(a, out),
         Command::Convert(a) => cmd_convert::run(a, out),
+        Command::Build(a) => cmd_build::run(a, out),
         Command::Pack(a) => cmd_pack::run_pack(a, out),
         Command::Unpack(a) => cmd_pack::run_unpack(a, out),
     };

@@ -26,6 +26,22 @@ impl Output {
         bar
     }
 
+    /// A spinner for work of unknown length; its message names the current stage.
+    pub fn spinner(&self, what: &str) -> ProgressBar {
+        let bar = ProgressBar::new_spinner();
+        if self.quiet || self.json {
+            bar.set_draw_target(ProgressDrawTarget::hidden());
+        } else {
+            bar.set_draw_target(ProgressDrawTarget::stderr());
+            bar.enable_steady_tick(std::time::Duration::from_millis(120));
+        }
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} {msg} {elapsed_precise}").expect("static template"),
+        );
+        bar.set_message(what.to_string());
+        bar
+    }
+
     /// Print a human line to stdout unless quiet or JSON.
     pub fn say(&self, line: impl AsRef<str>) {
         if !self.quiet && !self.json {

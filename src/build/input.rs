@@ -1,0 +1,255 @@
+//! Reading RGB-D panoramas for [`super::build`]: colour from PNG/JPEG/EXR/HDR, depth from float
+//! EXR or 16-bit PNG with a scale and an invalid value, dataset presets, z-depth to ray distance,
+//! and the azimuth conventions of other tools expressed as a LocalToWorld prefix.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+use super::RgbdInput;
+use crate::layer_io::{self, ReadLimits};
+use crate::manifest::Transform;
+use crate::mapping::{AnyMapping, Mapping, MappingKind};
+
+/// How depth values are stored.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthEncoding {
+    /// Metres per stored unit (16-bit PNG); ignored for float EXR unless set explicitly.
+    pub scale: f64,
+    /// Stored value meaning "no depth" (besides 0, NaN and negatives, which always do).
+    pub invalid: Option<f64>,
+    /// Distance along the ray, or planar z-depth (cube faces: along the face axis).
+    pub kind: DepthKind,
+}
+
+impl Default for DepthEncoding {
+    fn default() -> Self {
+        DepthEncoding { scale: 1.0, invalid: None, kind: DepthKind::Ray }
+    }
+}
+
+/// Ray distance or planar depth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthKind {
+    Ray,
+    Z,
+}
+
+/// Dataset presets (each documented in spec/07-build.md with its source).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preset {
+    /// Matterport3D: uint16 PNG, metres = value / 4000, 0 invalid.
+    Matterport3d,
+    /// Stanford 2D-3D-S equirect panoramas: uint16 PNG, value / 512, 65535 invalid, Euclidean.
+    Stanford2d3ds,
+    /// Structured3D: uint16 PNG in millimetres, 0 invalid.
+    Structured3d,
+    /// Pano3D / 3D60: float EXR in metres.
+    Pano3d,
+}
+
+impl Preset {
+    pub fn encoding(self) -> DepthEncoding {
+        let ray = DepthKind::Ray;
+        match self {
+            Preset::Matterport3d => DepthEncoding { scale: 1.0 / 4000.0, invalid: Some(0.0), kind: ray },
+            Preset::Stanford2d3ds => DepthEncoding { scale: 1.0 / 512.0, invalid: Some(65535.0), kind: ray },
+            Preset::Structured3d => DepthEncoding { scale: 1.0 / 1000.0, invalid: Some(0.0), kind: ray },
+            Preset::Pano3d => DepthEncoding { scale: 1.0, invalid: None, kind: ray },
+        }
+    }
+}
+
+/// Azimuth conventions of the tools panoramas come from, as the LocalToWorld operations that
+/// map our (the thesis's) local frame onto theirs. Pixels are never resampled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Convention {
+    /// The thesis and POMC: azimuth `φ = 2πu` from +X towards +Y, `+Z` up.
+    Thesis,
+    /// Blender's equirect camera: azimuth `π(1 − 2u)`, centre column along +X, `+Z` up:
+    /// `world = Scale(−1, 1, 1) · local`.
+    Blender,
+    /// OpenEXR lat-long: longitude `π − 2πu`, latitude `π/2 − πv`, `+Y` up, direction
+    /// `(sin lon cos lat, sin lat, cos lon cos lat)`: `world = Rotate((1,1,1), −120°) ·
+    /// Scale(−1, 1, 1) · local`.
+    OpenExr,
+}
+
+impl Convention {
+    pub fn transforms(self) -> Vec<Transform> {
+        match self {
+            Convention::Thesis => vec![],
+            Convention::Blender => vec![Transform::Scale([-1.0, 1.0, 1.0])],
+            Convention::OpenExr => vec![
+                Transform::Rotate { axis: [1.0, 1.0, 1.0], angle_deg: -120.0 },
+                Transform::Scale([-1.0, 1.0, 1.0]),
+            ],
+        }
+    }
+}
+
+/// Errors reading RGB-D inputs; each names the file and the fix.
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    #[error("{path}: cannot read the image ({reason})")]
+    Image { path: PathBuf, reason: String },
+    #[error(transparent)]
+    Layer(#[from] layer_io::LayerIoError),
+    #[error("{path}: no depth channel (looked for Z, Y, R, or a single channel); name the depth channel Z")]
+    NoDepthChannel { path: PathBuf },
+    #[error("{path}: {width}x{height} fits neither a 2:1 equirect nor a 3:2 cube map")]
+    NotAPanorama { path: PathBuf, width: usize, height: usize },
+    #[error("{colour}: is {cw}x{ch} but the depth {depth} is {dw}x{dh}; resample one to the other's size")]
+    SizeMismatch { colour: PathBuf, cw: usize, ch: usize, depth: PathBuf, dw: usize, dh: usize },
+    #[error("{path}: z-depth needs a cube-map input (an equirect has no image plane); use --depth-kind ray")]
+    ZDepthOnEquirect { path: PathBuf },
+}
+
+impl InputError {
+    pub fn code(&self) -> &'static str {
+        match self {
+            InputError::Image { .. } => "INPUT_UNREADABLE",
+            InputError::Layer(e) => e.code(),
+            InputError::NoDepthChannel { .. } => "INPUT_NO_DEPTH",
+            InputError::NotAPanorama { .. } => "INPUT_NOT_PANORAMA",
+            InputError::SizeMismatch { .. } => "INPUT_SIZE_MISMATCH",
+            InputError::ZDepthOnEquirect { .. } => "INPUT_Z_DEPTH_EQUIRECT",
+        }
+    }
+}
+
+/// The mapping a canvas size implies: 2:1 equirect or 3:2 cube.
+pub fn mapping_for(path: &Path, width: usize, height: usize) -> Result<AnyMapping, InputError> {
+    AnyMapping::new(MappingKind::Equirect, width, height)
+        .or_else(|_| AnyMapping::new(MappingKind::Cube3x2, width, height))
+        .map_err(|_| InputError::NotAPanorama { path: path.to_path_buf(), width, height })
+}
+
+fn is_exr(p: &Path) -> bool {
+    p.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+}
+
+fn image_limits(limits: &ReadLimits) -> image::Limits {
+    let mut l = image::Limits::default();
+    l.max_image_width = Some(limits.max_dimension as u32);
+    l.max_image_height = Some(limits.max_dimension as u32);
+    l.max_alloc = Some(limits.max_pixels.saturating_mul(16));
+    l
+}
+
+fn open_image(path: &Path, limits: &ReadLimits) -> Result<image::DynamicImage, InputError> {
+    let err =
+        |e: &dyn std::fmt::Display| InputError::Image { path: path.to_path_buf(), reason: e.to_string() };
+    let mut reader =
+        image::ImageReader::open(path).map_err(|e| err(&e))?.with_guessed_format().map_err(|e| err(&e))?;
+    reader.limits(image_limits(limits));
+    reader.decode().map_err(|e| err(&e))
+}
+
+/// Colour as planar RGB f32 (8/16-bit images scaled to [0, 1], float images as stored).
+pub fn read_colour(path: &Path, limits: &ReadLimits) -> Result<(usize, usize, [Vec<f32>; 3]), InputError> {
+    let img = open_image(path, limits)?.to_rgb32f();
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let mut rgb = [Vec::with_capacity(w * h), Vec::with_capacity(w * h), Vec::with_capacity(w * h)];
+    for px in img.pixels() {
+        for (plane, v) in rgb.iter_mut().zip(px.0) {
+            plane.push(v);
+        }
+    }
+    Ok((w, h, rgb))
+}
+
+/// Depth in metres along the stored convention (before z → ray conversion): unknown = NaN.
+pub fn read_depth(
+    path: &Path,
+    enc: &DepthEncoding,
+    limits: &ReadLimits,
+) -> Result<(usize, usize, Vec<f32>), InputError> {
+    let (w, h, raw) = if is_exr(path) {
+        let layer = layer_io::read_exr(path, limits)?;
+        let ch = ["Z", "Y", "R", "depth", "D"]
+            .iter()
+            .find_map(|n| layer.channel(n))
+            .or_else(|| (layer.channels.len() == 1).then(|| &layer.channels[0]))
+            .ok_or_else(|| InputError::NoDepthChannel { path: path.to_path_buf() })?;
+        (layer.width, layer.height, ch.data.clone())
+    } else {
+        let img = open_image(path, limits)?.to_luma16();
+        let (w, h) = (img.width() as usize, img.height() as usize);
+        (w, h, img.into_raw().into_iter().map(f32::from).collect())
+    };
+    let depth = raw
+        .into_iter()
+        .map(|v| {
+            let invalid = v.is_nan() || v <= 0.0 || enc.invalid.is_some_and(|i| v as f64 == i);
+            if invalid {
+                f32::NAN
+            } else {
+                (v as f64 * enc.scale) as f32
+            }
+        })
+        .collect();
+    Ok((w, h, depth))
+}
+
+/// Planar z-depth on a cube map to distance along the ray: `ray = z / max(|x|,|y|,|z|)` of the
+/// unit direction (the face axis component).
+pub fn z_to_ray(m: &AnyMapping, depth: &mut [f32]) {
+    for (p, d) in depth.iter_mut().enumerate() {
+        let dir = m.pixel_dir(p % m.width(), p / m.width());
+        let axis = dir.x.abs().max(dir.y.abs()).max(dir.z.abs());
+        *d = (*d as f64 / axis) as f32;
+    }
+}
+
+/// Load colour + depth (+ optional normals EXR) into an [`RgbdInput`].
+pub fn load(
+    colour: &Path,
+    depth: &Path,
+    normals: Option<&Path>,
+    enc: &DepthEncoding,
+    limits: &ReadLimits,
+) -> Result<RgbdInput, InputError> {
+    let (cw, ch, rgb) = read_colour(colour, limits)?;
+    let (dw, dh, mut d) = read_depth(depth, enc, limits)?;
+    if (cw, ch) != (dw, dh) {
+        return Err(InputError::SizeMismatch {
+            colour: colour.to_path_buf(),
+            cw,
+            ch,
+            depth: depth.to_path_buf(),
+            dw,
+            dh,
+        });
+    }
+    let mapping = mapping_for(colour, cw, ch)?;
+    if enc.kind == DepthKind::Z {
+        if mapping.kind() == MappingKind::Equirect {
+            return Err(InputError::ZDepthOnEquirect { path: depth.to_path_buf() });
+        }
+        z_to_ray(&mapping, &mut d);
+    }
+    let normals = match normals {
+        Some(p) => {
+            let l = layer_io::read_exr(p, limits)?;
+            let get = |names: [&str; 2]| names.iter().find_map(|n| l.channel(n)).map(|c| c.data.clone());
+            match (get(["N.X", "R"]), get(["N.Y", "G"]), get(["N.Z", "B"])) {
+                (Some(x), Some(y), Some(z)) if l.width == cw && l.height == ch => {
+                    Some((0..x.len()).map(|i| Vec3::new(x[i], y[i], z[i])).collect())
+                }
+                _ => {
+                    return Err(InputError::SizeMismatch {
+                        colour: colour.to_path_buf(),
+                        cw,
+                        ch,
+                        depth: p.to_path_buf(),
+                        dw: l.width,
+                        dh: l.height,
+                    })
+                }
+            }
+        }
+        None => None,
+    };
+    Ok(RgbdInput { mapping, rgb, depth: d, normals })
+}

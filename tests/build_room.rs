@@ -1,0 +1,177 @@
+//! `pomc::build` against the exact multi-hit truth of the analytic room: layer assignment, the
+//! depth filled behind occluders, colour that never bleeds, valid output, and stiff scenes.
+
+use glam::{DVec3, Vec3};
+use pomc::build::{self, BuildOptions, Built, RgbdInput};
+use pomc::layer::Sample;
+use pomc::manifest::Role;
+use pomc::mapping::{AnyMapping, Mapping, MappingKind};
+use pomc::panorama::{self, SaveOptions};
+use pomc::validate::{self, ValidateOptions};
+use pomc_fixtures::{layers::render_on, Aabb, Rendered, Scene, Shape};
+
+fn input(r: &Rendered, m: AnyMapping, normals: bool) -> RgbdInput {
+    let p = &r.first_hit;
+    let n = p.width * p.height;
+    RgbdInput {
+        mapping: m,
+        rgb: p.rgb.clone(),
+        depth: (0..n).map(|i| if p.mask[i] { p.depth[i] } else { f32::INFINITY }).collect(),
+        normals: normals
+            .then(|| (0..n).map(|i| Vec3::new(p.normal[0][i], p.normal[1][i], p.normal[2][i])).collect()),
+    }
+}
+
+fn front(b: &Built, p: usize) -> bool {
+    b.layers.iter().find(|l| l.order == b.layer_of[p]).map(|l| l.role) == Some(Role::Object)
+}
+
+/// Fraction of pixels whose front/back assignment agrees with the truth.
+fn assignment_accuracy(b: &Built, r: &Rendered) -> f64 {
+    let n = r.first_hit.object.len();
+    let right = (0..n).filter(|&p| front(b, p) == (r.first_hit.object[p] != 0)).count();
+    right as f64 / n as f64
+}
+
+fn check_room(m: AnyMapping, normals: bool) {
+    let r = render_on(&Scene::room(), &m);
+    let b = build::build(&input(&r, m, normals), &BuildOptions::default(), &|_| {}).unwrap();
+    let acc = assignment_accuracy(&b, &r);
+    assert!(acc >= 0.995, "{:?} normals={normals}: assignment accuracy {acc}", m.kind());
+
+    // One background covering the sphere and one front layer; no infinity layer indoors.
+    let roles: Vec<Role> = b.layers.iter().map(|l| l.role).collect();
+    assert_eq!(roles, vec![Role::Background, Role::Object], "{:?}", b.report.layers);
+    assert_eq!(b.report.coverage, 1.0);
+
+    // Filled depth behind the objects against the true hidden room surface.
+    let bg = &b.layers[0].image;
+    let scene = Scene::room();
+    let mut errors = Vec::new();
+    let palette: Vec<[u32; 3]> = room_palette(&r);
+    for p in 0..bg.width * bg.height {
+        if r.first_hit.object[p] == 0 {
+            continue;
+        }
+        if let Sample::Surface(z) = bg.sample(p) {
+            let d = m.pixel_dir(p % m.width(), p / m.width());
+            let truth = scene.room_hit(DVec3::ZERO, d).unwrap().t;
+            errors.push(((z as f64 - truth) / truth).abs());
+            let c: Vec<u32> =
+                ["R", "G", "B"].iter().map(|ch| bg.channel(ch).unwrap().data[p].to_bits()).collect();
+            assert!(
+                palette.contains(&[c[0], c[1], c[2]]),
+                "foreground colour bled into the fill at pixel {p}"
+            );
+        }
+    }
+    assert!(errors.len() > 100, "too little fill: {} pixels", errors.len());
+    errors.sort_by(f64::total_cmp);
+    let median = errors[errors.len() / 2];
+    assert!(median <= 0.01, "{:?} normals={normals}: median fill error {median}", m.kind());
+
+    // The output is a valid POMC.
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = build::manifest(&b, m.kind(), 0.5, vec![]);
+    let images: Vec<_> = b.layers.iter().map(|l| l.image.clone()).collect();
+    panorama::write_panorama(dir.path(), &manifest, &images, &SaveOptions::default()).unwrap();
+    let report = validate::validate(dir.path(), &ValidateOptions::default()).unwrap();
+    assert!(report.valid, "{:?}", report.issues);
+}
+
+/// Colours (as half-rounded f32 bits) the room shows from the centre.
+fn room_palette(r: &Rendered) -> Vec<[u32; 3]> {
+    let mut v: Vec<[u32; 3]> = (0..r.first_hit.object.len())
+        .filter(|&p| r.first_hit.object[p] == 0)
+        .map(|p| {
+            let h = |c: usize| half::f16::from_f32(r.first_hit.rgb[c][p]).to_f32().to_bits();
+            [h(0), h(1), h(2)]
+        })
+        .collect();
+    v.sort_unstable();
+    v.dedup();
+    v
+}
+
+#[test]
+fn room_equirect_estimated_normals() {
+    check_room(AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap(), false);
+}
+
+#[test]
+fn room_equirect_given_normals() {
+    check_room(AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap(), true);
+}
+
+#[test]
+fn room_cube() {
+    check_room(AnyMapping::new(MappingKind::Cube3x2, 768, 512).unwrap(), false);
+}
+
+#[test]
+fn a_scene_without_discontinuities_gives_one_layer() {
+    let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
+    let r = render_on(&Scene { room: Scene::room().room, objects: vec![] }, &m);
+    let b = build::build(&input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
+    assert_eq!(b.layers.len(), 1, "{:?}", b.report.layers);
+    assert_eq!(b.layers[0].filled_pixels, 0);
+    assert!(b.layers[0].image.channel("N.X").is_none(), "normals only when asked for");
+}
+
+/// Stiff scenes: nothing panics, no NaN reaches the output, the sphere stays covered.
+#[test]
+fn stiff_scenes_stay_finite() {
+    let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
+    let huge = Aabb { min: DVec3::new(-1e5, -1e5, -2.0), max: DVec3::new(1e5, 1e5, 1e5) };
+    let scenes = [
+        // An object 5 cm from the centre.
+        Scene {
+            room: Scene::room().room,
+            objects: vec![Shape::Sphere { centre: DVec3::new(0.1, 0.0, 0.0), radius: 0.05 }],
+        },
+        // Depths up to 1e5 m (treated as sky beyond d_dirmin) with a box straddling the seam.
+        Scene {
+            room: huge,
+            objects: vec![Shape::Box(Aabb {
+                min: DVec3::new(3.0, -1.0, -2.0),
+                max: DVec3::new(4.0, 1.0, 1.0),
+            })],
+        },
+        // A thin plane seen edge-on, and a sphere sitting on the south pole.
+        Scene {
+            room: Scene::room().room,
+            objects: vec![
+                Shape::Box(Aabb { min: DVec3::new(-2.0, -0.001, -1.0), max: DVec3::new(-1.0, 0.001, 1.0) }),
+                Shape::Sphere { centre: DVec3::new(0.0, 0.0, -0.9), radius: 0.2 },
+            ],
+        },
+    ];
+    for (k, scene) in scenes.iter().enumerate() {
+        let r = render_on(scene, &m);
+        let mut inp = input(&r, m, false);
+        // Holes: NaN and 0 depths, and open sky (+inf).
+        for p in (0..inp.depth.len()).step_by(97) {
+            inp.depth[p] = if p % 2 == 0 { f32::NAN } else { 0.0 };
+        }
+        if k == 1 {
+            for p in 0..m.width() * 10 {
+                inp.depth[p] = f32::INFINITY;
+            }
+        }
+        let b = build::build(&inp, &BuildOptions::default(), &|_| {}).unwrap();
+        assert_eq!(b.report.coverage, 1.0, "scene {k}");
+        for l in &b.layers {
+            for c in &l.image.channels {
+                assert!(
+                    c.data.iter().all(|v| !v.is_nan()),
+                    "scene {k}: NaN in layer {} channel {}",
+                    l.name,
+                    c.name
+                );
+            }
+        }
+        if k == 1 {
+            assert_eq!(b.layers[0].role, Role::Infinity, "scene {k}: {:?}", b.report.layers);
+        }
+    }
+}

@@ -1,0 +1,191 @@
+//! `pomc build`: a layered POMC from a plain RGB-D panorama.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use pomc::build::input::{self, Convention, DepthKind, Preset};
+use pomc::build::{self, BuildOptions};
+use pomc::layer_io::ReadLimits;
+use pomc::manifest::Transform;
+use pomc::panorama::{self, SaveOptions};
+
+use crate::output::Output;
+use crate::Failure;
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum PresetArg {
+    /// uint16 PNG, metres = value / 4000, 0 invalid
+    Matterport3d,
+    /// uint16 PNG, value / 512, 65535 invalid, Euclidean
+    Stanford2d3ds,
+    /// uint16 PNG in millimetres, 0 invalid
+    Structured3d,
+    /// float EXR in metres
+    Pano3d,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum KindArg {
+    Ray,
+    Z,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum ConventionArg {
+    /// POMC / thesis: azimuth 2πu from +X towards +Y, +Z up
+    Thesis,
+    /// Blender equirect camera: azimuth π(1−2u), centre column along +X
+    Blender,
+    /// OpenEXR lat-long: longitude decreasing, +Y up
+    Openexr,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Colour panorama (PNG, JPEG, EXR, HDR), equirect 2:1 or 3×2 cube map.
+    #[arg(long)]
+    colour: PathBuf,
+    /// Depth panorama: float EXR (channel Z, or any single channel) or 16-bit PNG.
+    #[arg(long)]
+    depth: PathBuf,
+    /// Normals EXR (N.X,N.Y,N.Z or R,G,B, panorama frame); estimated from depth when absent.
+    #[arg(long)]
+    normals_in: Option<PathBuf>,
+    /// Output panorama directory.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Dataset preset for the depth encoding.
+    #[arg(long, value_enum)]
+    preset: Option<PresetArg>,
+    /// Metres per stored depth unit (16-bit PNG); overrides the preset.
+    #[arg(long)]
+    depth_scale: Option<f64>,
+    /// Stored depth value meaning "unknown" (0, NaN and negatives always are).
+    #[arg(long)]
+    depth_invalid: Option<f64>,
+    /// Depth is distance along the ray (ray) or planar depth per cube face (z).
+    #[arg(long, value_enum, default_value = "ray")]
+    depth_kind: KindArg,
+    /// Azimuth convention of the input, recorded in the manifest's LocalToWorld.
+    #[arg(long, value_enum, default_value = "thesis")]
+    convention: ConventionArg,
+    /// Position of the panorama centre in the world, metres: x,y,z.
+    #[arg(long, value_delimiter = ',', num_args = 3, allow_negative_numbers = true)]
+    center: Option<Vec<f64>>,
+    /// Freedom radius (m): cameras within it see no holes.
+    #[arg(long, default_value_t = 0.5)]
+    freedom_radius: f64,
+    /// Relative depth jump between neighbours that separates surfaces.
+    #[arg(long, default_value_t = 0.08)]
+    jump: f64,
+    /// Normal angle (degrees) that closes regions where depth is continuous but the surface folds.
+    #[arg(long, default_value_t = 35.0)]
+    fold_deg: f64,
+    /// Do not split at folds (depth discontinuities only).
+    #[arg(long)]
+    no_fold: bool,
+    /// Split layers by depth at these distances (m), e.g. 2,5 (thesis 6.2.4.1).
+    #[arg(long, value_delimiter = ',')]
+    depth_bands: Vec<f64>,
+    /// Write normals into the layers.
+    #[arg(long)]
+    normals: bool,
+    /// Keep far content in the finite layers (no infinity layer).
+    #[arg(long)]
+    no_infinity: bool,
+    /// Store every layer as a full canvas (no patch packing).
+    #[arg(long)]
+    no_pack: bool,
+    /// Also write the JSON report to this file.
+    #[arg(long)]
+    report: Option<PathBuf>,
+}
+
+pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
+    let start = Instant::now();
+    let mut enc = args.preset.map(preset).map(Preset::encoding).unwrap_or_default();
+    if let Some(s) = args.depth_scale {
+        enc.scale = s;
+    }
+    if let Some(i) = args.depth_invalid {
+        enc.invalid = Some(i);
+    }
+    enc.kind = if args.depth_kind == KindArg::Z { DepthKind::Z } else { DepthKind::Ray };
+    let bar = out.spinner("reading");
+    let t = Instant::now();
+    let rgbd =
+        input::load(&args.colour, &args.depth, args.normals_in.as_deref(), &enc, &ReadLimits::default())
+            .map_err(pomc::Error::from)?;
+    let read_s = t.elapsed().as_secs_f64();
+
+    let mut options = BuildOptions {
+        freedom_radius: args.freedom_radius,
+        depth_bands: args.depth_bands.clone(),
+        normals_out: args.normals,
+        infinity: !args.no_infinity,
+        ..BuildOptions::default()
+    };
+    options.segment.edges.jump = args.jump;
+    options.segment.edges.fold_deg = (!args.no_fold).then_some(args.fold_deg);
+    let built = build::build(&rgbd, &options, &|stage| bar.set_message(stage.to_string()))
+        .map_err(pomc::Error::from)?;
+
+    bar.set_message("writing");
+    let t = Instant::now();
+    let mut transforms = Vec::new();
+    if let Some(c) = &args.center {
+        transforms.push(Transform::Translate([c[0], c[1], c[2]]));
+    }
+    transforms.extend(convention(args.convention).transforms());
+    let manifest = build::manifest(&built, rgbd.mapping.kind(), args.freedom_radius, transforms);
+    let images: Vec<_> = built.layers.iter().map(|l| l.image.clone()).collect();
+    let save = SaveOptions { pack: !args.no_pack, ..SaveOptions::default() };
+    let written = panorama::write_panorama(&args.output, &manifest, &images, &save)?;
+    let write_s = t.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+
+    let mut report = serde_json::to_value(&built.report).expect("report serialises");
+    report["output"] = serde_json::json!(args.output);
+    report["read_s"] = serde_json::json!(read_s);
+    report["write_s"] = serde_json::json!(write_s);
+    report["total_s"] = serde_json::json!(start.elapsed().as_secs_f64());
+    report["packed"] =
+        serde_json::json!(written.layers.iter().map(|l| l.packing.is_some()).collect::<Vec<_>>());
+    if let Some(p) = &args.report {
+        let text = serde_json::to_string_pretty(&report).expect("JSON values serialise");
+        pomc::fsutil::write_bytes_atomic(p, text.as_bytes())?;
+    }
+    out.json(&report);
+    for l in &built.report.layers {
+        out.say(format!(
+            "{:>14} {:>10} order {}: {} px seen, {} px filled, depth {:?}",
+            l.name, l.role, l.order, l.own_pixels, l.filled_pixels, l.depth_range
+        ));
+    }
+    out.say(format!(
+        "built {} layer(s) in {:.2} s (fill band up to {:.2}°, d_dirmin {:.0} m) -> {}",
+        built.layers.len(),
+        start.elapsed().as_secs_f64(),
+        built.report.max_band_deg,
+        built.report.d_dirmin,
+        args.output.display()
+    ));
+    Ok(0)
+}
+
+fn preset(p: PresetArg) -> Preset {
+    match p {
+        PresetArg::Matterport3d => Preset::Matterport3d,
+        PresetArg::Stanford2d3ds => Preset::Stanford2d3ds,
+        PresetArg::Structured3d => Preset::Structured3d,
+        PresetArg::Pano3d => Preset::Pano3d,
+    }
+}
+
+fn convention(c: ConventionArg) -> Convention {
+    match c {
+        ConventionArg::Thesis => Convention::Thesis,
+        ConventionArg::Blender => Convention::Blender,
+        ConventionArg::Openexr => Convention::OpenExr,
+    }
+}
