@@ -104,8 +104,10 @@ pub fn opposite(k: usize) -> usize {
     OFFSETS.iter().position(|&o| o == (-dx, -dy)).expect("offsets are symmetric")
 }
 
-/// Unit normals estimated from depth (facing the centre), from central differences that never
-/// cross a depth jump (one-sided at discontinuities). Zero where no estimate exists.
+/// Unit normals estimated from depth (facing the centre). Each tangent is a one-sided difference
+/// taken on the side where the surface runs straighter (its next difference turns least), so a
+/// crease gives each side its own plane's normal instead of a blurred average that would hide
+/// the fold; differences never cross a depth jump. Zero where no estimate exists.
 pub fn estimate_normals(nb: &Neighbours, depth: &[f32], o: &EdgeOptions) -> Vec<Vec3> {
     let m = *nb.mapping();
     let point = |i: usize| -> Option<DVec3> {
@@ -113,22 +115,32 @@ pub fn estimate_normals(nb: &Neighbours, depth: &[f32], o: &EdgeOptions) -> Vec<
         (d > 0.0 && d.is_finite()).then(|| m.pixel_dir(i % nb.width(), i / nb.width()) * d as f64)
     };
     let no_fold = EdgeOptions { fold_deg: None, ..*o };
+    // The neighbour `k` of `p` when it lies on the same surface.
+    let step = |p: usize, k: usize| -> Option<(usize, DVec3)> {
+        if link(nb, depth, None, p, k, &no_fold) != Some(Link::Smooth) {
+            return None;
+        }
+        let q = nb.get(p, k)?;
+        Some((q, point(q)?))
+    };
     (0..nb.len())
         .into_par_iter()
         .map(|p| {
             let Some(c) = point(p) else { return Vec3::ZERO };
-            // Tangent along x (offsets 0/1) and y (offsets 2/3), each from the neighbours that are
-            // on the same surface.
             let tangent = |fwd: usize, bwd: usize| -> Option<DVec3> {
-                let same = |k: usize| {
-                    (link(nb, depth, None, p, k, &no_fold) == Some(Link::Smooth))
-                        .then(|| nb.get(p, k).and_then(point))
-                        .flatten()
+                let one_sided = |k: usize| -> Option<(DVec3, f64)> {
+                    let (q, pq) = step(p, k)?;
+                    let t = pq - c;
+                    let straight = match step(q, k) {
+                        Some((_, pr)) => t.normalize_or_zero().dot((pr - pq).normalize_or_zero()),
+                        None => 0.0,
+                    };
+                    Some((if k == fwd { t } else { -t }, straight))
                 };
-                match (same(fwd), same(bwd)) {
-                    (Some(f), Some(b)) => Some(f - b),
-                    (Some(f), None) => Some(f - c),
-                    (None, Some(b)) => Some(c - b),
+                match (one_sided(fwd), one_sided(bwd)) {
+                    (Some((f, sf)), Some((b, sb))) => Some(if sf >= sb { f } else { b }),
+                    (Some((f, _)), None) => Some(f),
+                    (None, Some((b, _))) => Some(b),
                     (None, None) => None,
                 }
             };

@@ -142,17 +142,18 @@ pub fn segment(nb: &Neighbours, depth: &[f32], normals: Option<&[Vec3]>, o: &Seg
         .map(|(&(a, b), &c)| (a, b, c))
         .collect();
     occludes.sort_unstable();
-    let level = levels(count, &mean, &occludes, &folds);
+    let level = levels(count, &mean, &size, &occludes, &folds);
     Segments { id, level, size, occludes }
 }
 
 /// Longest occlusion chain per segment, processed far to near so cycles (which real data can
-/// produce) are broken in favour of the mean depth; segments that occlude nothing take the level
-/// of the neighbour they share the longest fold with (a box face next to other box faces stays
-/// with the box; the floor next to the walls stays with the walls).
+/// produce) are broken in favour of the mean depth. A segment that occludes nothing takes the
+/// level of the larger segment it shares the longest fold with: a box face next to the rest of
+/// the box stays with the box, while the floor a box stands on does not follow the box.
 fn levels(
     count: usize,
     mean: &[f64],
+    size: &[u32],
     occludes: &[(u32, u32, u32)],
     folds: &HashMap<(u32, u32), u32>,
 ) -> Vec<u32> {
@@ -178,8 +179,11 @@ fn levels(
     }
     let mut attached: Vec<Vec<(u32, u32)>> = vec![Vec::new(); count];
     for (&(a, b), &c) in folds {
-        attached[a as usize].push((c, b));
-        attached[b as usize].push((c, a));
+        if size[b as usize] > size[a as usize] {
+            attached[a as usize].push((c, b));
+        } else {
+            attached[b as usize].push((c, a));
+        }
     }
     for list in &mut attached {
         list.sort_unstable_by(|x, y| y.cmp(x));
