@@ -1,11 +1,27 @@
-//! The XML manifest `panorama.xml` (spec §2). INTERFACE STUB: bodies to be implemented.
+//! The XML manifest `panorama.xml` (spec/02-manifest.md).
 //!
 //! Two entry points: [`parse`] (first fatal error, for readers) and [`diagnose`] (every problem
 //! with line:col and element path, for the validator). [`Manifest::to_xml`] writes it back.
+//! One concept per submodule: [`codes`] (the code table), `decode` (bytes to text), `read` and
+//! `read_layer` (the tree walk), `number`, `file_name`, `transform` (LocalToWorld), `write`.
+
+pub mod codes;
+mod decode;
+mod diag;
+mod file_name;
+mod number;
+mod read;
+mod read_layer;
+mod transform;
+mod write;
 
 use glam::DMat4;
 
 use crate::pack::Patch;
+
+pub use codes::CODES;
+pub use diag::MAX_DIAGNOSTICS;
+pub use write::escape_attr;
 
 /// Severity of a manifest diagnostic.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -14,10 +30,6 @@ pub enum Severity {
     Warning,
     Info,
 }
-
-/// The manifest's validation codes: code, severity, meaning (spec/02-manifest.md lists them).
-pub const CODES: &[(&str, Severity, &str)] =
-    &[("XML_MALFORMED", Severity::Error, "The manifest is not well-formed XML.")];
 
 /// A position in the manifest source: 1-based line and column.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -178,14 +190,22 @@ pub struct Manifest {
 }
 
 impl Manifest {
-    /// The 4×4 LocalToWorld matrix (spec §2.3 gives the composition order).
+    /// The 4×4 LocalToWorld matrix: `Op1 · Op2 · … · Opn` in document order, so the operation
+    /// listed last is applied to points first (spec §2.4).
     pub fn local_to_world(&self) -> DMat4 {
-        todo!("manifest::local_to_world")
+        transform::compose(&self.transforms)
     }
 
-    /// Serialise as POMC 1 XML (UTF-8).
+    /// Serialise as POMC 1 XML (UTF-8, `version="1"`); thesis-form layers stay `<Textures>`.
     pub fn to_xml(&self) -> String {
-        todo!("manifest::to_xml")
+        write::to_xml(self)
+    }
+
+    /// Forget where each part came from, e.g. to compare a manifest with a re-parsed copy.
+    pub fn clear_origins(&mut self) {
+        for l in &mut self.layers {
+            l.origin = LayerOrigin::default();
+        }
     }
 }
 
@@ -226,9 +246,11 @@ impl ManifestError {
     }
 }
 
-/// Check a manifest's bytes; `file` names it in messages.
-pub fn diagnose(_bytes: &[u8], _file: &str) -> Diagnosed {
-    todo!("manifest::diagnose")
+/// Check a manifest's bytes, collecting every problem (at most [`MAX_DIAGNOSTICS`] listed).
+/// Never panics, whatever the bytes. `file` is accepted for symmetry with [`parse`]; the
+/// diagnostics carry positions and paths, and callers prefix the file name.
+pub fn diagnose(bytes: &[u8], _file: &str) -> Diagnosed {
+    read::diagnose(bytes)
 }
 
 /// Parse a manifest, failing on its first error.
