@@ -275,19 +275,20 @@ fn translate(ctx: &mut Ctx, el: &El) -> Option<Transform> {
 
 fn rotate(ctx: &mut Ctx, el: &El) -> Option<Transform> {
     ctx.check_attributes(el, &["axis", "angle"]);
-    let axis = ctx.vector3(el, "axis", "0 0 1");
+    let axis = ctx.vector3(el, "axis", "0 0 1").filter(|axis| {
+        let zero = axis.iter().all(|&c| c == 0.0);
+        if zero {
+            let at = el.attr("axis").map_or(el.start(), |(_, at)| at);
+            let msg =
+                "<Rotate> axis is (0,0,0), which names no direction; give a non-zero axis such as \"0 0 1\"";
+            ctx.report(codes::ROTATE_AXIS_ZERO, at, &el.path, msg.to_string());
+        }
+        !zero
+    });
     let angle = ctx
         .required(el, "angle", "90")
         .and_then(|(v, at)| number::float(v).map_err(|e| ctx.number_error(el, "angle", at, &e)).ok());
-    let axis = axis?;
-    if axis.iter().all(|&c| c == 0.0) {
-        let at = el.attr("axis").map_or(el.start(), |(_, at)| at);
-        let msg =
-            "<Rotate> axis is (0,0,0), which names no direction; give a non-zero axis such as \"0 0 1\"";
-        ctx.report(codes::ROTATE_AXIS_ZERO, at, &el.path, msg.to_string());
-        return None;
-    }
-    Some(Transform::Rotate { axis, angle_deg: angle? })
+    Some(Transform::Rotate { axis: axis?, angle_deg: angle? })
 }
 
 fn scale(ctx: &mut Ctx, el: &El) -> Option<Transform> {
