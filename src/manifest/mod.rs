@@ -279,3 +279,47 @@ pub fn parse(bytes: &[u8], file: &str) -> Result<Manifest, ManifestError> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn severity_name(s: Severity) -> &'static str {
+        match s {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+            Severity::Info => "info",
+        }
+    }
+
+    /// spec/02-manifest.md §2.9 lists exactly [`CODES`], row for row.
+    #[test]
+    fn spec_code_table_matches_codes() {
+        let spec = include_str!("../../spec/02-manifest.md");
+        let table = spec.split("## 2.9 Codes").nth(1).expect("spec has a §2.9 Codes section");
+        let rows: Vec<&str> = table.lines().filter(|l| l.starts_with("| `")).collect();
+        let expected: Vec<String> =
+            CODES.iter().map(|(c, s, m)| format!("| `{c}` | {} | {m} |", severity_name(*s))).collect();
+        for e in &expected {
+            assert!(rows.contains(&e.as_str()), "spec/02-manifest.md §2.9 lacks or differs for:\n{e}");
+        }
+        for r in &rows {
+            assert!(expected.iter().any(|e| e == r), "spec/02-manifest.md §2.9 row not in CODES:\n{r}");
+        }
+    }
+
+    #[test]
+    fn codes_are_unique_and_named_by_their_prefix() {
+        for (i, (c, _, _)) in CODES.iter().enumerate() {
+            assert!(c.starts_with("XML_") || c.starts_with("MANIFEST_"), "{c}");
+            assert!(CODES[i + 1..].iter().all(|(d, _, _)| d != c), "{c} twice");
+        }
+    }
+
+    #[test]
+    fn no_manifest_code_collides_with_the_validator() {
+        for (c, _, _) in crate::validate::CODES {
+            assert!(CODES.iter().all(|(d, _, _)| d != c), "{c} in both tables");
+        }
+    }
+}
