@@ -122,3 +122,24 @@ fn all_problems_are_collected_not_only_the_first() {
     assert_eq!((e.line, e.col), (2, 26));
     assert!(e.to_string().starts_with("many.xml:2:26 /Panorama/TransformGroup/Scale: "), "{e}");
 }
+
+#[test]
+fn deep_nesting_and_large_inputs_stay_cheap() {
+    let depth = 100_000;
+    let mut xml = String::from("<Panorama><Mapping type=\"Cube\"/><Freedom radius=\"1\"/>");
+    xml.push_str("<Layer><Image file=\"a.exr\"/>");
+    xml.push_str(&"<Deep>".repeat(depth));
+    xml.push_str(&"</Deep>".repeat(depth));
+    xml.push_str("</Layer>");
+    // Many siblings, each an unknown element with an unknown attribute.
+    for k in 0..100_000 {
+        xml.push_str(&format!("<Extra n=\"{k}\"/>"));
+    }
+    xml.push_str("</Panorama>");
+    let t = std::time::Instant::now();
+    let d = diagnose(xml.as_bytes(), "deep");
+    assert!(t.elapsed() < std::time::Duration::from_secs(5), "{:?}", t.elapsed());
+    let m = d.manifest.expect("warnings only");
+    assert_eq!(m.layers[0].extra.len(), 1);
+    assert!(m.layers[0].extra[0].starts_with("<Deep><Deep>"));
+}
