@@ -143,3 +143,18 @@ fn deep_nesting_and_large_inputs_stay_cheap() {
     assert_eq!(m.layers[0].extra.len(), 1);
     assert!(m.layers[0].extra[0].starts_with("<Deep><Deep>"));
 }
+
+#[test]
+fn children_of_leaf_elements_are_unknown() {
+    let xml = b"<Panorama><Mapping type=\"Cube\"><Faces/></Mapping><Freedom radius=\"1\"/>\n<Layer><Image file=\"a.exr\"><Alpha/></Image></Layer></Panorama>";
+    let d = diagnose(xml, "leaf");
+    let found: Vec<_> = d.diagnostics.iter().map(|x| (x.code, x.line, x.col, x.path.as_str())).collect();
+    assert_eq!(
+        found,
+        [
+            ("MANIFEST_UNKNOWN_ELEMENT", 1, 32, "/Panorama/Mapping/Faces"),
+            ("MANIFEST_UNKNOWN_ELEMENT", 2, 28, "/Panorama/Layer/Image/Alpha"),
+        ]
+    );
+    assert!(d.manifest.is_some());
+}

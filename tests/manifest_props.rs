@@ -8,6 +8,7 @@ use pomc::pack::Patch;
 use proptest::prelude::*;
 
 const SEED: &str = include_str!("../fixtures/manifests/native-packed.xml");
+const THESIS: &[u8] = include_bytes!("../fixtures/manifests/thesis-example.xml");
 
 fn finite() -> impl Strategy<Value = f64> {
     prop_oneof![
@@ -136,9 +137,10 @@ proptest! {
 
     #[test]
     fn diagnose_never_panics_on_mutated_manifests(
+        thesis in any::<bool>(),
         edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>(), 0u8..3), 1..8)
     ) {
-        let mut bytes = SEED.as_bytes().to_vec();
+        let mut bytes = if thesis { THESIS.to_vec() } else { SEED.as_bytes().to_vec() };
         for (at, byte, op) in edits {
             let i = at.index(bytes.len().max(1)).min(bytes.len());
             match op {

@@ -98,6 +98,16 @@ impl<'t> Ctx<'t> {
         }
     }
 
+    /// Check an element that has no children in POMC 1: its attributes, and warn about any child.
+    pub fn leaf(&mut self, el: &El, known: &[&str]) {
+        self.check_attributes(el, known);
+        for child in el.children() {
+            let msg =
+                format!("<{}> has no child elements in POMC 1; <{}> is ignored", el.name(), child.name());
+            self.report(codes::UNKNOWN_ELEMENT, child.start(), &child.path, msg);
+        }
+    }
+
     /// Warn about an element this version does not define in this place.
     pub fn unknown_element(&mut self, el: &El, parent: &str, known: &[&str]) {
         let msg = format!(
@@ -269,12 +279,12 @@ fn transform_group(ctx: &mut Ctx, el: &El) -> Vec<Transform> {
 }
 
 fn translate(ctx: &mut Ctx, el: &El) -> Option<Transform> {
-    ctx.check_attributes(el, &["vector"]);
+    ctx.leaf(el, &["vector"]);
     ctx.vector3(el, "vector", "0 0 1.15").map(Transform::Translate)
 }
 
 fn rotate(ctx: &mut Ctx, el: &El) -> Option<Transform> {
-    ctx.check_attributes(el, &["axis", "angle"]);
+    ctx.leaf(el, &["axis", "angle"]);
     let axis = ctx.vector3(el, "axis", "0 0 1").filter(|axis| {
         let zero = axis.iter().all(|&c| c == 0.0);
         if zero {
@@ -292,7 +302,7 @@ fn rotate(ctx: &mut Ctx, el: &El) -> Option<Transform> {
 }
 
 fn scale(ctx: &mut Ctx, el: &El) -> Option<Transform> {
-    ctx.check_attributes(el, &["vector"]);
+    ctx.leaf(el, &["vector"]);
     let v = ctx.vector3(el, "vector", "-1 1 1")?;
     if v.contains(&0.0) {
         let at = el.attr("vector").map_or(el.start(), |(_, at)| at);
@@ -315,7 +325,7 @@ const MAPPING_NAMES: &[(&str, MappingKind)] = &[
 ];
 
 fn mapping_decl(ctx: &mut Ctx, el: &El) -> MappingDecl {
-    ctx.check_attributes(el, &["type"]);
+    ctx.leaf(el, &["type"]);
     let fallback = MappingDecl { kind: MappingKind::LatLong };
     let Some((ty, at)) = ctx.required(el, "type", "LatLongMapping") else {
         return fallback;
@@ -334,7 +344,7 @@ fn mapping_decl(ctx: &mut Ctx, el: &El) -> MappingDecl {
 }
 
 fn freedom_radius(ctx: &mut Ctx, el: &El) -> f64 {
-    ctx.check_attributes(el, &["radius"]);
+    ctx.leaf(el, &["radius"]);
     let Some((v, at)) = ctx.required(el, "radius", "0.5") else {
         return 0.0;
     };

@@ -148,12 +148,12 @@ fn file_attr(ctx: &mut Ctx, el: &El, name: &str, example: &str) -> Option<String
 }
 
 fn image(ctx: &mut Ctx, el: &El) -> Option<LayerSource> {
-    ctx.check_attributes(el, &["file"]);
+    ctx.leaf(el, &["file"]);
     file_attr(ctx, el, "file", "layer0.exr").map(|file| LayerSource::Native { file })
 }
 
 fn textures(ctx: &mut Ctx, el: &El) -> Option<LayerSource> {
-    ctx.check_attributes(el, &["mapname", "depthname", "normals"]);
+    ctx.leaf(el, &["mapname", "depthname", "normals"]);
     let mapname = file_attr(ctx, el, "mapname", "Background.png");
     let depthname = file_attr(ctx, el, "depthname", "Background_d.exr");
     // `normals=""` (the thesis) or no attribute: no normals file.
@@ -205,7 +205,7 @@ fn atlas_side(ctx: &mut Ctx, el: &El, name: &str) -> u32 {
 
 fn patch(ctx: &mut Ctx, el: &El) -> Option<Patch> {
     const FIELDS: [&str; 6] = ["u", "v", "x", "y", "w", "h"];
-    ctx.check_attributes(el, &FIELDS);
+    ctx.leaf(el, &FIELDS);
     let mut vals = [0u32; 6];
     let mut ok = true;
     for (slot, name) in vals.iter_mut().zip(FIELDS) {
