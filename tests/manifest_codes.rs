@@ -158,3 +158,20 @@ fn children_of_leaf_elements_are_unknown() {
     );
     assert!(d.manifest.is_some());
 }
+
+#[test]
+fn versions() {
+    let with = |v: &str| {
+        format!("<Panorama version=\"{v}\"><Mapping type=\"Cube\"/><Freedom radius=\"1\"/><Layer><Image file=\"a.exr\"/></Layer></Panorama>")
+    };
+    for ok in ["1", "1.0", "1.12", " 1 "] {
+        let d = diagnose(with(ok).as_bytes(), ok);
+        assert!(d.diagnostics.is_empty() && d.manifest.is_some(), "{ok}: {:?}", d.diagnostics);
+    }
+    for bad in ["2", "2.0", "1.x", "", "1.", "v1", "10"] {
+        // Only the version is reported: the rest of a POMC 2 file is not judged by POMC 1 rules.
+        let xml = with(bad).replace("<Freedom radius=\"1\"/>", "<Unknown/>");
+        let codes: Vec<_> = diagnose(xml.as_bytes(), bad).diagnostics.iter().map(|d| d.code).collect();
+        assert_eq!(codes, ["MANIFEST_VERSION_UNSUPPORTED"], "{bad}");
+    }
+}

@@ -120,3 +120,12 @@ fn mapping_aliases_are_accepted() {
         assert_eq!(parse(xml.as_bytes(), "m.xml").unwrap().mapping.kind, kind, "{name}");
     }
 }
+
+#[test]
+fn the_thesis_original_comment_before_the_root_is_fine() {
+    // The thesis text (not the digest) has a comment between the declaration and <Panorama>.
+    let xml = THESIS.replacen("?>\n", "?>\n<!-- Panorama: anotacoes -->\n", 1);
+    let d = diagnose(xml.as_bytes(), "c.xml");
+    assert!(d.diagnostics.is_empty(), "{:#?}", d.diagnostics);
+    assert_eq!(d.manifest.unwrap().layers.len(), 2);
+}

@@ -148,7 +148,8 @@ pub struct LayerDecl {
     pub depth_range: Option<(f32, f32)>,
     pub mip_levels: Option<u32>,
     pub packing: Option<Packing>,
-    /// Elements this reader does not know, kept verbatim for round trips (optional attributes).
+    /// Child elements this reader does not know, kept verbatim (their source text, entities
+    /// unexpanded) and written back by [`Manifest::to_xml`]; each must be well-formed element text.
     pub extra: Vec<String>,
     pub origin: LayerOrigin,
 }

@@ -197,7 +197,8 @@ fn panorama(ctx: &mut Ctx, doc: &Document) -> Option<Manifest> {
         return None;
     }
     ctx.check_attributes(&el, &["version"]);
-    let version = version(ctx, &el);
+    // A POMC 2 file is not judged by POMC 1 rules: stop at the version.
+    let version = version(ctx, &el)?;
     let mut transforms: Option<Vec<Transform>> = None;
     let mut mapping: Option<MappingDecl> = None;
     let mut freedom: Option<f64> = None;
@@ -242,9 +243,9 @@ fn panorama(ctx: &mut Ctx, doc: &Document) -> Option<Manifest> {
 }
 
 /// `version`: absent means "1" (the thesis form); any `1` or `1.x` is read as POMC 1.
-fn version(ctx: &mut Ctx, el: &El) -> String {
+fn version(ctx: &mut Ctx, el: &El) -> Option<String> {
     let Some((v, at)) = el.attr("version") else {
-        return "1".to_string();
+        return Some("1".to_string());
     };
     let t = v.trim();
     let minor_ok = |m: &str| !m.is_empty() && m.bytes().all(|b| b.is_ascii_digit());
@@ -254,8 +255,9 @@ fn version(ctx: &mut Ctx, el: &El) -> String {
             "version `{v}` is not POMC 1; this reader understands version=\"1\" (and 1.x) — use a newer reader or re-export as POMC 1"
         );
         ctx.report(codes::VERSION_UNSUPPORTED, at, &el.path, msg);
+        return None;
     }
-    t.to_string()
+    Some(t.to_string())
 }
 
 const TRANSFORM_OPS: &[&str] = &["Translate", "Rotate", "Scale"];
