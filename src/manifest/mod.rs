@@ -1,11 +1,27 @@
-//! The XML manifest `panorama.xml` (spec §2). INTERFACE STUB: bodies to be implemented.
+//! The XML manifest `panorama.xml` (spec/02-manifest.md).
 //!
 //! Two entry points: [`parse`] (first fatal error, for readers) and [`diagnose`] (every problem
 //! with line:col and element path, for the validator). [`Manifest::to_xml`] writes it back.
+//! One concept per submodule: [`codes`] (the code table), `decode` (bytes to text), `read` and
+//! `read_layer` (the tree walk), `number`, `file_name`, `transform` (LocalToWorld), `write`.
+
+pub mod codes;
+mod decode;
+mod diag;
+mod file_name;
+mod number;
+mod read;
+mod read_layer;
+mod transform;
+mod write;
 
 use glam::DMat4;
 
 use crate::pack::Patch;
+
+pub use codes::CODES;
+pub use diag::MAX_DIAGNOSTICS;
+pub use write::escape_attr;
 
 /// Severity of a manifest diagnostic.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -14,10 +30,6 @@ pub enum Severity {
     Warning,
     Info,
 }
-
-/// The manifest's validation codes: code, severity, meaning (spec/02-manifest.md lists them).
-pub const CODES: &[(&str, Severity, &str)] =
-    &[("XML_MALFORMED", Severity::Error, "The manifest is not well-formed XML.")];
 
 /// A position in the manifest source: 1-based line and column.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -136,7 +148,8 @@ pub struct LayerDecl {
     pub depth_range: Option<(f32, f32)>,
     pub mip_levels: Option<u32>,
     pub packing: Option<Packing>,
-    /// Elements this reader does not know, kept verbatim for round trips (optional attributes).
+    /// Child elements this reader does not know, kept verbatim (their source text, entities
+    /// unexpanded) and written back by [`Manifest::to_xml`]; each must be well-formed element text.
     pub extra: Vec<String>,
     pub origin: LayerOrigin,
 }
@@ -178,14 +191,22 @@ pub struct Manifest {
 }
 
 impl Manifest {
-    /// The 4×4 LocalToWorld matrix (spec §2.3 gives the composition order).
+    /// The 4×4 LocalToWorld matrix: `Op1 · Op2 · … · Opn` in document order, so the operation
+    /// listed last is applied to points first (spec §2.4).
     pub fn local_to_world(&self) -> DMat4 {
-        todo!("manifest::local_to_world")
+        transform::compose(&self.transforms)
     }
 
-    /// Serialise as POMC 1 XML (UTF-8).
+    /// Serialise as POMC 1 XML (UTF-8, `version="1"`); thesis-form layers stay `<Textures>`.
     pub fn to_xml(&self) -> String {
-        todo!("manifest::to_xml")
+        write::to_xml(self)
+    }
+
+    /// Forget where each part came from, e.g. to compare a manifest with a re-parsed copy.
+    pub fn clear_origins(&mut self) {
+        for l in &mut self.layers {
+            l.origin = LayerOrigin::default();
+        }
     }
 }
 
@@ -226,9 +247,11 @@ impl ManifestError {
     }
 }
 
-/// Check a manifest's bytes; `file` names it in messages.
-pub fn diagnose(_bytes: &[u8], _file: &str) -> Diagnosed {
-    todo!("manifest::diagnose")
+/// Check a manifest's bytes, collecting every problem (at most [`MAX_DIAGNOSTICS`] listed).
+/// Never panics, whatever the bytes. `file` is accepted for symmetry with [`parse`]; the
+/// diagnostics carry positions and paths, and callers prefix the file name.
+pub fn diagnose(bytes: &[u8], _file: &str) -> Diagnosed {
+    read::diagnose(bytes)
 }
 
 /// Parse a manifest, failing on its first error.
@@ -254,6 +277,50 @@ pub fn parse(bytes: &[u8], file: &str) -> Result<Manifest, ManifestError> {
                 path: first.path,
                 message: first.message,
             })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn severity_name(s: Severity) -> &'static str {
+        match s {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+            Severity::Info => "info",
+        }
+    }
+
+    /// spec/02-manifest.md §2.9 lists exactly [`CODES`], row for row.
+    #[test]
+    fn spec_code_table_matches_codes() {
+        let spec = include_str!("../../spec/02-manifest.md");
+        let table = spec.split("## 2.9 Codes").nth(1).expect("spec has a §2.9 Codes section");
+        let rows: Vec<&str> = table.lines().filter(|l| l.starts_with("| `")).collect();
+        let expected: Vec<String> =
+            CODES.iter().map(|(c, s, m)| format!("| `{c}` | {} | {m} |", severity_name(*s))).collect();
+        for e in &expected {
+            assert!(rows.contains(&e.as_str()), "spec/02-manifest.md §2.9 lacks or differs for:\n{e}");
+        }
+        for r in &rows {
+            assert!(expected.iter().any(|e| e == r), "spec/02-manifest.md §2.9 row not in CODES:\n{r}");
+        }
+    }
+
+    #[test]
+    fn codes_are_unique_and_named_by_their_prefix() {
+        for (i, (c, _, _)) in CODES.iter().enumerate() {
+            assert!(c.starts_with("XML_") || c.starts_with("MANIFEST_"), "{c}");
+            assert!(CODES[i + 1..].iter().all(|(d, _, _)| d != c), "{c} twice");
+        }
+    }
+
+    #[test]
+    fn no_manifest_code_collides_with_the_validator() {
+        for (c, _, _) in crate::validate::CODES {
+            assert!(CODES.iter().all(|(d, _, _)| d != c), "{c} in both tables");
         }
     }
 }

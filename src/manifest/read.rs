@@ -1,0 +1,366 @@
+//! The document walk: XML tree to [`Manifest`], reporting every problem on the way.
+//!
+//! Only the known element structure is descended (Panorama > Layer > Packing > Patch), so the
+//! walk's depth is bounded whatever the input nests. Elements and attributes in an XML namespace
+//! are extensions and skipped silently; unknown plain ones are warnings (forward compatibility).
+
+use std::collections::HashMap;
+
+use roxmltree::{Document, Node, ParsingOptions};
+
+use super::codes;
+use super::decode::decode;
+use super::diag::{LineIndex, Sink};
+use super::number::{self, NumberError};
+use super::{Diagnosed, Manifest, MappingDecl, MappingKind, Pos, Transform};
+
+/// Walk state: the text (for positions and verbatim copies) and the findings.
+pub struct Ctx<'t> {
+    pub text: &'t str,
+    lines: LineIndex,
+    pub sink: Sink,
+}
+
+/// An element with its path (`/Panorama/Layer[2]/Textures`).
+#[derive(Clone)]
+pub struct El<'a, 'i> {
+    pub node: Node<'a, 'i>,
+    pub path: String,
+}
+
+impl<'a, 'i> El<'a, 'i> {
+    pub fn name(&self) -> &'i str {
+        self.node.tag_name().name()
+    }
+
+    pub fn start(&self) -> usize {
+        self.node.range().start
+    }
+
+    /// A plain (namespace-less) attribute's value and byte offset.
+    pub fn attr(&self, name: &str) -> Option<(&'a str, usize)> {
+        let a = self.node.attributes().find(|a| a.namespace().is_none() && a.name() == name)?;
+        Some((a.value(), a.range().start))
+    }
+
+    /// Plain element children with their paths; the `[k]` index (1-based, among same-named
+    /// siblings) is written only when a name occurs more than once.
+    pub fn children(&self) -> Vec<El<'a, 'i>> {
+        let kids: Vec<Node<'a, 'i>> =
+            self.node.children().filter(|n| n.is_element() && n.tag_name().namespace().is_none()).collect();
+        let mut totals: HashMap<&str, usize> = HashMap::new();
+        for k in &kids {
+            *totals.entry(k.tag_name().name()).or_default() += 1;
+        }
+        let mut seen: HashMap<&str, usize> = HashMap::new();
+        kids.into_iter()
+            .map(|node| {
+                let name = node.tag_name().name();
+                let k = seen.entry(name).or_default();
+                *k += 1;
+                let path = if totals[name] > 1 {
+                    format!("{}/{}[{}]", self.path, name, k)
+                } else {
+                    format!("{}/{}", self.path, name)
+                };
+                El { node, path }
+            })
+            .collect()
+    }
+}
+
+impl<'t> Ctx<'t> {
+    pub fn pos(&self, offset: usize) -> Pos {
+        self.lines.pos(self.text, offset)
+    }
+
+    pub fn report(&mut self, code: &'static str, offset: usize, path: &str, message: String) {
+        let pos = self.pos(offset);
+        self.sink.push(code, pos, path, message);
+    }
+
+    /// Warn about attributes outside `known`.
+    pub fn check_attributes(&mut self, el: &El, known: &[&str]) {
+        for a in el.node.attributes() {
+            if a.namespace().is_none() && !known.contains(&a.name()) {
+                let msg = if known.is_empty() {
+                    format!("<{}> takes no attributes; `{}` is ignored", el.name(), a.name())
+                } else {
+                    format!(
+                        "<{}> has no attribute `{}` in POMC 1 (known: {}); it is ignored — check its spelling",
+                        el.name(),
+                        a.name(),
+                        known.join(", ")
+                    )
+                };
+                self.report(codes::UNKNOWN_ATTRIBUTE, a.range().start, &el.path, msg);
+            }
+        }
+    }
+
+    /// Check an element that has no children in POMC 1: its attributes, and warn about any child.
+    pub fn leaf(&mut self, el: &El, known: &[&str]) {
+        self.check_attributes(el, known);
+        for child in el.children() {
+            let msg =
+                format!("<{}> has no child elements in POMC 1; <{}> is ignored", el.name(), child.name());
+            self.report(codes::UNKNOWN_ELEMENT, child.start(), &child.path, msg);
+        }
+    }
+
+    /// Warn about an element this version does not define in this place.
+    pub fn unknown_element(&mut self, el: &El, parent: &str, known: &[&str]) {
+        let msg = format!(
+            "<{}> is not a POMC 1 child of <{parent}> (known: {}); it is ignored — check its spelling",
+            el.name(),
+            known.join(", ")
+        );
+        self.report(codes::UNKNOWN_ELEMENT, el.start(), &el.path, msg);
+    }
+
+    /// A required attribute, reporting `MANIFEST_MISSING_ATTRIBUTE` when absent.
+    pub fn required<'a>(&mut self, el: &El<'a, '_>, name: &str, example: &str) -> Option<(&'a str, usize)> {
+        let found = el.attr(name);
+        if found.is_none() {
+            let msg = format!("<{}> needs the attribute `{name}`, e.g. {name}=\"{example}\"", el.name());
+            self.report(codes::MISSING_ATTRIBUTE, el.start(), &el.path, msg);
+        }
+        found
+    }
+
+    /// Report a number error on attribute `name` of `el` as `MANIFEST_NUMBER_INVALID`.
+    pub fn number_error(&mut self, el: &El, name: &str, offset: usize, e: &NumberError) {
+        self.report(codes::NUMBER_INVALID, offset, &el.path, format!("<{}> {}", el.name(), e.message(name)));
+    }
+
+    /// A required list of three finite numbers.
+    fn vector3(&mut self, el: &El, name: &str, example: &str) -> Option<[f64; 3]> {
+        let (value, at) = self.required(el, name, example)?;
+        number::floats::<3>(value).map_err(|e| self.number_error(el, name, at, &e)).ok()
+    }
+
+    /// A duplicate of an element allowed once; the first one is used.
+    pub fn duplicate(&mut self, el: &El, parent: &str) {
+        let msg = format!("<{parent}> allows one <{}>; remove this one (the first is used)", el.name());
+        self.report(codes::DUPLICATE_ELEMENT, el.start(), &el.path, msg);
+    }
+}
+
+/// The parser's options: no DTD (so no entity expansion at all, hence no billion laughs).
+fn parsing_options<'i>() -> ParsingOptions<'i> {
+    ParsingOptions { allow_dtd: false, ..ParsingOptions::default() }
+}
+
+/// Check a manifest's bytes (see [`super::diagnose`]).
+pub fn diagnose(bytes: &[u8]) -> Diagnosed {
+    let mut sink = Sink::default();
+    let Some(text) = decode(bytes, &mut sink) else {
+        return sink.finish(None);
+    };
+    let doc = match Document::parse_with_options(&text, parsing_options()) {
+        Ok(doc) => doc,
+        Err(e) => {
+            xml_error(&text, &e, &mut sink);
+            return sink.finish(None);
+        }
+    };
+    let mut ctx = Ctx { text: &text, lines: LineIndex::new(&text), sink };
+    let manifest = panorama(&mut ctx, &doc);
+    ctx.sink.finish(manifest)
+}
+
+fn xml_error(text: &str, e: &roxmltree::Error, sink: &mut Sink) {
+    if matches!(e, roxmltree::Error::DtdDetected) {
+        let offset = text.find("<!DOCTYPE").unwrap_or(0);
+        let pos = LineIndex::new(text).pos(text, offset);
+        let msg = "the manifest has a DOCTYPE; remove it (POMC manifests use no DTD or entities)".to_string();
+        sink.push(codes::XML_DTD_FORBIDDEN, pos, "/", msg);
+    } else {
+        let p = e.pos();
+        let pos = Pos { line: p.row, col: p.col };
+        sink.push(codes::XML_MALFORMED, pos, "/", format!("not well-formed XML: {e}; fix the syntax there"));
+    }
+}
+
+const PANORAMA_CHILDREN: &[&str] = &["TransformGroup", "Mapping", "Freedom", "Layer"];
+
+fn panorama(ctx: &mut Ctx, doc: &Document) -> Option<Manifest> {
+    let root = doc.root_element();
+    let el = El { node: root, path: format!("/{}", root.tag_name().name()) };
+    if el.name() != "Panorama" || root.tag_name().namespace().is_some() {
+        let msg = format!(
+            "the root element is <{}>{}; a POMC manifest starts with <Panorama version=\"1\">",
+            el.name(),
+            root.tag_name().namespace().map(|n| format!(" in namespace {n}")).unwrap_or_default()
+        );
+        ctx.report(codes::ROOT_NOT_PANORAMA, el.start(), &el.path, msg);
+        return None;
+    }
+    ctx.check_attributes(&el, &["version"]);
+    // A POMC 2 file is not judged by POMC 1 rules: stop at the version.
+    let version = version(ctx, &el)?;
+    let mut transforms: Option<Vec<Transform>> = None;
+    let mut mapping: Option<MappingDecl> = None;
+    let mut freedom: Option<f64> = None;
+    let mut layers = Vec::new();
+    let mut saw_layer = false;
+    for child in el.children() {
+        match child.name() {
+            "TransformGroup" if transforms.is_some() => ctx.duplicate(&child, "Panorama"),
+            "TransformGroup" => transforms = Some(transform_group(ctx, &child)),
+            "Mapping" if mapping.is_some() => ctx.duplicate(&child, "Panorama"),
+            "Mapping" => mapping = Some(mapping_decl(ctx, &child)),
+            "Freedom" if freedom.is_some() => ctx.duplicate(&child, "Panorama"),
+            "Freedom" => freedom = Some(freedom_radius(ctx, &child)),
+            "Layer" => {
+                saw_layer = true;
+                layers.extend(super::read_layer::layer(ctx, &child));
+            }
+            _ => ctx.unknown_element(&child, "Panorama", PANORAMA_CHILDREN),
+        }
+    }
+    let end_msg = |what: &str| format!("<Panorama> has no {what}");
+    if mapping.is_none() {
+        let msg = end_msg("<Mapping>") + "; add <Mapping type=\"LatLongMapping\"/> (or CubeMapping)";
+        ctx.report(codes::MAPPING_MISSING, el.start(), &el.path, msg);
+    }
+    if freedom.is_none() {
+        let msg = end_msg("<Freedom>") + "; the radius is taken as 0: add <Freedom radius=\"0.5\"/> (metres)";
+        ctx.report(codes::FREEDOM_MISSING, el.start(), &el.path, msg);
+    }
+    if !saw_layer {
+        let msg = end_msg("<Layer>") + "; add at least one <Layer> with an <Image file=\"…\"/>";
+        ctx.report(codes::NO_LAYERS, el.start(), &el.path, msg);
+    }
+    super::read_layer::check_orders(ctx, &layers);
+    Some(Manifest {
+        version,
+        transforms: transforms.unwrap_or_default(),
+        mapping: mapping.unwrap_or(MappingDecl { kind: MappingKind::LatLong }),
+        freedom_radius: freedom.unwrap_or(0.0),
+        layers,
+    })
+}
+
+/// `version`: absent means "1" (the thesis form); any `1` or `1.x` is read as POMC 1.
+fn version(ctx: &mut Ctx, el: &El) -> Option<String> {
+    let Some((v, at)) = el.attr("version") else {
+        return Some("1".to_string());
+    };
+    let t = v.trim();
+    let minor_ok = |m: &str| !m.is_empty() && m.bytes().all(|b| b.is_ascii_digit());
+    let ok = t == "1" || t.strip_prefix("1.").is_some_and(minor_ok);
+    if !ok {
+        let msg = format!(
+            "version `{v}` is not POMC 1; this reader understands version=\"1\" (and 1.x) — use a newer reader or re-export as POMC 1"
+        );
+        ctx.report(codes::VERSION_UNSUPPORTED, at, &el.path, msg);
+        return None;
+    }
+    Some(t.to_string())
+}
+
+const TRANSFORM_OPS: &[&str] = &["Translate", "Rotate", "Scale"];
+
+fn transform_group(ctx: &mut Ctx, el: &El) -> Vec<Transform> {
+    ctx.check_attributes(el, &[]);
+    let mut ops = Vec::new();
+    for op in el.children() {
+        let t = match op.name() {
+            "Translate" => translate(ctx, &op),
+            "Rotate" => rotate(ctx, &op),
+            "Scale" => scale(ctx, &op),
+            _ => {
+                ctx.unknown_element(&op, "TransformGroup", TRANSFORM_OPS);
+                None
+            }
+        };
+        ops.extend(t);
+    }
+    ops
+}
+
+fn translate(ctx: &mut Ctx, el: &El) -> Option<Transform> {
+    ctx.leaf(el, &["vector"]);
+    ctx.vector3(el, "vector", "0 0 1.15").map(Transform::Translate)
+}
+
+fn rotate(ctx: &mut Ctx, el: &El) -> Option<Transform> {
+    ctx.leaf(el, &["axis", "angle"]);
+    let axis = ctx.vector3(el, "axis", "0 0 1").filter(|axis| {
+        let zero = axis.iter().all(|&c| c == 0.0);
+        if zero {
+            let at = el.attr("axis").map_or(el.start(), |(_, at)| at);
+            let msg =
+                "<Rotate> axis is (0,0,0), which names no direction; give a non-zero axis such as \"0 0 1\"";
+            ctx.report(codes::ROTATE_AXIS_ZERO, at, &el.path, msg.to_string());
+        }
+        !zero
+    });
+    let angle = ctx
+        .required(el, "angle", "90")
+        .and_then(|(v, at)| number::float(v).map_err(|e| ctx.number_error(el, "angle", at, &e)).ok());
+    Some(Transform::Rotate { axis: axis?, angle_deg: angle? })
+}
+
+fn scale(ctx: &mut Ctx, el: &El) -> Option<Transform> {
+    ctx.leaf(el, &["vector"]);
+    let v = ctx.vector3(el, "vector", "-1 1 1")?;
+    if v.contains(&0.0) {
+        let at = el.attr("vector").map_or(el.start(), |(_, at)| at);
+        let msg =
+            "<Scale> has a zero component, which flattens the panorama; use non-zero factors (-1 mirrors)";
+        ctx.report(codes::SCALE_ZERO, at, &el.path, msg.to_string());
+        return None;
+    }
+    Some(Transform::Scale(v))
+}
+
+/// Accepted `type` names: the primary ones first (written by `to_xml`), then aliases.
+const MAPPING_NAMES: &[(&str, MappingKind)] = &[
+    ("LatLongMapping", MappingKind::LatLong),
+    ("CubeMapping", MappingKind::Cube),
+    ("EquirectMapping", MappingKind::LatLong),
+    ("Equirect", MappingKind::LatLong),
+    ("Cube3x2", MappingKind::Cube),
+    ("Cube", MappingKind::Cube),
+];
+
+fn mapping_decl(ctx: &mut Ctx, el: &El) -> MappingDecl {
+    ctx.leaf(el, &["type"]);
+    let fallback = MappingDecl { kind: MappingKind::LatLong };
+    let Some((ty, at)) = ctx.required(el, "type", "LatLongMapping") else {
+        return fallback;
+    };
+    if let Some(&(_, kind)) = MAPPING_NAMES.iter().find(|(n, _)| *n == ty) {
+        return MappingDecl { kind };
+    }
+    let hint = MAPPING_NAMES
+        .iter()
+        .find(|(n, _)| n.eq_ignore_ascii_case(ty.trim()))
+        .map(|(n, _)| format!(" (names are case-sensitive: did you mean `{n}`?)"))
+        .unwrap_or_default();
+    let msg = format!("mapping type `{ty}` is unknown{hint}; use LatLongMapping or CubeMapping");
+    ctx.report(codes::MAPPING_UNKNOWN, at, &el.path, msg);
+    fallback
+}
+
+fn freedom_radius(ctx: &mut Ctx, el: &El) -> f64 {
+    ctx.leaf(el, &["radius"]);
+    let Some((v, at)) = ctx.required(el, "radius", "0.5") else {
+        return 0.0;
+    };
+    let bad = |ctx: &mut Ctx| {
+        let msg = format!("freedom radius `{v}` must be a finite number of metres greater than 0");
+        ctx.report(codes::FREEDOM_INVALID, at, &el.path, msg);
+        0.0
+    };
+    match number::float(v) {
+        Ok(r) if r > 0.0 => r,
+        Ok(_) | Err(NumberError::NotFinite(_)) => bad(ctx),
+        Err(e) => {
+            ctx.number_error(el, "radius", at, &e);
+            0.0
+        }
+    }
+}

@@ -1,0 +1,177 @@
+//! One fixture per manifest code (fixtures/manifests/CODE.xml): it must raise that code at the
+//! stated line:col and path, and nothing else. The table below is the expectation.
+
+use pomc::manifest::{diagnose, Severity, CODES};
+
+/// (code = fixture name, line, col, path).
+const EXPECTED: &[(&str, u32, u32, &str)] = &[
+    ("XML_MALFORMED", 8, 1, "/"),
+    ("XML_DTD_FORBIDDEN", 2, 1, "/"),
+    ("XML_ENCODING_UNSUPPORTED", 1, 31, "/"),
+    ("XML_ENCODING_INVALID", 5, 19, "/"),
+    ("MANIFEST_ROOT_NOT_PANORAMA", 2, 1, "/Scene"),
+    ("MANIFEST_VERSION_UNSUPPORTED", 2, 11, "/Panorama"),
+    ("MANIFEST_UNKNOWN_ELEMENT", 5, 3, "/Panorama/Lights"),
+    ("MANIFEST_UNKNOWN_ATTRIBUTE", 3, 34, "/Panorama/Mapping"),
+    ("MANIFEST_MISSING_ATTRIBUTE", 6, 5, "/Panorama/Layer/Image"),
+    ("MANIFEST_NUMBER_INVALID", 4, 16, "/Panorama/TransformGroup/Translate"),
+    ("MANIFEST_MAPPING_MISSING", 2, 1, "/Panorama"),
+    ("MANIFEST_MAPPING_UNKNOWN", 3, 12, "/Panorama/Mapping"),
+    ("MANIFEST_DUPLICATE_ELEMENT", 4, 3, "/Panorama/Mapping[2]"),
+    ("MANIFEST_ROTATE_AXIS_ZERO", 4, 13, "/Panorama/TransformGroup/Rotate"),
+    ("MANIFEST_SCALE_ZERO", 4, 12, "/Panorama/TransformGroup/Scale"),
+    ("MANIFEST_FREEDOM_INVALID", 4, 12, "/Panorama/Freedom"),
+    ("MANIFEST_FREEDOM_MISSING", 2, 1, "/Panorama"),
+    ("MANIFEST_NO_LAYERS", 2, 1, "/Panorama"),
+    ("MANIFEST_LAYER_NO_SOURCE", 8, 3, "/Panorama/Layer[2]"),
+    ("MANIFEST_LAYER_MULTIPLE_SOURCES", 7, 5, "/Panorama/Layer/Textures"),
+    ("MANIFEST_FILE_NAME_UNSAFE", 9, 31, "/Panorama/Layer[2]/Textures"),
+    ("MANIFEST_ROLE_UNKNOWN", 5, 10, "/Panorama/Layer"),
+    ("MANIFEST_DEPTH_RANGE_INVALID", 5, 10, "/Panorama/Layer"),
+    ("MANIFEST_ORDER_DUPLICATE", 8, 3, "/Panorama/Layer[2]"),
+    ("MANIFEST_PACKING_INVALID", 7, 14, "/Panorama/Layer/Packing"),
+];
+
+/// Codes without a fixture: the validator raises XML_TOO_LARGE before parsing (its own tests
+/// cover it), and the truncation notice is tested below with a generated document.
+const NOT_FROM_FIXTURES: &[&str] = &["XML_TOO_LARGE", "MANIFEST_DIAGNOSTICS_TRUNCATED"];
+
+fn fixture(name: &str) -> Vec<u8> {
+    let path = format!("{}/fixtures/manifests/{name}.xml", env!("CARGO_MANIFEST_DIR"));
+    std::fs::read(&path).unwrap_or_else(|e| panic!("{path}: {e}"))
+}
+
+#[test]
+fn each_fixture_raises_exactly_its_code_at_its_position() {
+    for &(code, line, col, path) in EXPECTED {
+        let d = diagnose(&fixture(code), code);
+        let found: Vec<_> = d.diagnostics.iter().map(|x| (x.code, x.line, x.col, x.path.as_str())).collect();
+        assert_eq!(found, [(code, line, col, path)], "{code}: {:#?}", d.diagnostics);
+        let severity = CODES.iter().find(|c| c.0 == code).unwrap().1;
+        assert_eq!(d.diagnostics[0].severity, severity, "{code}");
+        assert_eq!(d.manifest.is_some(), severity != Severity::Error, "{code}: manifest only without errors");
+        assert!(!d.diagnostics[0].message.is_empty());
+    }
+}
+
+#[test]
+fn every_code_has_a_fixture() {
+    for (code, _, _) in CODES {
+        let covered = EXPECTED.iter().any(|e| e.0 == *code) || NOT_FROM_FIXTURES.contains(code);
+        assert!(covered, "{code} has no fixture in fixtures/manifests/");
+    }
+}
+
+#[test]
+fn valid_fixtures_have_no_findings() {
+    for name in ["valid-minimal", "native-packed", "thesis-example"] {
+        let d = diagnose(&fixture(name), name);
+        assert!(d.diagnostics.is_empty(), "{name}: {:#?}", d.diagnostics);
+        assert!(d.manifest.is_some());
+    }
+}
+
+#[test]
+fn too_many_findings_are_truncated_with_a_notice() {
+    let mut xml = String::from("<Panorama><Mapping type=\"CubeMapping\"/><Freedom radius=\"1\"/>");
+    xml.push_str("<Layer><Image file=\"a.exr\"/></Layer>");
+    for _ in 0..(pomc::manifest::MAX_DIAGNOSTICS + 10) {
+        xml.push_str("<X/>");
+    }
+    xml.push_str("</Panorama>");
+    let d = diagnose(xml.as_bytes(), "big");
+    assert_eq!(d.diagnostics.len(), pomc::manifest::MAX_DIAGNOSTICS + 1);
+    let last = d.diagnostics.last().unwrap();
+    assert_eq!(last.code, "MANIFEST_DIAGNOSTICS_TRUNCATED");
+    assert_eq!(last.severity, Severity::Info);
+    assert!(d.manifest.is_some(), "warnings only");
+}
+
+#[test]
+fn billion_laughs_is_refused_quickly() {
+    let t = std::time::Instant::now();
+    let d = diagnose(&fixture("XML_DTD_FORBIDDEN"), "lol");
+    assert!(t.elapsed() < std::time::Duration::from_millis(200));
+    assert_eq!(d.diagnostics[0].code, "XML_DTD_FORBIDDEN");
+}
+
+#[test]
+fn all_problems_are_collected_not_only_the_first() {
+    let xml = br#"<Panorama version="1">
+  <TransformGroup><Scale vector="0 1 1"/><Rotate axis="0 0 0" angle="x"/></TransformGroup>
+  <Layer order="3"><Image file="/abs.exr"/></Layer>
+  <Layer order="3" role="sky"/>
+</Panorama>"#;
+    let d = diagnose(xml, "many");
+    let codes: Vec<_> = d.diagnostics.iter().map(|x| x.code).collect();
+    assert_eq!(
+        codes,
+        [
+            "MANIFEST_SCALE_ZERO",
+            "MANIFEST_ROTATE_AXIS_ZERO",
+            "MANIFEST_NUMBER_INVALID",
+            "MANIFEST_FILE_NAME_UNSAFE",
+            "MANIFEST_ROLE_UNKNOWN",
+            "MANIFEST_LAYER_NO_SOURCE",
+            "MANIFEST_MAPPING_MISSING",
+            "MANIFEST_FREEDOM_MISSING",
+        ]
+    );
+    let e = pomc::manifest::parse(xml, "many.xml").unwrap_err();
+    assert_eq!(e.code(), "MANIFEST_SCALE_ZERO");
+    assert_eq!((e.line, e.col), (2, 26));
+    assert!(e.to_string().starts_with("many.xml:2:26 /Panorama/TransformGroup/Scale: "), "{e}");
+}
+
+#[test]
+fn deep_nesting_and_large_inputs_stay_cheap() {
+    let depth = 100_000;
+    let mut xml = String::from("<Panorama><Mapping type=\"Cube\"/><Freedom radius=\"1\"/>");
+    xml.push_str("<Layer><Image file=\"a.exr\"/>");
+    xml.push_str(&"<Deep>".repeat(depth));
+    xml.push_str(&"</Deep>".repeat(depth));
+    xml.push_str("</Layer>");
+    // Many siblings, each an unknown element with an unknown attribute.
+    for k in 0..100_000 {
+        xml.push_str(&format!("<Extra n=\"{k}\"/>"));
+    }
+    xml.push_str("</Panorama>");
+    let t = std::time::Instant::now();
+    let d = diagnose(xml.as_bytes(), "deep");
+    assert!(t.elapsed() < std::time::Duration::from_secs(5), "{:?}", t.elapsed());
+    let m = d.manifest.expect("warnings only");
+    assert_eq!(m.layers[0].extra.len(), 1);
+    assert!(m.layers[0].extra[0].starts_with("<Deep><Deep>"));
+}
+
+#[test]
+fn children_of_leaf_elements_are_unknown() {
+    let xml = b"<Panorama><Mapping type=\"Cube\"><Faces/></Mapping><Freedom radius=\"1\"/>\n<Layer><Image file=\"a.exr\"><Alpha/></Image></Layer></Panorama>";
+    let d = diagnose(xml, "leaf");
+    let found: Vec<_> = d.diagnostics.iter().map(|x| (x.code, x.line, x.col, x.path.as_str())).collect();
+    assert_eq!(
+        found,
+        [
+            ("MANIFEST_UNKNOWN_ELEMENT", 1, 32, "/Panorama/Mapping/Faces"),
+            ("MANIFEST_UNKNOWN_ELEMENT", 2, 28, "/Panorama/Layer/Image/Alpha"),
+        ]
+    );
+    assert!(d.manifest.is_some());
+}
+
+#[test]
+fn versions() {
+    let with = |v: &str| {
+        format!("<Panorama version=\"{v}\"><Mapping type=\"Cube\"/><Freedom radius=\"1\"/><Layer><Image file=\"a.exr\"/></Layer></Panorama>")
+    };
+    for ok in ["1", "1.0", "1.12", " 1 "] {
+        let d = diagnose(with(ok).as_bytes(), ok);
+        assert!(d.diagnostics.is_empty() && d.manifest.is_some(), "{ok}: {:?}", d.diagnostics);
+    }
+    for bad in ["2", "2.0", "1.x", "", "1.", "v1", "10"] {
+        // Only the version is reported: the rest of a POMC 2 file is not judged by POMC 1 rules.
+        let xml = with(bad).replace("<Freedom radius=\"1\"/>", "<Unknown/>");
+        let codes: Vec<_> = diagnose(xml.as_bytes(), bad).diagnostics.iter().map(|d| d.code).collect();
+        assert_eq!(codes, ["MANIFEST_VERSION_UNSUPPORTED"], "{bad}");
+    }
+}
