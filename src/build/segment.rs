@@ -6,7 +6,7 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use super::edges::{link, EdgeOptions, Link};
+use super::edges::{EdgeOptions, Link, Links};
 use super::graph::Neighbours;
 
 /// Union-find with path halving and union by size.
@@ -72,7 +72,13 @@ impl Default for SegmentOptions {
 }
 
 /// Segment the finite-depth pixels and order the segments into levels.
-pub fn segment(nb: &Neighbours, depth: &[f32], normals: Option<&[Vec3]>, o: &SegmentOptions) -> Segments {
+pub fn segment(
+    nb: &Neighbours,
+    depth: &[f32],
+    links: &Links,
+    normals: &[Vec3],
+    o: &SegmentOptions,
+) -> Segments {
     let n = nb.len();
     let finite = |i: usize| depth[i] > 0.0 && depth[i].is_finite();
     let mut dsu = Dsu::new(n);
@@ -81,9 +87,10 @@ pub fn segment(nb: &Neighbours, depth: &[f32], normals: Option<&[Vec3]>, o: &Seg
         if !finite(p) {
             continue;
         }
+        let (x, y) = (p % nb.width(), p / nb.width());
         for k in [0usize, 2, 4, 5] {
-            if link(nb, depth, normals, p, k, &o.edges) == Some(Link::Smooth) {
-                let q = nb.get(p, k).expect("link implies a neighbour");
+            if links.link(nb, normals, x, y, k) == Some(Link::Smooth) {
+                let q = nb.get_at(x, y, k).expect("link implies a neighbour");
                 dsu.union(p as u32, q as u32);
             }
         }
@@ -115,9 +122,10 @@ pub fn segment(nb: &Neighbours, depth: &[f32], normals: Option<&[Vec3]>, o: &Seg
         if id[p] == NO_SEGMENT {
             continue;
         }
+        let (x, y) = (p % nb.width(), p / nb.width());
         for k in [0usize, 2, 4, 5] {
-            let Some(l) = link(nb, depth, normals, p, k, &o.edges) else { continue };
-            let q = nb.get(p, k).expect("link implies a neighbour");
+            let Some(l) = links.link(nb, normals, x, y, k) else { continue };
+            let q = nb.get_at(x, y, k).expect("link implies a neighbour");
             let (a, b) = (id[p], id[q]);
             if a == b || b == NO_SEGMENT {
                 continue;
