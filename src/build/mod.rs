@@ -51,6 +51,7 @@ pub struct BuildOptions {
     pub infinity: bool,
     /// Extra fill band in pixels beyond the parallax band (reconstruction filters reach ~1-2 px).
     pub margin_px: f64,
+    pub classify: Classify,
 }
 
 impl Default for BuildOptions {
@@ -62,8 +63,74 @@ impl Default for BuildOptions {
             normals_out: false,
             infinity: true,
             margin_px: 2.0,
+            classify: Classify::Depth,
         }
     }
+}
+
+/// How layers are separated beyond the minimal layering.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Classify {
+    /// Occlusion levels (and depth bands) only.
+    #[default]
+    Depth,
+    /// Also split the background into floor, ceiling and walls by the segments' mean normals
+    /// (thesis 6.2.4.2; `+Z` is up in the panorama frame).
+    Geometry,
+}
+
+/// Surface class of a background segment under [`Classify::Geometry`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum SurfaceClass {
+    Floor,
+    Wall,
+    Ceiling,
+    Any,
+}
+
+/// Which layer a pixel goes to; the derived order is the painter's order (far first).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+struct LayerKey {
+    level: u32,
+    band_rev: u32,
+    class: SurfaceClass,
+}
+
+/// Classify segments by their area-weighted mean normal (facing the centre) and position:
+/// a floor faces up and lies below the centre, a ceiling faces down above it, a wall is
+/// near-vertical; anything else stays generic background.
+fn segment_classes(
+    seg: &segment::Segments,
+    normals: &[Vec3],
+    dirs: &[Vec3],
+    depth: &[f32],
+) -> Vec<SurfaceClass> {
+    let count = seg.size.len();
+    let mut sum_n = vec![Vec3::ZERO; count];
+    let mut sum_z = vec![0.0f64; count];
+    for p in 0..seg.id.len() {
+        let s = seg.id[p];
+        if s != NO_SEGMENT {
+            sum_n[s as usize] += normals[p];
+            sum_z[s as usize] += (dirs[p].z * depth[p]) as f64;
+        }
+    }
+    let (cos_flat, sin_vertical) = (25f32.to_radians().cos(), 25f32.to_radians().sin());
+    (0..count)
+        .map(|s| {
+            let n = sum_n[s].normalize_or_zero();
+            let below = sum_z[s] < 0.0;
+            if n.z > cos_flat && below {
+                SurfaceClass::Floor
+            } else if n.z < -cos_flat && !below {
+                SurfaceClass::Ceiling
+            } else if n != Vec3::ZERO && n.z.abs() < sin_vertical {
+                SurfaceClass::Wall
+            } else {
+                SurfaceClass::Any
+            }
+        })
+        .collect()
 }
 
 /// Errors of [`build`].
@@ -222,24 +289,32 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
     let seg = segment(&nb, &depth, &links, &normals, &o.segment);
     lap("segments", &mut stages);
 
-    // (5) Layer keys: infinity first, then (level, depth band far→near).
+    // (5) Layer keys: infinity first, then (level, depth band far→near, surface class).
     progress("layers");
     let band_of = |d: f32| o.depth_bands.iter().filter(|&&b| (d as f64) >= b).count() as u32;
     let nbands = o.depth_bands.len() as u32 + 1;
-    let key_of = |p: usize| -> Option<u64> {
+    let class = match o.classify {
+        Classify::Depth => vec![SurfaceClass::Any; seg.size.len()],
+        Classify::Geometry => segment_classes(&seg, &normals, &dirs, &depth),
+    };
+    let key_of = |p: usize| -> Option<LayerKey> {
         let s = seg.id[p];
         if s == NO_SEGMENT {
             return None;
         }
-        let level = seg.level[s as usize] as u64;
-        // Farther bands come first within a level.
-        Some(level * nbands as u64 + (nbands - 1 - band_of(depth[p])) as u64)
+        let level = seg.level[s as usize];
+        Some(LayerKey {
+            level,
+            band_rev: nbands - 1 - band_of(depth[p]),
+            class: if level == 0 { class[s as usize] } else { SurfaceClass::Any },
+        })
     };
     let has_infinity = depth.iter().any(|d| d.is_infinite());
-    let mut keys: Vec<u64> =
+    let mut keys: Vec<LayerKey> =
         (0..n).filter_map(key_of).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
     if keys.is_empty() && !has_infinity {
-        keys.push(0); // all unknown: one background layer of unknown depths
+        // All unknown: one background layer.
+        keys.push(LayerKey { level: 0, band_rev: 0, class: SurfaceClass::Any });
     }
     let first = has_infinity as u32;
     let mut layer_of: Vec<u32> = (0..n)
@@ -271,22 +346,24 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
     // (7) Images, names, roles, order.
     progress("images");
     let mut layers = Vec::new();
-    let mut level_count = std::collections::BTreeMap::<u64, u32>::new();
+    let mut name_count = std::collections::BTreeMap::<String, u32>::new();
     for (k, f) in fills.iter().enumerate() {
-        let (name, role) = if has_infinity && k == 0 {
+        let (base, role) = if has_infinity && k == 0 {
             ("infinity".to_string(), Role::Infinity)
         } else {
             let key = keys[k - first as usize];
-            let level = key / nbands as u64;
-            let idx = level_count.entry(level).or_default();
-            *idx += 1;
-            let suffix = if *idx > 1 { format!("-{idx}") } else { String::new() };
-            if level == 0 {
-                (format!("background{suffix}"), Role::Background)
-            } else {
-                (format!("objects-{level}{suffix}"), Role::Object)
+            match (key.level, key.class) {
+                (0, SurfaceClass::Floor) => ("floor".to_string(), Role::Floor),
+                (0, SurfaceClass::Ceiling) => ("ceiling".to_string(), Role::Ceiling),
+                (0, SurfaceClass::Wall) => ("walls".to_string(), Role::Wall),
+                (0, SurfaceClass::Any) => ("background".to_string(), Role::Background),
+                (level, _) => (format!("objects-{level}"), Role::Object),
             }
         };
+        // Depth bands give several layers of one kind: number them.
+        let idx = name_count.entry(base.clone()).or_default();
+        *idx += 1;
+        let name = if *idx > 1 { format!("{base}-{idx}") } else { base };
         let layer = layer_image(input, &depth, &normals, &layer_of, k as u32, f, o.normals_out);
         layers.push(BuiltLayer {
             name,
