@@ -310,15 +310,29 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         })
     };
     let has_infinity = depth.iter().any(|d| d.is_infinite());
-    let mut keys: Vec<LayerKey> =
-        (0..n).filter_map(key_of).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+    let pixel_keys: Vec<Option<LayerKey>> = (0..n).into_par_iter().map(key_of).collect();
+    let mut keys: Vec<LayerKey> = pixel_keys
+        .par_iter()
+        .fold(std::collections::BTreeSet::new, |mut set, k| {
+            if let Some(k) = k {
+                set.insert(*k);
+            }
+            set
+        })
+        .reduce(std::collections::BTreeSet::new, |mut a, b| {
+            a.extend(b);
+            a
+        })
+        .into_iter()
+        .collect();
     if keys.is_empty() && !has_infinity {
         // All unknown: one background layer.
         keys.push(LayerKey { level: 0, band_rev: 0, class: SurfaceClass::Any });
     }
     let first = has_infinity as u32;
     let mut layer_of: Vec<u32> = (0..n)
-        .map(|p| match key_of(p) {
+        .into_par_iter()
+        .map(|p| match pixel_keys[p] {
             Some(k) => first + keys.binary_search(&k).expect("key collected") as u32,
             None if depth[p].is_infinite() => 0,
             None => u32::MAX,

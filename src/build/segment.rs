@@ -5,6 +5,7 @@
 use std::collections::HashMap;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::edges::{EdgeOptions, Link, Links};
 use super::graph::Neighbours;
@@ -81,35 +82,56 @@ pub fn segment(
 ) -> Segments {
     let n = nb.len();
     let finite = |i: usize| depth[i] > 0.0 && depth[i].is_finite();
+    // Each undirected pair once: right, down, down-right, down-left. Links are classified in
+    // parallel (bit i of each mask = HALF[i]); the union-find that follows is a cheap serial pass.
+    const HALF: [usize; 4] = [0, 2, 4, 5];
+    let masks: Vec<(u8, u8, u8)> = (0..n)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % nb.width(), p / nb.width());
+            let (mut smooth, mut jump, mut fold) = (0u8, 0u8, 0u8);
+            if finite(p) {
+                for (i, &k) in HALF.iter().enumerate() {
+                    match links.link(nb, normals, x, y, k) {
+                        Some(Link::Smooth) => smooth |= 1 << i,
+                        Some(Link::Jump) => jump |= 1 << i,
+                        Some(Link::Fold) => fold |= 1 << i,
+                        None => {}
+                    }
+                }
+            }
+            (smooth, jump, fold)
+        })
+        .collect();
     let mut dsu = Dsu::new(n);
-    // Each undirected pair once: right, down, down-right, down-left.
-    for p in 0..n {
-        if !finite(p) {
+    for (p, &(smooth, _, _)) in masks.iter().enumerate() {
+        if smooth == 0 {
             continue;
         }
-        let (x, y) = (p % nb.width(), p / nb.width());
-        for k in [0usize, 2, 4, 5] {
-            if links.link(nb, normals, x, y, k) == Some(Link::Smooth) {
-                let q = nb.get_at(x, y, k).expect("link implies a neighbour");
+        for (i, &k) in HALF.iter().enumerate() {
+            if smooth >> i & 1 == 1 {
+                let q = nb.get(p, k).expect("link implies a neighbour");
                 dsu.union(p as u32, q as u32);
             }
         }
     }
     // Compact ids.
     let mut id = vec![NO_SEGMENT; n];
-    let mut root_to_id: HashMap<u32, u32> = HashMap::new();
+    // Indexed by root pixel: a plain table beats hashing 8M pixels.
+    let mut root_to_id = vec![NO_SEGMENT; n];
     let mut size: Vec<u32> = Vec::new();
     let mut depth_sum: Vec<f64> = Vec::new();
     for p in 0..n {
         if !finite(p) {
             continue;
         }
-        let r = dsu.find(p as u32);
-        let s = *root_to_id.entry(r).or_insert_with(|| {
+        let r = dsu.find(p as u32) as usize;
+        if root_to_id[r] == NO_SEGMENT {
+            root_to_id[r] = size.len() as u32;
             size.push(0);
             depth_sum.push(0.0);
-            (size.len() - 1) as u32
-        });
+        }
+        let s = root_to_id[r];
         id[p] = s;
         size[s as usize] += 1;
         depth_sum[s as usize] += depth[p] as f64;
@@ -118,27 +140,25 @@ pub fn segment(
     // Relations between segments along their borders.
     let mut jumps: HashMap<(u32, u32), u32> = HashMap::new();
     let mut folds: HashMap<(u32, u32), u32> = HashMap::new();
-    for p in 0..n {
-        if id[p] == NO_SEGMENT {
+    for (p, &(_, jump, fold)) in masks.iter().enumerate() {
+        if jump | fold == 0 || id[p] == NO_SEGMENT {
             continue;
         }
-        let (x, y) = (p % nb.width(), p / nb.width());
-        for k in [0usize, 2, 4, 5] {
-            let Some(l) = links.link(nb, normals, x, y, k) else { continue };
-            let q = nb.get_at(x, y, k).expect("link implies a neighbour");
+        for (i, &k) in HALF.iter().enumerate() {
+            let (is_jump, is_fold) = (jump >> i & 1 == 1, fold >> i & 1 == 1);
+            if !is_jump && !is_fold {
+                continue;
+            }
+            let q = nb.get(p, k).expect("link implies a neighbour");
             let (a, b) = (id[p], id[q]);
             if a == b || b == NO_SEGMENT {
                 continue;
             }
-            match l {
-                Link::Jump => {
-                    let (near, far) = if depth[p] < depth[q] { (a, b) } else { (b, a) };
-                    *jumps.entry((near, far)).or_default() += 1;
-                }
-                Link::Fold => {
-                    *folds.entry((a.min(b), a.max(b))).or_default() += 1;
-                }
-                Link::Smooth => {}
+            if is_jump {
+                let (near, far) = if depth[p] < depth[q] { (a, b) } else { (b, a) };
+                *jumps.entry((near, far)).or_default() += 1;
+            } else {
+                *folds.entry((a.min(b), a.max(b))).or_default() += 1;
             }
         }
     }
