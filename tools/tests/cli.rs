@@ -160,7 +160,7 @@ fn build_from_the_bundled_rgbd_fixture_is_valid() {
         root.join("colour.png").to_str().unwrap(),
         "--depth",
         Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../fixtures/data/room-equirect/room.exr")
+            .join("../fixtures/data/room-cube/room.exr")
             .to_str()
             .unwrap(),
         "-o",
