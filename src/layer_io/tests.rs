@@ -228,8 +228,7 @@ fn data_window_off_origin_is_the_canvas() {
     use ::exr::prelude::*;
     let d = tmp();
     let p = d.path().join("off.exr");
-    let mut attrs = LayerAttributes::default();
-    attrs.layer_position = Vec2(100, -7);
+    let attrs = LayerAttributes { layer_position: Vec2(100, -7), ..Default::default() };
     let layer = Layer::new(
         (5, 3),
         attrs,
