@@ -145,9 +145,8 @@ fn best_along(p: &Profile, padding: u32, rows: bool) -> Option<(u64, Side, Side)
     }
     let mut prefix = empty;
     let mut best: Option<(u64, Side, Side)> = None;
-    for c in 1..n {
+    for (c, &after) in suffix.iter().enumerate().take(n).skip(1) {
         prefix = prefix.extend(c as u32 - 1, p);
-        let after = suffix[c];
         if prefix.count == 0 || after.count == 0 {
             continue;
         }
