@@ -58,6 +58,10 @@ pub fn read_exr_bytes(bytes: &[u8], path: &Path, limits: &ReadLimits) -> Result<
     let mut cursor = Cursor::new(bytes);
     let (header, chunk_count) = parse_header(&mut cursor, path, limits)?;
     let header_end = cursor.position();
+    // A chunk placed past the end of the file: refuse before the decoder allocates the image.
+    if let Some(reason) = truncation(bytes, header_end, chunk_count) {
+        return Err(LayerIoError::Truncated { path: path.to_path_buf(), reason });
+    }
     let decoded = guarded(path, || {
         xr::read()
             .no_deep_data()

@@ -28,6 +28,9 @@ pub struct ReadLimits {
     pub max_pixels: u64,
     /// Largest channel count accepted.
     pub max_channels: usize,
+    /// Largest decoded size in memory, in bytes (pixels × channels × 4: every channel is `f32`
+    /// in memory). Bounds what a small, highly compressed file can make the reader allocate.
+    pub max_decoded_bytes: u64,
 }
 
 impl ReadLimits {
@@ -43,14 +46,23 @@ impl ReadLimits {
         if channels > self.max_channels {
             return Err(format!("at most {} channels", self.max_channels));
         }
+        let bytes = width.saturating_mul(height).saturating_mul(channels as u64).saturating_mul(4);
+        if bytes > self.max_decoded_bytes {
+            return Err(format!("at most {} decoded bytes", self.max_decoded_bytes));
+        }
         Ok(())
     }
 }
 
 impl Default for ReadLimits {
     fn default() -> Self {
-        // 16K × 8K equirect, a few attribute channels.
-        ReadLimits { max_dimension: 1 << 15, max_pixels: 1 << 28, max_channels: 64 }
+        // 16K × 8K equirect, a few attribute channels; 4 GiB decoded (16K × 8K × 8 channels).
+        ReadLimits {
+            max_dimension: 1 << 15,
+            max_pixels: 1 << 28,
+            max_channels: 64,
+            max_decoded_bytes: 4 << 30,
+        }
     }
 }
 

@@ -188,6 +188,13 @@ fn huge_header_is_refused_before_decoding() {
     let h = read_header(&p, &ReadLimits::default()).unwrap();
     assert_eq!((h.width, h.height), (16, 8));
     assert_eq!(read_exr(&p, &ReadLimits::default()).unwrap_err().code(), "LAYER_TRUNCATED");
+    // Large but within limits, with no pixel data: refused before the image is allocated.
+    std::fs::write(&p, handmade_header(30_000, 8_000, 0)).unwrap();
+    let t = Instant::now();
+    assert_eq!(read_exr(&p, &ReadLimits::default()).unwrap_err().code(), "LAYER_TRUNCATED");
+    assert!(t.elapsed().as_millis() < 200, "took {:?}", t.elapsed());
+    let small = ReadLimits { max_decoded_bytes: 1 << 20, ..ReadLimits::default() };
+    assert_eq!(read_header(&p, &small).unwrap_err().code(), "LAYER_TOO_LARGE");
 }
 
 #[test]
