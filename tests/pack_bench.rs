@@ -75,3 +75,23 @@ fn pack_sparse_4096x2048() {
         );
     }
 }
+
+#[test]
+#[ignore]
+fn exr_write_read_4096x2048() {
+    use pomc::layer_io::{read_exr, write_exr, Compression, ReadLimits, WriteOptions};
+    let img = scene(4096, 2048);
+    let dir = tempfile::tempdir().unwrap();
+    for c in [Compression::Zip16, Compression::Piz, Compression::None] {
+        let p = dir.path().join("l.exr");
+        let t = Instant::now();
+        write_exr(&p, &img, &WriteOptions { compression: c }).unwrap();
+        let write_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let back = read_exr(&p, &ReadLimits::default()).unwrap();
+        let read_s = t.elapsed().as_secs_f64();
+        assert_eq!(back.occupied(), img.occupied());
+        let size = std::fs::metadata(&p).unwrap().len();
+        println!("{}: {} bytes, write {write_s:.3} s, read {read_s:.3} s", c.name(), size);
+    }
+}

@@ -183,4 +183,21 @@ mod tests {
         assert!(check_table(1200, 500, 1200, 500, &t).is_empty());
         assert!(start.elapsed().as_secs_f64() < 2.0, "{:?}", start.elapsed());
     }
+
+    proptest::proptest! {
+        /// On random tables the sweep flags only boxes that really overlap, and finds an
+        /// overlap whenever there is one.
+        #[test]
+        fn sweep_is_sound(raw in proptest::collection::vec((0u32..60, 0u32..60, 1u32..12, 1u32..12), 1..80)) {
+            let boxes: Vec<Span> = raw.iter().map(|&(x, y, w, h)| Span::new(x, y, w, h)).collect();
+            let mut flagged = vec![false; boxes.len()];
+            sweep(&boxes, &mut |a, b| {
+                assert!(boxes[a].overlaps(&boxes[b]), "{a} and {b} do not overlap");
+                flagged[a] = true;
+                flagged[b] = true;
+            });
+            let any_pair = (0..boxes.len()).any(|i| (i + 1..boxes.len()).any(|j| boxes[i].overlaps(&boxes[j])));
+            proptest::prop_assert_eq!(any_pair, flagged.iter().any(|&f| f));
+        }
+    }
 }
