@@ -95,3 +95,63 @@ fn exr_write_read_4096x2048() {
         println!("{}: {} bytes, write {write_s:.3} s, read {read_s:.3} s", c.name(), size);
     }
 }
+
+/// Worst case for the cutter: uniform noise (every pixel its own component).
+#[test]
+#[ignore]
+fn pack_noise_4096x2048() {
+    let (w, h) = (4096usize, 2048usize);
+    let mut state = 12345u64;
+    let mut img = LayerImage::new(w, h);
+    let z: Vec<f32> = (0..w * h)
+        .map(|_| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            if (state >> 33) % 100 < 5 {
+                1.0
+            } else {
+                -1.0
+            }
+        })
+        .collect();
+    img.set_channel("Z", SampleType::F32, z);
+    let t = Instant::now();
+    let packed = pack_layer(&img, &PackOptions::default()).unwrap();
+    println!(
+        "noise 5%: occupied {}, atlas {} px, {} patches, pack {:.3} s",
+        img.occupied(),
+        packed.atlas_area(),
+        packed.patches.len(),
+        t.elapsed().as_secs_f64()
+    );
+}
+
+/// A large disc and a large triangle: many cuts each saving a little.
+#[test]
+#[ignore]
+fn pack_big_shapes_4096x2048() {
+    let (w, h) = (4096usize, 2048usize);
+    let mut img = LayerImage::new(w, h);
+    let z: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            let disc = (x - 1100.0).powi(2) + (y - 1024.0).powi(2) <= 1000.0f64.powi(2);
+            let triangle = x > 2200.0 && y > 100.0 && (x - 2200.0) < (y - 100.0);
+            if disc || triangle {
+                1.0
+            } else {
+                -1.0
+            }
+        })
+        .collect();
+    img.set_channel("Z", SampleType::F32, z);
+    let t = Instant::now();
+    let packed = pack_layer(&img, &PackOptions::default()).unwrap();
+    println!(
+        "big shapes: occupied {}, atlas {} px ({:.1}% occupied), {} patches, pack {:.3} s",
+        img.occupied(),
+        packed.atlas_area(),
+        100.0 * img.occupied() as f64 / packed.atlas_area() as f64,
+        packed.patches.len(),
+        t.elapsed().as_secs_f64()
+    );
+}

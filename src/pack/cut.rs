@@ -7,7 +7,9 @@
 //! such shapes cheap, where a component's bounding box alone would be mostly empty.
 //!
 //! A box is split when the best cut lowers the cost (area with padding, plus a per-patch
-//! overhead), and is always split while less than [`MIN_FILL`] of it is occupied. Every leaf is
+//! overhead) by a significant fraction, and is always split (by a balanced cut) while less than
+//! [`MIN_FILL`] of it is occupied. The work is O(area) per level of a recursion that stays
+//! O(log area) deep (see [`best_cut`]), also on noise-like masks. Every leaf is
 //! therefore at least `MIN_FILL` full, so the rectangles hold at most `occupied / MIN_FILL`
 //! pixels: the slack left to the packer to stay within twice the occupied pixels.
 
@@ -30,6 +32,8 @@ impl Rect {
 pub const MIN_FILL: f64 = 0.75;
 /// Cost of one more patch, in pixels (a table row, and the packer's loss around it).
 const PATCH_COST: u64 = 8;
+/// A cut is worth making for its own sake when it saves at least 1/128 of the box's cost.
+const SIGNIFICANT: u64 = 128;
 
 /// Disjoint rectangles covering every `true` pixel of `mask` (`width × height`, row-major).
 pub fn cover(mask: &[bool], width: usize, height: usize, padding: u32) -> Vec<Rect> {
@@ -135,62 +139,89 @@ impl Side {
     }
 }
 
-/// Best cut of a profile: `(cost, cut line, before side, after side)`.
-fn best_along(p: &Profile, padding: u32, rows: bool) -> Option<(u64, Side, Side)> {
+/// A candidate cut: the cost of the two sides, how far from the middle it is, and the sides.
+#[derive(Clone, Copy)]
+struct Cut {
+    total: u64,
+    imbalance: u64,
+    before: Side,
+    after: Side,
+    rows: bool,
+}
+
+impl Cut {
+    fn key(&self) -> (u64, u64) {
+        (self.total, self.imbalance)
+    }
+}
+
+/// The cheapest cut of a profile, and the cheapest among the balanced ones (the cut line in the
+/// middle half), ties going to the more central cut.
+fn cuts_along(p: &Profile, padding: u32, rows: bool) -> (Option<Cut>, Option<Cut>) {
     let n = p.count.len();
     let empty = Side { first: 0, last: 0, lo: 0, hi: 0, count: 0 };
     let mut suffix = vec![empty; n + 1];
     for l in (0..n).rev() {
         suffix[l] = suffix[l + 1].extend(l as u32, p);
     }
+    let side_cost = |s: &Side| {
+        let (along, across) = s.dims();
+        if rows {
+            cost(across, along, padding)
+        } else {
+            cost(along, across, padding)
+        }
+    };
     let mut prefix = empty;
-    let mut best: Option<(u64, Side, Side)> = None;
+    let (mut best, mut balanced): (Option<Cut>, Option<Cut>) = (None, None);
     for (c, &after) in suffix.iter().enumerate().take(n).skip(1) {
         prefix = prefix.extend(c as u32 - 1, p);
         if prefix.count == 0 || after.count == 0 {
             continue;
         }
-        let side_cost = |s: &Side| {
-            let (along, across) = s.dims();
-            if rows {
-                cost(across, along, padding)
-            } else {
-                cost(along, across, padding)
-            }
-        };
         let total = side_cost(&prefix) + side_cost(&after);
-        if best.as_ref().map_or(true, |b| total < b.0) {
-            best = Some((total, prefix, after));
+        let cut = Cut { total, imbalance: (2 * c).abs_diff(n) as u64, before: prefix, after, rows };
+        best = cheaper(best, Some(cut));
+        if 4 * c >= n && 4 * c <= 3 * n {
+            balanced = cheaper(balanced, Some(cut));
         }
     }
-    best
+    (best, balanced)
 }
 
-/// The two tight boxes of the best cut of `r`, when cutting is worth it (see module docs).
+fn cheaper(a: Option<Cut>, b: Option<Cut>) -> Option<Cut> {
+    match (a, b) {
+        (Some(x), Some(y)) => Some(if y.key() < x.key() { y } else { x }),
+        (x, None) => x,
+        (None, y) => y,
+    }
+}
+
+/// The two tight boxes of the cut chosen for `r`, if it is to be cut: the cheapest cut when it
+/// saves at least 1/[`SIGNIFICANT`] of the cost, else, while the box is sparse, the cheapest
+/// balanced cut. Small savings are ignored so that boxes are not peeled one line at a time,
+/// which would cost O(area) per line; balanced forced cuts keep the recursion O(log) deep.
 fn best_cut(mask: &[bool], width: usize, r: Rect, padding: u32) -> Option<(Rect, Rect)> {
     let (rows, cols) = profiles(mask, width, r);
     let occupied: u64 = rows.count.iter().sum();
-    let by_rows = best_along(&rows, padding, true);
-    let by_cols = best_along(&cols, padding, false);
-    let (total, a, b, along_rows) = match (by_rows, by_cols) {
-        (Some(h), Some(v)) if v.0 < h.0 => (v.0, v.1, v.2, false),
-        (Some(h), _) => (h.0, h.1, h.2, true),
-        (None, Some(v)) => (v.0, v.1, v.2, false),
-        (None, None) => return None,
-    };
+    let (best_r, bal_r) = cuts_along(&rows, padding, true);
+    let (best_c, bal_c) = cuts_along(&cols, padding, false);
+    let parent = cost(r.w, r.h, padding);
     let sparse = (occupied as f64) < MIN_FILL * r.area() as f64;
-    if total >= cost(r.w, r.h, padding) && !sparse {
-        return None;
-    }
+    let cut = match cheaper(best_r, best_c) {
+        Some(b) if parent.saturating_sub(b.total) * SIGNIFICANT >= parent => b,
+        Some(b) if sparse => cheaper(bal_r, bal_c).unwrap_or(b),
+        _ => return None,
+    };
     let to_rect = |s: Side| {
         let (along, across) = s.dims();
-        if along_rows {
+        if cut.rows {
             Rect { x: r.x + s.lo, y: r.y + s.first, w: across, h: along }
         } else {
             Rect { x: r.x + s.first, y: r.y + s.lo, w: along, h: across }
         }
     };
-    Some((to_rect(a), to_rect(b)))
+    Some((to_rect(cut.before), to_rect(cut.after)))
 }
 
 #[cfg(test)]
