@@ -13,11 +13,9 @@ pub mod maxrects;
 mod table;
 
 use crate::layer::{Channel, LayerImage, OUTSIDE_DEPTH};
+use crate::layer_io::ReadLimits;
 
 pub use self::table::check_table;
-
-/// Largest canvas [`unpack`] allocates (the default reader limit: a 16K × 16K canvas).
-pub const UNPACK_MAX_PIXELS: u64 = 1 << 28;
 
 /// One row of the patch table: origin `(u, v)` in the full canvas, origin `(x, y)` in the atlas,
 /// size `w × h`.
@@ -128,16 +126,22 @@ pub fn pack_layer(image: &LayerImage, options: &PackOptions) -> Result<PackedLay
 
 /// Restore the full canvas; pixels in no patch are outside (`A = 0`, `Z = -1`, other channels 0).
 ///
-/// The table is validated first, and canvases beyond [`UNPACK_MAX_PIXELS`] are refused, both
-/// before anything is allocated.
+/// The table is validated first, and canvases beyond the default [`ReadLimits`] are refused,
+/// both before anything is allocated.
 pub fn unpack(packed: &PackedLayer) -> Result<LayerImage, PackError> {
+    unpack_with_limits(packed, &ReadLimits::default())
+}
+
+/// [`unpack`] with explicit limits on the canvas (pixels, dimensions, decoded bytes).
+pub fn unpack_with_limits(packed: &PackedLayer, limits: &ReadLimits) -> Result<LayerImage, PackError> {
     let (cw, ch) = (packed.canvas_width, packed.canvas_height);
     let (aw, ah) = canvas_size(&packed.atlas)?;
     if let Some(problem) = check_table(cw, ch, aw, ah, &packed.patches).into_iter().next() {
         return Err(PackError::BadTable(problem));
     }
-    if u64::from(cw) * u64::from(ch) > UNPACK_MAX_PIXELS {
-        return Err(PackError::TooLarge { width: cw, height: ch, limit: UNPACK_MAX_PIXELS });
+    let channels = packed.atlas.channels.len();
+    if limits.check(u64::from(cw), u64::from(ch), channels).is_err() {
+        return Err(PackError::TooLarge { width: cw, height: ch, limit: limits.max_pixels });
     }
     let mut canvas = blank_like(&packed.atlas, cw as usize, ch as usize);
     for p in &packed.patches {
@@ -153,7 +157,7 @@ fn canvas_size(image: &LayerImage) -> Result<(u32, u32), PackError> {
         _ => Err(PackError::TooLarge {
             width: image.width.min(u32::MAX as usize) as u32,
             height: image.height.min(u32::MAX as usize) as u32,
-            limit: UNPACK_MAX_PIXELS,
+            limit: ReadLimits::default().max_pixels,
         }),
     }
 }
