@@ -4,8 +4,9 @@
 //! Every reader checks the header against [`ReadLimits`] before decoding pixels, so a hostile
 //! header claiming a gigantic image costs a few hundred bytes of reading, not gigabytes of memory.
 //!
-//! - [`exr`]: the native form (`read_header`, `read_exr`, `write_exr`);
-//! - [`thesis`]: the thesis form (`read_thesis_layer`);
+//! - `exr`: the native form ([`read_header`], [`read_exr`], [`write_exr`], and their in-memory
+//!   variants for fuzzing and tests);
+//! - `thesis`: the thesis form ([`read_thesis_layer`]);
 //! - [`halfbits`]: bit-exact half ↔ float conversion (NaN payloads kept).
 
 mod exr;

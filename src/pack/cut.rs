@@ -9,7 +9,7 @@
 //! A box is split when the best cut lowers the cost (area with padding, plus a per-patch
 //! overhead) by a significant fraction, and is always split (by a balanced cut) while less than
 //! [`MIN_FILL`] of it is occupied. The work is O(area) per level of a recursion that stays
-//! O(log area) deep (see [`best_cut`]), also on noise-like masks. Every leaf is
+//! O(log area) deep (see `best_cut`), also on noise-like masks. Every leaf is
 //! therefore at least `MIN_FILL` full, so the rectangles hold at most `occupied / MIN_FILL`
 //! pixels: the slack left to the packer to stay within twice the occupied pixels.
 

@@ -5,7 +5,7 @@
 //!
 //! - [`cut`]: domain → disjoint rectangles wasting at most a third of their area;
 //! - [`maxrects`]: rectangles → atlas positions;
-//! - [`table`]: validation of a (possibly hostile) patch table;
+//! - `table`: validation ([`check_table`]) of a (possibly hostile) patch table;
 //! - this module: copying pixels between canvas and atlas.
 
 pub mod cut;
