@@ -371,3 +371,17 @@ fn thesis_16_bit_colour_is_float() {
     assert_eq!(r.sample_type, SampleType::F32);
     assert_eq!(r.data[3], 3000.0 / 65535.0);
 }
+
+/// Found by the `layer_exr` fuzz target: a B44 chunk that makes the `exr` crate's decoder
+/// overflow (a panic with overflow checks on). The reader must turn it into an error.
+#[test]
+fn fuzz_regression_b44_overflow_is_an_error() {
+    let bytes = include_bytes!("testdata/fuzz_b44_overflow.exr");
+    let r = read_exr_bytes(bytes, Path::new("fuzz_b44_overflow.exr"), &ReadLimits::default());
+    // With overflow checks (tests) the decoder panics and the guard reports it; without, the
+    // arithmetic wraps and the data decodes to something or fails otherwise. Never a panic.
+    if cfg!(debug_assertions) {
+        let e = r.unwrap_err();
+        assert_eq!(e.code(), "LAYER_UNREADABLE", "{e}");
+    }
+}
