@@ -212,3 +212,10 @@ proptest! {
         assert_round_trip(&img, &packed);
     }
 }
+
+#[test]
+fn absurd_padding_is_refused() {
+    let img = blobs(64, 32, 5, 2, true);
+    let e = pack_layer(&img, &PackOptions { padding: u32::MAX }).unwrap_err();
+    assert_eq!(e.code(), "PACK_PADDING_TOO_LARGE");
+}

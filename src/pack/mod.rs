@@ -17,6 +17,9 @@ use crate::layer_io::ReadLimits;
 
 pub use self::table::check_table;
 
+/// Largest guard band [`pack_layer`] accepts (bilinear or bicubic sampling needs 1 or 2).
+pub const MAX_PADDING: u32 = 64;
+
 /// One row of the patch table: origin `(u, v)` in the full canvas, origin `(x, y)` in the atlas,
 /// size `w × h`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
@@ -59,6 +62,8 @@ pub enum PackError {
     BadTable(TableProblem),
     #[error("canvas {width}x{height} is too large to unpack (limit {limit} pixels)")]
     TooLarge { width: u32, height: u32, limit: u64 },
+    #[error("padding of {padding} pixels is more than the {max} allowed; use a guard band of a few pixels")]
+    PaddingTooLarge { padding: u32, max: u32 },
 }
 
 impl PackError {
@@ -66,6 +71,7 @@ impl PackError {
         match self {
             PackError::BadTable(p) => p.code(),
             PackError::TooLarge { .. } => "LAYER_TOO_LARGE",
+            PackError::PaddingTooLarge { .. } => "PACK_PADDING_TOO_LARGE",
         }
     }
 }
@@ -107,6 +113,9 @@ impl TableProblem {
 /// with an empty domain packs into a 1×1 atlas of one outside pixel and no patches.
 pub fn pack_layer(image: &LayerImage, options: &PackOptions) -> Result<PackedLayer, PackError> {
     let (cw, ch) = canvas_size(image)?;
+    if options.padding > MAX_PADDING {
+        return Err(PackError::PaddingTooLarge { padding: options.padding, max: MAX_PADDING });
+    }
     let rects = cut::cover(&image.domain(), image.width, image.height, options.padding);
     let pad = options.padding;
     let sizes: Vec<(u32, u32)> = rects.iter().map(|r| (r.w + 2 * pad, r.h + 2 * pad)).collect();
@@ -116,7 +125,12 @@ pub fn pack_layer(image: &LayerImage, options: &PackOptions) -> Result<PackedLay
         .zip(&packing.positions)
         .map(|(r, &(x, y))| Patch { u: r.x, v: r.y, x: x + pad, y: y + pad, w: r.w, h: r.h })
         .collect();
-    let (aw, ah) = (packing.width.max(1) as usize, packing.height.max(1) as usize);
+    let (aw, ah) = (packing.width.max(1), packing.height.max(1));
+    let limits = ReadLimits::default();
+    if limits.check(u64::from(aw), u64::from(ah), image.channels.len()).is_err() {
+        return Err(PackError::TooLarge { width: aw, height: ah, limit: limits.max_pixels });
+    }
+    let (aw, ah) = (aw as usize, ah as usize);
     let mut atlas = blank_like(image, aw, ah);
     for p in &patches {
         copy_padded(image, &mut atlas, p, pad);
