@@ -181,18 +181,12 @@ fn atan_unit(x: f32) -> f32 {
 /// Fast `atan2(y, x)` in `(−π, π]`; `0` for `(0, 0)`.
 #[inline]
 pub fn fast_atan2(y: f32, x: f32) -> f32 {
+    // Selects rather than early returns, so batches vectorise.
     let (ax, ay) = (x.abs(), y.abs());
-    let (mx, mn) = if ax >= ay { (ax, ay) } else { (ay, ax) };
-    if mx == 0.0 {
-        return 0.0;
-    }
-    let mut r = atan_unit(mn / mx);
-    if ay > ax {
-        r = PI / 2.0 - r;
-    }
-    if x < 0.0 {
-        r = PI - r;
-    }
+    let (mx, mn) = (ax.max(ay), ax.min(ay));
+    let r = atan_unit(mn / mx.max(f32::MIN_POSITIVE));
+    let r = if ay > ax { PI / 2.0 - r } else { r };
+    let r = if x < 0.0 { PI - r } else { r };
     if y < 0.0 {
         -r
     } else {
@@ -213,21 +207,41 @@ fn cubic_weights(t: f32) -> [f32; 4] {
     ]
 }
 
+/// `floor` for the sample range (|p| < 2³¹) without a libm call (baseline x86-64 has no `roundps`).
+#[inline]
+fn floor_i64(p: f32) -> i64 {
+    let i = p as i64;
+    if (i as f32) > p {
+        i - 1
+    } else {
+        i
+    }
+}
+
+/// Copy one pixel (a handful of samples: a loop beats a `memmove` call).
+#[inline]
+fn copy_pixel<T: Copy>(src: &[T], ch: usize, idx: usize, out: &mut [T]) {
+    let p = &src[idx * ch..idx * ch + ch];
+    for (o, v) in out.iter_mut().zip(p) {
+        *o = *v;
+    }
+}
+
 /// Filter footprint along one axis: first tap offset, tap count and weights.
 #[inline]
 fn axis_weights(filter: Filter, p: f32) -> (i64, usize, [f32; 4]) {
     match filter {
-        Filter::Nearest => (p.floor() as i64, 1, [1.0, 0.0, 0.0, 0.0]),
+        Filter::Nearest => (floor_i64(p), 1, [1.0, 0.0, 0.0, 0.0]),
         Filter::Bilinear => {
             let f = p - 0.5;
-            let i0 = f.floor();
-            let t = f - i0;
-            (i0 as i64, 2, [1.0 - t, t, 0.0, 0.0])
+            let i0 = floor_i64(f);
+            let t = f - i0 as f32;
+            (i0, 2, [1.0 - t, t, 0.0, 0.0])
         }
         Filter::Bicubic => {
             let f = p - 0.5;
-            let i0 = f.floor();
-            (i0 as i64 - 1, 4, cubic_weights(f - i0))
+            let i0 = floor_i64(f);
+            (i0 - 1, 4, cubic_weights(f - i0 as f32))
         }
     }
 }
@@ -248,7 +262,45 @@ impl Taps {
 
 /// A canvas that turns directions into taps.
 trait Source: Sync {
-    fn taps(&self, d: Vec3, filter: Filter, out: &mut Taps);
+    /// Source coordinates (face, continuous x, y) of a batch of directions. Written as straight-line
+    /// loops over structure-of-arrays buffers so the compiler can vectorise them.
+    fn coords(&self, d: &Dirs, out: &mut Coords);
+    /// Filter taps around continuous coordinates `(x, y)` of `face` (0 for equirect).
+    fn taps_at(&self, face: u8, x: f32, y: f32, filter: Filter, out: &mut Taps);
+
+    /// Taps of one direction.
+    fn taps(&self, d: Vec3, filter: Filter, out: &mut Taps) {
+        let dirs = Dirs { x: vec![d.x], y: vec![d.y], z: vec![d.z] };
+        let mut c = Coords::with_len(1);
+        self.coords(&dirs, &mut c);
+        self.taps_at(c.face[0], c.x[0], c.y[0], filter, out);
+    }
+}
+
+/// A batch of directions, structure of arrays.
+struct Dirs {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+}
+
+impl Dirs {
+    fn with_len(n: usize) -> Self {
+        Dirs { x: vec![0.0; n], y: vec![0.0; n], z: vec![0.0; n] }
+    }
+}
+
+/// Source coordinates of a batch of directions.
+struct Coords {
+    face: Vec<u8>,
+    x: Vec<f32>,
+    y: Vec<f32>,
+}
+
+impl Coords {
+    fn with_len(n: usize) -> Self {
+        Coords { face: vec![0; n], x: vec![0.0; n], y: vec![0.0; n] }
+    }
 }
 
 /// Equirect source of `w × h` pixels.
@@ -258,7 +310,8 @@ struct EquirectSource {
 }
 
 impl EquirectSource {
-    /// Index of pixel `(x, y)` after wrapping the seam and stepping over the poles.
+    /// Index of pixel `(x, y)` after wrapping the seam and stepping over the poles. Taps lie within a
+    /// few pixels of the canvas, so wrapping is two conditional adds (no integer division).
     #[inline]
     fn index(&self, x: i64, y: i64) -> usize {
         let (w, h) = (self.w as i64, self.h as i64);
@@ -271,26 +324,38 @@ impl EquirectSource {
             x += w / 2;
         }
         let y = y.clamp(0, h - 1);
-        (y * w + x.rem_euclid(w)) as usize
+        if x < 0 || x >= 2 * w {
+            x = x.rem_euclid(w);
+        } else if x >= w {
+            x -= w;
+        }
+        (y * w + x) as usize
     }
 
-    /// Continuous pixel coordinates of a direction (f32 hot-loop version of `Equirect::dir_to_pixel`).
-    #[inline]
-    fn coords(&self, d: Vec3) -> (f32, f32) {
+}
+
+impl Source for EquirectSource {
+    /// f32 version of `Equirect::dir_to_pixel` (same seam and clamping rules).
+    fn coords(&self, d: &Dirs, out: &mut Coords) {
         let (wf, hf) = (self.w as f32, self.h as f32);
-        let phi = fast_atan2(d.y, d.x);
-        let theta = fast_atan2((d.x * d.x + d.y * d.y).sqrt(), d.z);
-        let mut x = phi * (wf / TAU);
-        if x < 0.0 {
-            x += wf;
+        let (kx, ky) = (wf / TAU, hf / PI);
+        // Largest f32 below W and H.
+        let (wmax, hmax) = (f32::from_bits(wf.to_bits() - 1), f32::from_bits(hf.to_bits() - 1));
+        let n = d.x.len();
+        let (dx, dy, dz) = (&d.x[..n], &d.y[..n], &d.z[..n]);
+        let (ox, oy) = (&mut out.x[..n], &mut out.y[..n]);
+        for i in 0..n {
+            let phi = fast_atan2(dy[i], dx[i]);
+            let theta = fast_atan2((dx[i] * dx[i] + dy[i] * dy[i]).sqrt(), dz[i]);
+            let x = phi * kx;
+            let x = if x < 0.0 { x + wf } else { x };
+            ox[i] = x.clamp(0.0, wmax);
+            oy[i] = (theta * ky).clamp(0.0, hmax);
         }
-        if x >= wf {
-            x -= wf;
-        }
-        (x.clamp(0.0, wf), (theta * (hf / PI)).clamp(0.0, hf))
     }
 
-    fn taps_at(&self, x: f32, y: f32, filter: Filter, out: &mut Taps) {
+    #[inline(always)]
+    fn taps_at(&self, _face: u8, x: f32, y: f32, filter: Filter, out: &mut Taps) {
         let (x0, nx, wx) = axis_weights(filter, x);
         let (y0, ny, wy) = axis_weights(filter, y);
         let mut k = 0;
@@ -306,13 +371,6 @@ impl EquirectSource {
     }
 }
 
-impl Source for EquirectSource {
-    #[inline]
-    fn taps(&self, d: Vec3, filter: Filter, out: &mut Taps) {
-        let (x, y) = self.coords(d);
-        self.taps_at(x, y, filter, out);
-    }
-}
 
 /// Canonical 3×2 cube source with faces of `n` pixels.
 struct CubeSource {
@@ -344,39 +402,41 @@ impl CubeSource {
         self.face_index(p.face.index(), ti, tj)
     }
 
-    /// Face and face-local continuous coordinates of a direction (f32 version of `FacePoint::from_dir`,
-    /// same tie rule).
-    #[inline]
-    fn coords(&self, d: Vec3) -> (usize, f32, f32) {
-        let (ax, ay, az) = (d.x.abs(), d.y.abs(), d.z.abs());
-        let (face, s, t) = if ax >= ay && ax >= az {
-            if d.x > 0.0 {
-                (0, -d.y / ax, -d.z / ax)
-            } else {
-                (3, d.y / ax, -d.z / ax)
-            }
-        } else if ay >= az {
-            if d.y > 0.0 {
-                (1, d.x / ay, -d.z / ay)
-            } else {
-                (4, -d.x / ay, -d.z / ay)
-            }
-        } else if d.z > 0.0 {
-            (2, -d.x / az, -d.y / az)
-        } else {
-            (5, d.x / az, -d.y / az)
-        };
-        let nf = self.n as f32;
-        let fx = ((s + 1.0) * 0.5 * nf).clamp(0.0, nf);
-        let fy = ((t + 1.0) * 0.5 * nf).clamp(0.0, nf);
-        (face, fx, fy)
-    }
 }
 
 impl Source for CubeSource {
-    #[inline]
-    fn taps(&self, d: Vec3, filter: Filter, out: &mut Taps) {
-        let (face, x, y) = self.coords(d);
+    /// f32 version of `FacePoint::from_dir` (same tie rule), in face-local pixel units.
+    fn coords(&self, d: &Dirs, out: &mut Coords) {
+        let nf = self.n as f32;
+        for i in 0..d.x.len() {
+            let (x, y, z) = (d.x[i], d.y[i], d.z[i]);
+            let (ax, ay, az) = (x.abs(), y.abs(), z.abs());
+            let (face, s, t) = if ax >= ay && ax >= az {
+                if x > 0.0 {
+                    (0, -y / ax, -z / ax)
+                } else {
+                    (3, y / ax, -z / ax)
+                }
+            } else if ay >= az {
+                if y > 0.0 {
+                    (1, x / ay, -z / ay)
+                } else {
+                    (4, -x / ay, -z / ay)
+                }
+            } else if z > 0.0 {
+                (2, -x / az, -y / az)
+            } else {
+                (5, x / az, -y / az)
+            };
+            out.face[i] = face;
+            out.x[i] = ((s + 1.0) * 0.5 * nf).clamp(0.0, nf);
+            out.y[i] = ((t + 1.0) * 0.5 * nf).clamp(0.0, nf);
+        }
+    }
+
+    #[inline(always)]
+    fn taps_at(&self, face: u8, x: f32, y: f32, filter: Filter, out: &mut Taps) {
+        let face = face as usize;
         let (x0, nx, wx) = axis_weights(filter, x);
         let (y0, ny, wy) = axis_weights(filter, y);
         let mut k = 0;
@@ -420,10 +480,10 @@ fn blendable<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, 
 }
 
 /// Write the filtered value of `taps` into `out` (one pixel, `ch` samples).
-#[inline]
+#[inline(always)]
 fn resolve<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, out: &mut [T]) {
     if taps.n == 1 {
-        out.copy_from_slice(&src[taps.nearest * ch..taps.nearest * ch + ch]);
+        copy_pixel(src, ch, taps.nearest, out);
         return;
     }
     let mut range = None;
@@ -431,17 +491,31 @@ fn resolve<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, ou
         match blendable(src, ch, taps, opts, z) {
             Some(r) => range = Some((z, r)),
             None => {
-                out.copy_from_slice(&src[taps.nearest * ch..taps.nearest * ch + ch]);
+                copy_pixel(src, ch, taps.nearest, out);
                 return;
             }
         }
     }
-    for (c, o) in out.iter_mut().enumerate() {
-        let mut acc = 0.0f32;
+    if ch <= 4 {
+        let mut acc = [0.0f32; 4];
         for k in 0..taps.n {
-            acc += taps.w[k] * src[taps.idx[k] * ch + c].to_f32();
+            let w = taps.w[k];
+            let p = &src[taps.idx[k] * ch..taps.idx[k] * ch + ch];
+            for (a, v) in acc.iter_mut().zip(p) {
+                *a += w * v.to_f32();
+            }
         }
-        *o = T::from_f32(acc);
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o = T::from_f32(a);
+        }
+    } else {
+        for (c, o) in out.iter_mut().enumerate() {
+            let mut acc = 0.0f32;
+            for k in 0..taps.n {
+                acc += taps.w[k] * src[taps.idx[k] * ch + c].to_f32();
+            }
+            *o = T::from_f32(acc);
+        }
     }
     if let Some((z, (lo, hi))) = range {
         out[z] = T::from_f32(out[z].to_f32().clamp(lo, hi));
@@ -454,7 +528,7 @@ fn render<T: Texel>(
     size: usize,
     ch: usize,
     progress: &(dyn Fn(usize) + Sync),
-    pixel: impl Fn(Vec3, &mut [T]) + Sync,
+    segment: impl Fn(&Dirs, &mut Coords, &mut [T]) + Sync,
 ) -> Result<Raster<T>, ResampleError> {
     let (w, h) = match target {
         Canvas::Equirect if size > 0 && size % 2 == 0 => (size, size / 2),
@@ -469,20 +543,26 @@ fn render<T: Texel>(
     let mut data = vec![zero; len];
     match target {
         Canvas::Equirect => {
-            let cols: Vec<(f32, f32)> = (0..w)
+            let (cos_phi, sin_phi): (Vec<f32>, Vec<f32>) = (0..w)
                 .map(|x| {
                     let (s, c) = (std::f64::consts::TAU * (x as f64 + 0.5) / w as f64).sin_cos();
                     (c as f32, s as f32)
                 })
-                .collect();
-            data.par_chunks_mut(w * ch).enumerate().for_each(|(y, row)| {
-                let (st, ct) = (std::f64::consts::PI * (y as f64 + 0.5) / h as f64).sin_cos();
-                let (st, ct) = (st as f32, ct as f32);
-                for (x, &(cp, sp)) in cols.iter().enumerate() {
-                    pixel(Vec3::new(st * cp, st * sp, ct), &mut row[x * ch..x * ch + ch]);
-                }
-                progress(1);
-            });
+                .unzip();
+            data.par_chunks_mut(w * ch).enumerate().for_each_init(
+                || (Dirs::with_len(w), Coords::with_len(w)),
+                |(dirs, coords), (y, row)| {
+                    let (st, ct) = (std::f64::consts::PI * (y as f64 + 0.5) / h as f64).sin_cos();
+                    let (st, ct) = (st as f32, ct as f32);
+                    for x in 0..w {
+                        dirs.x[x] = st * cos_phi[x];
+                        dirs.y[x] = st * sin_phi[x];
+                        dirs.z[x] = ct;
+                    }
+                    segment(dirs, coords, row);
+                    progress(1);
+                },
+            );
         }
         Canvas::Cube(layout) => {
             let n = size;
@@ -490,19 +570,24 @@ fn render<T: Texel>(
             let frames = layout.frames();
             let a_tab: Vec<f32> = (0..n).map(|i| ((2 * i + 1) as f64 / n as f64 - 1.0) as f32).collect();
             let v = |a: [i32; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
-            data.par_chunks_mut(w * ch).enumerate().for_each(|(y, row)| {
-                let b = a_tab[y % n];
-                for sc in 0..cols {
-                    let [c, r, d] = frames[(y / n) * cols + sc];
-                    let base = v(c) + b * v(d);
-                    let r = v(r);
-                    for (i, &a) in a_tab.iter().enumerate() {
-                        let x = sc * n + i;
-                        pixel(base + a * r, &mut row[x * ch..x * ch + ch]);
+            data.par_chunks_mut(w * ch).enumerate().for_each_init(
+                || (Dirs::with_len(n), Coords::with_len(n)),
+                |(dirs, coords), (y, row)| {
+                    let b = a_tab[y % n];
+                    for (sc, out) in row.chunks_mut(n * ch).enumerate().take(cols) {
+                        let [c, r, d] = frames[(y / n) * cols + sc];
+                        let base = v(c) + b * v(d);
+                        let r = v(r);
+                        for (i, &a) in a_tab.iter().enumerate() {
+                            dirs.x[i] = base.x + a * r.x;
+                            dirs.y[i] = base.y + a * r.y;
+                            dirs.z[i] = base.z + a * r.z;
+                        }
+                        segment(dirs, coords, out);
                     }
-                }
-                progress(1);
-            });
+                    progress(1);
+                },
+            );
         }
     }
     Ok(Raster::from_vec(w, h, ch, data).expect("length computed above"))
@@ -576,10 +661,13 @@ fn run<T: Texel, S: Source>(
     opts: &SampleOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Raster<T>, ResampleError> {
-    render(to, size, ch, progress, |d, out: &mut [T]| {
+    render(to, size, ch, progress, |dirs: &Dirs, coords: &mut Coords, out: &mut [T]| {
+        source.coords(dirs, coords);
         let mut taps = Taps::EMPTY;
-        source.taps(d, opts.filter, &mut taps);
-        resolve(data, ch, &taps, opts, out);
+        for (i, px) in out.chunks_exact_mut(ch).enumerate() {
+            source.taps_at(coords.face[i], coords.x[i], coords.y[i], opts.filter, &mut taps);
+            resolve(data, ch, &taps, opts, px);
+        }
     })
 }
 
