@@ -268,6 +268,15 @@ trait Source: Sync {
     /// Filter taps around continuous coordinates `(x, y)` of `face` (0 for equirect).
     fn taps_at(&self, face: u8, x: f32, y: f32, filter: Filter, out: &mut Taps);
 
+    /// Plain bilinear sample (no depth rule) written straight into `out`; sources override this with a
+    /// version that skips the generic tap list.
+    #[inline(always)]
+    fn bilinear<T: Texel>(&self, data: &[T], ch: usize, face: u8, x: f32, y: f32, out: &mut [T]) {
+        let mut taps = Taps::EMPTY;
+        self.taps_at(face, x, y, Filter::Bilinear, &mut taps);
+        resolve(data, ch, &taps, &SampleOptions::default(), out);
+    }
+
     /// Taps of one direction.
     fn taps(&self, d: Vec3, filter: Filter, out: &mut Taps) {
         let dirs = Dirs { x: vec![d.x], y: vec![d.y], z: vec![d.z] };
@@ -349,8 +358,52 @@ impl Source for EquirectSource {
             let theta = fast_atan2((dx[i] * dx[i] + dy[i] * dy[i]).sqrt(), dz[i]);
             let x = phi * kx;
             let x = if x < 0.0 { x + wf } else { x };
-            ox[i] = x.clamp(0.0, wmax);
-            oy[i] = (theta * ky).clamp(0.0, hmax);
+            // max/min rather than clamp (whose argument check blocks vectorisation).
+            ox[i] = x.max(0.0).min(wmax);
+            oy[i] = (theta * ky).max(0.0).min(hmax);
+        }
+    }
+
+    #[inline(always)]
+    fn bilinear<T: Texel>(&self, data: &[T], ch: usize, _face: u8, x: f32, y: f32, out: &mut [T]) {
+        let (w, h) = (self.w as i64, self.h as i64);
+        let (fx, fy) = (x - 0.5, y - 0.5);
+        let (x0, y0) = (floor_i64(fx), floor_i64(fy));
+        let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+        // Rows: only the first and last rows step over a pole (shift by W/2).
+        let row = |y: i64| -> (i64, i64) {
+            if y < 0 {
+                (0, w / 2)
+            } else if y >= h {
+                (h - 1, w / 2)
+            } else {
+                (y, 0)
+            }
+        };
+        let col = |x: i64| -> i64 {
+            if x < 0 {
+                x + w
+            } else if x >= w {
+                x - w
+            } else {
+                x
+            }
+        };
+        let (r0, s0) = row(y0);
+        let (r1, s1) = row(y0 + 1);
+        let (c0, c1) = (x0, x0 + 1);
+        let i00 = (r0 * w + col(col(c0 + s0))) as usize * ch;
+        let i01 = (r0 * w + col(col(c1 + s0))) as usize * ch;
+        let i10 = (r1 * w + col(col(c0 + s1))) as usize * ch;
+        let i11 = (r1 * w + col(col(c1 + s1))) as usize * ch;
+        let (w00, w01) = ((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty));
+        let (w10, w11) = ((1.0 - tx) * ty, tx * ty);
+        let (p00, p01, p10, p11) =
+            (&data[i00..i00 + ch], &data[i01..i01 + ch], &data[i10..i10 + ch], &data[i11..i11 + ch]);
+        for c in 0..ch {
+            out[c] = T::from_f32(
+                w00 * p00[c].to_f32() + w01 * p01[c].to_f32() + w10 * p10[c].to_f32() + w11 * p11[c].to_f32(),
+            );
         }
     }
 
@@ -661,8 +714,15 @@ fn run<T: Texel, S: Source>(
     opts: &SampleOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Raster<T>, ResampleError> {
+    let plain_bilinear = opts.filter == Filter::Bilinear && opts.depth_channel.is_none();
     render(to, size, ch, progress, |dirs: &Dirs, coords: &mut Coords, out: &mut [T]| {
         source.coords(dirs, coords);
+        if plain_bilinear {
+            for (i, px) in out.chunks_exact_mut(ch).enumerate() {
+                source.bilinear(data, ch, coords.face[i], coords.x[i], coords.y[i], px);
+            }
+            return;
+        }
         let mut taps = Taps::EMPTY;
         for (i, px) in out.chunks_exact_mut(ch).enumerate() {
             source.taps_at(coords.face[i], coords.x[i], coords.y[i], opts.filter, &mut taps);

@@ -106,7 +106,14 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         coverage_channel: None,
         max_relative_jump: args.depth_jump,
     };
-    if is_layer_exr(&args.input) {
+    let ext = extension(&args.output);
+    let layer = is_layer_exr(&args.input);
+    let known = if layer { ["exr"].as_slice() } else { ["png", "jpg", "jpeg", "exr", "hdr"].as_slice() };
+    if !known.contains(&ext.as_str()) {
+        let what = if layer { "a layer converts to a layer EXR; use an .exr output" } else { "unknown output format; use a .png, .jpg, .exr or .hdr extension" };
+        return Err(fail("CONVERT_USAGE", format!("{}: {what}", args.output.display())));
+    }
+    if layer {
         return run_layer(&args, opts, out, total);
     }
 
@@ -289,12 +296,6 @@ fn run_layer(args: &Args, opts: SampleOptions, out: Output, total: Instant) -> R
         .map_err(|e| fail(e.code(), format!("{}: {e}", args.input.display())))?;
     let resample_ms = ms(t);
     let t = Instant::now();
-    if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
-        return Err(fail(
-            "CONVERT_USAGE",
-            format!("{}: a layer converts to a layer EXR; use an .exr output", args.output.display()),
-        ));
-    }
     layer_io::write_exr(&args.output, &converted, &WriteOptions::default())?;
     let encode_ms = ms(t);
     report(args, out, Report {
@@ -387,9 +388,12 @@ fn keep_channels<T: Copy>(r: Raster<T>, keep: usize) -> Raster<T> {
     Raster::from_vec(r.width(), r.height(), keep, data).expect("same size")
 }
 
+fn extension(path: &Path) -> String {
+    path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default()
+}
+
 fn encode(path: &Path, p: &Pixels) -> Result<(), Failure> {
-    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
-    let bytes = match ext.as_str() {
+    let bytes = match extension(path).as_str() {
         "png" => match p {
             Pixels::U16(r) => png_bytes16(r),
             other => png_bytes8(&to_u8(other)),
