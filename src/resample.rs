@@ -120,7 +120,12 @@ pub struct SampleOptions {
 
 impl Default for SampleOptions {
     fn default() -> Self {
-        SampleOptions { filter: Filter::Bilinear, depth_channel: None, coverage_channel: None, max_relative_jump: 0.1 }
+        SampleOptions {
+            filter: Filter::Bilinear,
+            depth_channel: None,
+            coverage_channel: None,
+            max_relative_jump: 0.1,
+        }
     }
 }
 
@@ -175,7 +180,8 @@ impl Texel for f32 {
 fn atan_unit(x: f32) -> f32 {
     let x2 = x * x;
     x * (0.999_977_26
-        + x2 * (-0.332_623_47 + x2 * (0.193_543_46 + x2 * (-0.116_432_87 + x2 * (0.052_653_32 + x2 * -0.011_721_2)))))
+        + x2 * (-0.332_623_47
+            + x2 * (0.193_543_46 + x2 * (-0.116_432_87 + x2 * (0.052_653_32 + x2 * -0.011_721_2)))))
 }
 
 /// Fast `atan2(y, x)` in `(−π, π]`; `0` for `(0, 0)`.
@@ -199,12 +205,7 @@ pub fn fast_atan2(y: f32, x: f32) -> f32 {
 fn cubic_weights(t: f32) -> [f32; 4] {
     let t2 = t * t;
     let t3 = t2 * t;
-    [
-        -0.5 * t3 + t2 - 0.5 * t,
-        1.5 * t3 - 2.5 * t2 + 1.0,
-        -1.5 * t3 + 2.0 * t2 + 0.5 * t,
-        0.5 * t3 - 0.5 * t2,
-    ]
+    [-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1.0, -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2]
 }
 
 /// `floor` for the sample range (|p| < 2³¹) without a libm call (baseline x86-64 has no `roundps`).
@@ -340,7 +341,6 @@ impl EquirectSource {
         }
         (y * w + x) as usize
     }
-
 }
 
 impl Source for EquirectSource {
@@ -424,7 +424,6 @@ impl Source for EquirectSource {
     }
 }
 
-
 /// Canonical 3×2 cube source with faces of `n` pixels.
 struct CubeSource {
     n: usize,
@@ -454,7 +453,6 @@ impl CubeSource {
         let tj = (((p.t + 1.0) * 0.5 * nf) as usize).min(self.n - 1);
         self.face_index(p.face.index(), ti, tj)
     }
-
 }
 
 impl Source for CubeSource {
@@ -508,7 +506,13 @@ impl Source for CubeSource {
 
 /// Whether the taps may be blended under the depth-aware rule; also returns the depth range.
 #[inline]
-fn blendable<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, z: usize) -> Option<(f32, f32)> {
+fn blendable<T: Texel>(
+    src: &[T],
+    ch: usize,
+    taps: &Taps,
+    opts: &SampleOptions,
+    z: usize,
+) -> Option<(f32, f32)> {
     let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
     for k in 0..taps.n {
         if taps.w[k] == 0.0 {
@@ -517,11 +521,12 @@ fn blendable<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, 
         let base = taps.idx[k] * ch;
         let zv = src[base + z].to_f32();
         // Negative = outside, NaN = unknown: neither mixes with anything.
-        if !(zv >= 0.0) {
+        if zv.is_nan() || zv < 0.0 {
             return None;
         }
         if let Some(a) = opts.coverage_channel {
-            if !(src[base + a].to_f32() > 0.0) {
+            let cov = src[base + a].to_f32();
+            if cov.is_nan() || cov <= 0.0 {
                 return None;
             }
         }
@@ -790,7 +795,8 @@ pub fn convert_layer(
             inter[i * ch + c] = *v;
         }
     }
-    let raster = Raster::from_vec(src.width, src.height, ch, inter).map_err(|_| ResampleError::Unsupported)?;
+    let raster =
+        Raster::from_vec(src.width, src.height, ch, inter).map_err(|_| ResampleError::Unsupported)?;
     let pos = |name: &str| src.channels.iter().position(|c| c.name == name);
     let mut o = *opts;
     o.depth_channel = pos("Z");

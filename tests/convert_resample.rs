@@ -62,7 +62,8 @@ fn layouts_agree_with_canonical_plus_reordering() {
     for l in CubeLayout::ALL {
         let direct = convert(&src, Canvas::Equirect, Canvas::Cube(l), 48, &o).unwrap();
         let reordered = convert_layout(&canon, CubeLayout::Canonical, l).unwrap();
-        let worst = direct.data().iter().zip(reordered.data()).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+        let worst =
+            direct.data().iter().zip(reordered.data()).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
         assert!(worst < 1e-5, "{l}: {worst}");
         // And back to equirect from the foreign layout.
         let back = convert(&direct, Canvas::Cube(l), Canvas::Equirect, 256, &o).unwrap();
@@ -131,7 +132,14 @@ fn depth_aware_never_blends_a_step() {
             }
         }
         // Without the depth rule the same conversion does blend (the test can fail).
-        let plain = convert(&src, Canvas::Equirect, Canvas::Cube(CubeLayout::Canonical), 50, &SampleOptions::with_filter(filter)).unwrap();
+        let plain = convert(
+            &src,
+            Canvas::Equirect,
+            Canvas::Cube(CubeLayout::Canonical),
+            50,
+            &SampleOptions::with_filter(filter),
+        )
+        .unwrap();
         assert!(plain.data().chunks(2).any(|p| p[0] > 2.0 && p[0] < 5.0));
     }
 }
@@ -179,22 +187,32 @@ fn bad_sizes_are_errors() {
     let e = convert(&eq, Canvas::Equirect, Canvas::Equirect, 7, &o).unwrap_err();
     assert_eq!(e.code(), "RESAMPLE_BAD_SIZE");
     let o = SampleOptions { depth_channel: Some(3), ..o };
-    assert_eq!(convert(&eq, Canvas::Equirect, Canvas::Equirect, 8, &o).unwrap_err().code(), "RESAMPLE_NO_SUCH_CHANNEL");
+    assert_eq!(
+        convert(&eq, Canvas::Equirect, Canvas::Equirect, 8, &o).unwrap_err().code(),
+        "RESAMPLE_NO_SUCH_CHANNEL"
+    );
 }
 
 #[test]
 fn sample_dir_reads_both_canvases() {
     let eq = Equirect::new(64, 32).unwrap();
     let src = render(&eq);
-    let cube = convert(&src, Canvas::Equirect, Canvas::Cube(CubeLayout::Canonical), 32, &SampleOptions::default()).unwrap();
+    let cube =
+        convert(&src, Canvas::Equirect, Canvas::Cube(CubeLayout::Canonical), 32, &SampleOptions::default())
+            .unwrap();
     let o = SampleOptions::with_filter(Filter::Bilinear);
-    for d in [DVec3::new(0.3, -0.2, 0.9), DVec3::X, -DVec3::Z, DVec3::new(-1.0, 0.0, 0.0), DVec3::ZERO, DVec3::NAN] {
+    for d in
+        [DVec3::new(0.3, -0.2, 0.9), DVec3::X, -DVec3::Z, DVec3::new(-1.0, 0.0, 0.0), DVec3::ZERO, DVec3::NAN]
+    {
         let mut a = [0.0f32];
         let mut b = [0.0f32];
         sample_dir(&src, Canvas::Equirect, d, &o, &mut a).unwrap();
         sample_dir(&cube, Canvas::Cube(CubeLayout::Canonical), d, &o, &mut b).unwrap();
         let want = f(if d.is_nan() || d == DVec3::ZERO { DVec3::Z } else { d.normalize() });
-        assert!((a[0] as f64 - want).abs() < 0.02 && (b[0] as f64 - want).abs() < 0.03, "{d}: {a:?} {b:?} {want}");
+        assert!(
+            (a[0] as f64 - want).abs() < 0.02 && (b[0] as f64 - want).abs() < 0.03,
+            "{d}: {a:?} {b:?} {want}"
+        );
         assert!(a[0].is_finite() && b[0].is_finite());
     }
     let _ = AnyMapping::new(pomc::mapping::MappingKind::Cube3x2, 96, 64).unwrap();
@@ -241,7 +259,11 @@ fn layer_conversion_keeps_channels_consistent() {
         let av = out.coverage().unwrap()[k];
         assert!(zv == 3.0 || zv == -1.0, "{zv}");
         assert_eq!(av > 0.0, zv > 0.0, "coverage follows depth");
-        let n = [&out.channel("N.X").unwrap().data[k], &out.channel("N.Y").unwrap().data[k], &out.channel("N.Z").unwrap().data[k]];
+        let n = [
+            &out.channel("N.X").unwrap().data[k],
+            &out.channel("N.Y").unwrap().data[k],
+            &out.channel("N.Z").unwrap().data[k],
+        ];
         let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
         assert!((l - 1.0).abs() < 2e-3, "normal length {l}");
         let idv = out.channel("id").unwrap().data[k];

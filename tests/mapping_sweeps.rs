@@ -96,7 +96,8 @@ fn solid_angle_matches_numeric_integration() {
 }
 
 fn special_dirs() -> Vec<DVec3> {
-    let vals = [0.0, -0.0, 1.0, -1.0, 0.5, -0.5, 1e-310, -1e-310, 1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY];
+    let vals =
+        [0.0, -0.0, 1.0, -1.0, 0.5, -0.5, 1e-310, -1e-310, 1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY];
     let mut out = Vec::new();
     for &x in &vals {
         for &y in &vals {

@@ -86,7 +86,9 @@ pub enum CubeLayout {
 /// A canvas that cannot hold a given layout, or a malformed layout name.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum LayoutError {
-    #[error("a {width}x{height} image is not a {layout} cube map (expected {cols}N x {rows}N with square faces)")]
+    #[error(
+        "a {width}x{height} image is not a {layout} cube map (expected {cols}N x {rows}N with square faces)"
+    )]
     BadSize { layout: CubeLayout, width: usize, height: usize, cols: usize, rows: usize },
     #[error("unknown cube layout '{0}'; expected canonical, ffmpeg-c3x2, openexr-vstrip or py360-horizon")]
     UnknownName(String),

@@ -95,10 +95,16 @@ impl Pixels {
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let total = Instant::now();
     if !args.input.is_file() {
-        return Err(fail("CONVERT_NOT_FOUND", format!("{}: no such file; check the input path", args.input.display())));
+        return Err(fail(
+            "CONVERT_NOT_FOUND",
+            format!("{}: no such file; check the input path", args.input.display()),
+        ));
     }
     if args.depth_jump.is_nan() || args.depth_jump < 0.0 {
-        return Err(fail("CONVERT_USAGE", format!("--depth-jump {} must be a non-negative number", args.depth_jump)));
+        return Err(fail(
+            "CONVERT_USAGE",
+            format!("--depth-jump {} must be a non-negative number", args.depth_jump),
+        ));
     }
     let opts = SampleOptions {
         filter: args.interp,
@@ -110,7 +116,11 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let layer = is_layer_exr(&args.input);
     let known = if layer { ["exr"].as_slice() } else { ["png", "jpg", "jpeg", "exr", "hdr"].as_slice() };
     if !known.contains(&ext.as_str()) {
-        let what = if layer { "a layer converts to a layer EXR; use an .exr output" } else { "unknown output format; use a .png, .jpg, .exr or .hdr extension" };
+        let what = if layer {
+            "a layer converts to a layer EXR; use an .exr output"
+        } else {
+            "unknown output format; use a .png, .jpg, .exr or .hdr extension"
+        };
         return Err(fail("CONVERT_USAGE", format!("{}: {what}", args.output.display())));
     }
     if layer {
@@ -140,16 +150,20 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     encode(&args.output, &converted)?;
     let encode_ms = ms(t);
     let (ow, oh, _) = converted.dims();
-    report(&args, out, Report {
-        kind: "image",
-        sample_type: converted.type_name(),
-        from,
-        to,
-        input: (w, h),
-        output: (ow, oh),
-        channels: ch,
-        timings: [decode_ms, resample_ms, encode_ms, ms(total)],
-    });
+    report(
+        &args,
+        out,
+        Report {
+            kind: "image",
+            sample_type: converted.type_name(),
+            from,
+            to,
+            input: (w, h),
+            output: (ow, oh),
+            channels: ch,
+            timings: [decode_ms, resample_ms, encode_ms, ms(total)],
+        },
+    );
     Ok(0)
 }
 
@@ -298,16 +312,20 @@ fn run_layer(args: &Args, opts: SampleOptions, out: Output, total: Instant) -> R
     let t = Instant::now();
     layer_io::write_exr(&args.output, &converted, &WriteOptions::default())?;
     let encode_ms = ms(t);
-    report(args, out, Report {
-        kind: "layer",
-        sample_type: "f32",
-        from,
-        to,
-        input: (layer.width, layer.height),
-        output: (converted.width, converted.height),
-        channels: converted.channels.len(),
-        timings: [decode_ms, resample_ms, encode_ms, ms(total)],
-    });
+    report(
+        args,
+        out,
+        Report {
+            kind: "layer",
+            sample_type: "f32",
+            from,
+            to,
+            input: (layer.width, layer.height),
+            output: (converted.width, converted.height),
+            channels: converted.channels.len(),
+            timings: [decode_ms, resample_ms, encode_ms, ms(total)],
+        },
+    );
     Ok(0)
 }
 
@@ -320,7 +338,10 @@ fn decode(path: &Path) -> Result<Pixels, Failure> {
             image::ImageError::Unsupported(_) => "CONVERT_UNSUPPORTED",
             _ => "CONVERT_UNREADABLE",
         };
-        fail(code, format!("{}: cannot decode ({e}); supported inputs are PNG, JPEG, EXR and HDR", path.display()))
+        fail(
+            code,
+            format!("{}: cannot decode ({e}); supported inputs are PNG, JPEG, EXR and HDR", path.display()),
+        )
     };
     let mut reader = ImageReader::open(path)
         .map_err(|e| fail("CONVERT_IO", format!("{}: {e}", path.display())))?
@@ -422,14 +443,22 @@ fn encode(path: &Path, p: &Pixels) -> Result<(), Failure> {
             };
             let mut buf = Vec::new();
             image::codecs::hdr::HdrEncoder::new(&mut buf)
-                .write_image(bytemuck_f32(r.data()), r.width() as u32, r.height() as u32, ExtendedColorType::Rgb32F)
+                .write_image(
+                    bytemuck_f32(r.data()),
+                    r.width() as u32,
+                    r.height() as u32,
+                    ExtendedColorType::Rgb32F,
+                )
                 .map(|_| buf)
         }
         "exr" => return write_exr(path, &to_f32(p)),
         _ => {
             return Err(fail(
                 "CONVERT_USAGE",
-                format!("{}: unknown output format; use a .png, .jpg, .exr or .hdr extension", path.display()),
+                format!(
+                    "{}: unknown output format; use a .png, .jpg, .exr or .hdr extension",
+                    path.display()
+                ),
             ))
         }
     }
@@ -461,9 +490,12 @@ fn png_bytes8(r: &Raster<u8>) -> Result<Vec<u8>, image::ImageError> {
 }
 
 fn png_bytes16(r: &Raster<u16>) -> Result<Vec<u8>, image::ImageError> {
-    let color =
-        [ExtendedColorType::L16, ExtendedColorType::La16, ExtendedColorType::Rgb16, ExtendedColorType::Rgba16]
-            [r.channels() - 1];
+    let color = [
+        ExtendedColorType::L16,
+        ExtendedColorType::La16,
+        ExtendedColorType::Rgb16,
+        ExtendedColorType::Rgba16,
+    ][r.channels() - 1];
     let bytes: Vec<u8> = r.data().iter().flat_map(|v| v.to_ne_bytes()).collect();
     let mut buf = Vec::new();
     PngEncoder::new_with_quality(&mut buf, CompressionType::Fast, FilterType::Up).write_image(
