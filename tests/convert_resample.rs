@@ -201,9 +201,19 @@ fn sample_dir_reads_both_canvases() {
         convert(&src, Canvas::Equirect, Canvas::Cube(CubeLayout::Canonical), 32, &SampleOptions::default())
             .unwrap();
     let o = SampleOptions::with_filter(Filter::Bilinear);
-    for d in
-        [DVec3::new(0.3, -0.2, 0.9), DVec3::X, -DVec3::Z, DVec3::new(-1.0, 0.0, 0.0), DVec3::ZERO, DVec3::NAN]
-    {
+    let dirs = [
+        DVec3::new(0.3, -0.2, 0.9),
+        DVec3::X,
+        -DVec3::Z,
+        DVec3::new(-1.0, 0.0, 0.0),
+        // Cube edges and corners: taps come from up to three faces.
+        DVec3::new(1.0, 1.0, 0.0),
+        DVec3::new(-1.0, 1.0, 1.0),
+        DVec3::new(1.0, -1.0, -1.0),
+        DVec3::ZERO,
+        DVec3::NAN,
+    ];
+    for d in dirs {
         let mut a = [0.0f32];
         let mut b = [0.0f32];
         sample_dir(&src, Canvas::Equirect, d, &o, &mut a).unwrap();
