@@ -399,3 +399,48 @@ fn py360_layout_matches_real_py360convert_samples() {
         );
     }
 }
+
+mod depth_props {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+
+        /// A two-depth step in any position, any filter, either direction: no depth strictly between.
+        #[test]
+        fn step_never_blends(
+            near in 0.5f32..50.0,
+            ratio in 1.2f32..20.0,
+            split in 0.05f64..0.95,
+            lat in 0.05f64..0.95,
+            filter in prop_oneof![Just(Filter::Bilinear), Just(Filter::Bicubic)],
+            to_cube in any::<bool>(),
+        ) {
+            let far = near * ratio;
+            let (w, h) = (96usize, 48usize);
+            let mut src = Raster::filled(w, h, 1, 0.0f32);
+            for j in 0..h {
+                for i in 0..w {
+                    let inside = (i as f64) < split * w as f64 && (j as f64) < lat * h as f64;
+                    src.pixel_mut(i, j)[0] = if inside { near } else { far };
+                }
+            }
+            let o = SampleOptions { filter, depth_channel: Some(0), ..Default::default() };
+            let out = if to_cube {
+                convert(&src, Canvas::Equirect, Canvas::Cube(CubeLayout::Canonical), 20, &o).unwrap()
+            } else {
+                let c = convert_layout(
+                    &convert(&src, Canvas::Equirect, Canvas::Cube(CubeLayout::FfmpegC3x2), 20, &o).unwrap(),
+                    CubeLayout::FfmpegC3x2,
+                    CubeLayout::FfmpegC3x2,
+                )
+                .unwrap();
+                convert(&c, Canvas::Cube(CubeLayout::FfmpegC3x2), Canvas::Equirect, 64, &o).unwrap()
+            };
+            for &z in out.data() {
+                prop_assert!(z == near || z == far, "{z} between {near} and {far}");
+            }
+        }
+    }
+}
