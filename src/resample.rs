@@ -43,6 +43,12 @@ pub enum ResampleError {
     TooLarge { width: usize, height: usize, channels: usize },
     #[error("depth channel {channel} does not exist (the image has {channels} channels)")]
     NoSuchChannel { channel: usize, channels: usize },
+    #[error("the image has no channels")]
+    NoChannels,
+    #[error("output buffer holds {got} samples but the image has {channels} channels")]
+    OutputLength { got: usize, channels: usize },
+    #[error("layer channel '{name}' holds {len} samples where its {width}x{height} canvas needs {expected}")]
+    ChannelSize { name: String, len: usize, width: usize, height: usize, expected: usize },
 }
 
 impl ResampleError {
@@ -54,6 +60,9 @@ impl ResampleError {
             ResampleError::BadTargetSize(_) => "RESAMPLE_BAD_SIZE",
             ResampleError::TooLarge { .. } => "RESAMPLE_TOO_LARGE",
             ResampleError::NoSuchChannel { .. } => "RESAMPLE_NO_SUCH_CHANNEL",
+            ResampleError::NoChannels => "RESAMPLE_NO_CHANNELS",
+            ResampleError::OutputLength { .. } => "RESAMPLE_OUTPUT_LENGTH",
+            ResampleError::ChannelSize { .. } => "RESAMPLE_CHANNEL_SIZE",
         }
     }
 }
@@ -652,6 +661,9 @@ fn render<T: Texel>(
 }
 
 fn check_channels(ch: usize, opts: &SampleOptions) -> Result<(), ResampleError> {
+    if ch == 0 {
+        return Err(ResampleError::NoChannels);
+    }
     for c in [opts.depth_channel, opts.coverage_channel].into_iter().flatten() {
         if c >= ch {
             return Err(ResampleError::NoSuchChannel { channel: c, channels: ch });
@@ -747,6 +759,9 @@ pub fn sample_dir<T: Texel>(
 ) -> Result<(), ResampleError> {
     let ch = src.channels();
     check_channels(ch, opts)?;
+    if out.len() != ch {
+        return Err(ResampleError::OutputLength { got: out.len(), channels: ch });
+    }
     let d = crate::mapping::sanitize_dir(d).unwrap_or(DVec3::Z).normalize().as_vec3();
     let mut taps = Taps::EMPTY;
     match canvas {
@@ -788,7 +803,23 @@ pub fn convert_layer(
     opts: &SampleOptions,
 ) -> Result<LayerImage, ResampleError> {
     let ch = src.channels.len();
-    let px = src.width * src.height;
+    let px = src.width.checked_mul(src.height).ok_or(ResampleError::TooLarge {
+        width: src.width,
+        height: src.height,
+        channels: ch,
+    })?;
+    if let Some(c) = src.channels.iter().find(|c| c.data.len() != px) {
+        return Err(ResampleError::ChannelSize {
+            name: c.name.clone(),
+            len: c.data.len(),
+            width: src.width,
+            height: src.height,
+            expected: px,
+        });
+    }
+    if ch == 0 {
+        return Err(ResampleError::NoChannels);
+    }
     let mut inter = vec![0.0f32; px * ch];
     for (c, channel) in src.channels.iter().enumerate() {
         for (i, v) in channel.data.iter().enumerate() {

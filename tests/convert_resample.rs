@@ -444,3 +444,34 @@ mod depth_props {
         }
     }
 }
+
+#[test]
+fn malformed_inputs_are_errors_not_panics() {
+    let o = SampleOptions::default();
+    let empty = Raster::<f32>::from_vec(8, 4, 0, vec![]).unwrap();
+    assert_eq!(
+        convert(&empty, Canvas::Equirect, Canvas::Equirect, 8, &o).unwrap_err().code(),
+        "RESAMPLE_NO_CHANNELS"
+    );
+    let mut img = LayerImage::new(8, 4);
+    assert_eq!(
+        convert_layer(&img, Canvas::Equirect, Canvas::Equirect, 8, &o).unwrap_err().code(),
+        "RESAMPLE_NO_CHANNELS"
+    );
+    img.set_channel("Z", SampleType::F32, vec![1.0; 32]);
+    img.channels[0].data.pop();
+    assert_eq!(
+        convert_layer(&img, Canvas::Equirect, Canvas::Equirect, 8, &o).unwrap_err().code(),
+        "RESAMPLE_CHANNEL_SIZE"
+    );
+    let one = Raster::filled(2, 1, 1, 1.0f32);
+    let mut out = [0.0f32];
+    for d in [DVec3::X, DVec3::ZERO, DVec3::new(f64::INFINITY, 0.0, f64::NAN)] {
+        sample_dir(&one, Canvas::Equirect, d, &SampleOptions::with_filter(Filter::Bicubic), &mut out)
+            .unwrap();
+        assert_eq!(out[0], 1.0);
+    }
+    let mut long = [0.0f32; 2];
+    let e = sample_dir(&one, Canvas::Equirect, DVec3::X, &o, &mut long).unwrap_err();
+    assert_eq!(e.code(), "RESAMPLE_OUTPUT_LENGTH");
+}
