@@ -114,7 +114,7 @@ pub struct Cube3x2 {
 
 impl Cube3x2 {
     pub fn new(width: usize, height: usize) -> Result<Self, MappingError> {
-        if height == 0 || height % 2 != 0 || width * 2 != height * 3 {
+        if height == 0 || height % 2 != 0 || width.checked_mul(2) != height.checked_mul(3) {
             return Err(MappingError { kind: MappingKind::Cube3x2, width, height });
         }
         Ok(Cube3x2 { face: height / 2 })

@@ -19,7 +19,7 @@ pub struct Equirect {
 
 impl Equirect {
     pub fn new(width: usize, height: usize) -> Result<Self, MappingError> {
-        if width == 0 || width != 2 * height {
+        if width == 0 || Some(width) != height.checked_mul(2) {
             return Err(MappingError { kind: MappingKind::Equirect, width, height });
         }
         Ok(Equirect { width, height })
@@ -89,6 +89,8 @@ mod tests {
         assert!(Equirect::new(0, 0).is_err());
         assert!(Equirect::new(100, 49).is_err());
         assert!(Equirect::new(4, 2).is_ok());
+        assert!(Equirect::new(usize::MAX - 1, usize::MAX / 2 + 1).is_err());
+        assert!(crate::mapping::Cube3x2::new(usize::MAX, usize::MAX - 1).is_err());
     }
 
     #[test]
