@@ -114,7 +114,8 @@ pub struct Cube3x2 {
 
 impl Cube3x2 {
     pub fn new(width: usize, height: usize) -> Result<Self, MappingError> {
-        if height == 0 || height % 2 != 0 || width.checked_mul(2) != height.checked_mul(3) {
+        let fits = matches!((width.checked_mul(2), height.checked_mul(3)), (Some(a), Some(b)) if a == b);
+        if height == 0 || height % 2 != 0 || !fits {
             return Err(MappingError { kind: MappingKind::Cube3x2, width, height });
         }
         Ok(Cube3x2 { face: height / 2 })
