@@ -471,6 +471,9 @@ fn malformed_inputs_are_errors_not_panics() {
             .unwrap();
         assert_eq!(out[0], 1.0);
     }
+    let eq = Raster::filled(8, 4, 1, 0.0f32);
+    let huge = convert(&eq, Canvas::Equirect, Canvas::Cube(CubeLayout::OpenExrVStrip), usize::MAX / 3, &o);
+    assert_eq!(huge.unwrap_err().code(), "RESAMPLE_TOO_LARGE");
     let mut long = [0.0f32; 2];
     let e = sample_dir(&one, Canvas::Equirect, DVec3::X, &o, &mut long).unwrap_err();
     assert_eq!(e.code(), "RESAMPLE_OUTPUT_LENGTH");

@@ -136,17 +136,17 @@ impl CubeLayout {
         }
     }
 
-    /// Canvas size for faces of `n` pixels.
+    /// Canvas size for faces of `n` pixels (saturating: absurd sizes stay absurd, they do not wrap).
     pub fn canvas_size(self, n: usize) -> (usize, usize) {
         let (c, r) = self.grid();
-        (c * n, r * n)
+        (c.saturating_mul(n), r.saturating_mul(n))
     }
 
     /// Face size of a `width × height` canvas in this layout.
     pub fn face_size(self, width: usize, height: usize) -> Result<usize, LayoutError> {
         let (cols, rows) = self.grid();
         let n = width / cols;
-        if n == 0 || n * cols != width || n * rows != height {
+        if n == 0 || n * cols != width || n.checked_mul(rows) != Some(height) {
             return Err(LayoutError::BadSize { layout: self, width, height, cols, rows });
         }
         Ok(n)
