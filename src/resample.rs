@@ -494,6 +494,35 @@ impl Source for CubeSource {
         }
     }
 
+    /// Inside a face (all but the border texels) the four taps are direct; across an edge, the general
+    /// tap list finds the neighbouring face's texels.
+    #[inline(always)]
+    fn bilinear<T: Texel>(&self, data: &[T], ch: usize, face: u8, x: f32, y: f32, out: &mut [T]) {
+        let (fx, fy) = (x - 0.5, y - 0.5);
+        let (x0, y0) = (floor_i64(fx), floor_i64(fy));
+        let n = self.n as i64;
+        if x0 < 0 || y0 < 0 || x0 + 1 >= n || y0 + 1 >= n {
+            let mut taps = Taps::EMPTY;
+            self.taps_at(face, x, y, Filter::Bilinear, &mut taps);
+            resolve(data, ch, &taps, &SampleOptions::default(), out);
+            return;
+        }
+        let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+        let i00 = self.face_index(face as usize, x0 as usize, y0 as usize) * ch;
+        let row = 3 * self.n * ch;
+        let (i01, i10) = (i00 + ch, i00 + row);
+        let i11 = i10 + ch;
+        let (w00, w01) = ((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty));
+        let (w10, w11) = ((1.0 - tx) * ty, tx * ty);
+        let (p00, p01, p10, p11) =
+            (&data[i00..i00 + ch], &data[i01..i01 + ch], &data[i10..i10 + ch], &data[i11..i11 + ch]);
+        for c in 0..ch {
+            out[c] = T::from_f32(
+                w00 * p00[c].to_f32() + w01 * p01[c].to_f32() + w10 * p10[c].to_f32() + w11 * p11[c].to_f32(),
+            );
+        }
+    }
+
     #[inline(always)]
     fn taps_at(&self, face: u8, x: f32, y: f32, filter: Filter, out: &mut Taps) {
         let face = face as usize;
