@@ -287,6 +287,14 @@ trait Source: Sync {
         resolve(data, ch, &taps, &SampleOptions::default(), out);
     }
 
+    /// Plain bicubic sample (no depth rule); same contract as [`Source::bilinear`].
+    #[inline(always)]
+    fn bicubic<T: Texel>(&self, data: &[T], ch: usize, face: u8, x: f32, y: f32, out: &mut [T]) {
+        let mut taps = Taps::EMPTY;
+        self.taps_at(face, x, y, Filter::Bicubic, &mut taps);
+        resolve(data, ch, &taps, &SampleOptions::default(), out);
+    }
+
     /// Taps of one direction.
     fn taps(&self, d: Vec3, filter: Filter, out: &mut Taps) {
         let dirs = Dirs { x: vec![d.x], y: vec![d.y], z: vec![d.z] };
@@ -370,6 +378,55 @@ impl Source for EquirectSource {
             // max/min rather than clamp (whose argument check blocks vectorisation).
             ox[i] = x.max(0.0).min(wmax);
             oy[i] = (theta * ky).max(0.0).min(hmax);
+        }
+    }
+
+    /// Separable 4×4: the four rows (stepping over the poles) and columns (wrapping) are resolved once.
+    #[inline(always)]
+    fn bicubic<T: Texel>(&self, data: &[T], ch: usize, face: u8, x: f32, y: f32, out: &mut [T]) {
+        if ch > 4 {
+            let mut taps = Taps::EMPTY;
+            self.taps_at(face, x, y, Filter::Bicubic, &mut taps);
+            resolve(data, ch, &taps, &SampleOptions::default(), out);
+            return;
+        }
+        let (w, h) = (self.w as i64, self.h as i64);
+        let (fx, fy) = (x - 0.5, y - 0.5);
+        let (x0, y0) = (floor_i64(fx) - 1, floor_i64(fy) - 1);
+        let wx = cubic_weights(fx - (x0 + 1) as f32);
+        let wy = cubic_weights(fy - (y0 + 1) as f32);
+        let mut acc = [0.0f32; 4];
+        for (j, wyj) in wy.iter().enumerate() {
+            let mut yy = y0 + j as i64;
+            let mut shift = 0;
+            if yy < 0 {
+                yy = -yy - 1;
+                shift = w / 2;
+            } else if yy >= h {
+                yy = 2 * h - 1 - yy;
+                shift = w / 2;
+            }
+            let row = yy.clamp(0, h - 1) * w;
+            let mut racc = [0.0f32; 4];
+            for (i, wxi) in wx.iter().enumerate() {
+                let mut xx = x0 + i as i64 + shift;
+                if xx < 0 {
+                    xx += w;
+                }
+                while xx >= w {
+                    xx -= w;
+                }
+                let k = (row + xx) as usize * ch;
+                for (a, v) in racc.iter_mut().zip(&data[k..k + ch]) {
+                    *a += wxi * v.to_f32();
+                }
+            }
+            for (a, r) in acc.iter_mut().zip(racc) {
+                *a += wyj * r;
+            }
+        }
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o = T::from_f32(a);
         }
     }
 
@@ -760,12 +817,18 @@ fn run<T: Texel, S: Source>(
     opts: &SampleOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Raster<T>, ResampleError> {
-    let plain_bilinear = opts.filter == Filter::Bilinear && opts.depth_channel.is_none();
+    let plain = opts.depth_channel.is_none();
     render(to, size, ch, progress, |dirs: &Dirs, coords: &mut Coords, out: &mut [T]| {
         source.coords(dirs, coords);
-        if plain_bilinear {
+        if plain && opts.filter == Filter::Bilinear {
             for (i, px) in out.chunks_exact_mut(ch).enumerate() {
                 source.bilinear(data, ch, coords.face[i], coords.x[i], coords.y[i], px);
+            }
+            return;
+        }
+        if plain && opts.filter == Filter::Bicubic {
+            for (i, px) in out.chunks_exact_mut(ch).enumerate() {
+                source.bicubic(data, ch, coords.face[i], coords.x[i], coords.y[i], px);
             }
             return;
         }
