@@ -29,7 +29,8 @@ pub struct Args {
     /// Input: PNG (8/16-bit), JPEG, EXR or HDR image, or a layer EXR (one with a `Z` channel).
     /// A 2:1 input is an equirect; any other shape is a cube map in `--in-layout`.
     input: PathBuf,
-    /// Output file; the format follows the extension (.png, .jpg/.jpeg, .exr, .hdr).
+    /// Output file; the format follows the extension (.png, .jpg/.jpeg, .exr, .hdr). Float images written
+    /// to PNG/JPEG are clamped to [0, 1] (no tone mapping); 16-bit PNGs stay 16-bit.
     #[arg(short, long)]
     output: PathBuf,
     /// Target mapping.
@@ -329,8 +330,56 @@ fn run_layer(args: &Args, opts: SampleOptions, out: Output, total: Instant) -> R
     Ok(0)
 }
 
+/// Decode a plain EXR through the `exr` crate (any channel set: RGB(A), Y(A) or a single channel), after
+/// checking the header's size.
+fn decode_exr(path: &Path) -> Result<Pixels, Failure> {
+    use exr::prelude::*;
+    let limits = ReadLimits::default();
+    let bad = |e: exr::error::Error| {
+        fail("CONVERT_UNREADABLE", format!("{}: cannot decode EXR ({e})", path.display()))
+    };
+    let meta = MetaData::read_from_file(path, false).map_err(bad)?;
+    let header = meta
+        .headers
+        .first()
+        .ok_or_else(|| fail("CONVERT_UNREADABLE", format!("{}: EXR without parts", path.display())))?;
+    let (w, h) = (header.layer_size.width(), header.layer_size.height());
+    if w.max(h) > limits.max_dimension || (w as u64 * h as u64) > limits.max_pixels {
+        return Err(fail(
+            "CONVERT_TOO_LARGE",
+            format!(
+                "{}: declares {w}x{h} pixels, beyond the reader limit; refused before decoding",
+                path.display()
+            ),
+        ));
+    }
+    let image = read_first_flat_layer_from_file(path).map_err(bad)?;
+    let chans = &image.layer_data.channel_data.list;
+    let find = |n: &str| chans.iter().position(|c| c.name.to_string() == n);
+    let order: Vec<usize> = match (find("R"), find("G"), find("B"), find("Y"), find("A")) {
+        (Some(r), Some(g), Some(b), _, a) => [Some(r), Some(g), Some(b), a].into_iter().flatten().collect(),
+        (_, _, _, Some(y), a) => [Some(y), a].into_iter().flatten().collect(),
+        _ => (0..chans.len().min(4)).collect(),
+    };
+    if order.is_empty() {
+        return Err(fail("CONVERT_UNREADABLE", format!("{}: EXR without channels", path.display())));
+    }
+    let (w, h) = (image.layer_data.size.width(), image.layer_data.size.height());
+    let ch = order.len();
+    let mut data = vec![0.0f32; w * h * ch];
+    for (c, &k) in order.iter().enumerate() {
+        for (i, v) in chans[k].sample_data.values_as_f32().enumerate().take(w * h) {
+            data[i * ch + c] = v;
+        }
+    }
+    Ok(Pixels::F32(Raster::from_vec(w, h, ch, data).expect("sizes from the decoder")))
+}
+
 /// Decode a plain image, refusing oversized ones from their header.
 fn decode(path: &Path) -> Result<Pixels, Failure> {
+    if extension(path) == "exr" {
+        return decode_exr(path);
+    }
     let limits = ReadLimits::default();
     let unreadable = |e: image::ImageError| {
         let code = match e {
