@@ -20,6 +20,12 @@ done
 $pomc -q convert "$work/e.png" -o "$work/ours_near.png" --to cube --face-size $n --interp nearest --layout ffmpeg-c3x2
 $pomc -q convert "$work/e.png" -o "$work/ours_linear.png" --to cube --face-size $n --interp bilinear --layout ffmpeg-c3x2
 $pomc -q convert "$work/e.png" -o "$work/canon.png" --to cube --face-size $n --interp nearest --layout canonical
+# And back: ffmpeg's cube to equirect with both tools.
+ffmpeg -v error -i "$work/ff_linear.png" -vf "v360=c3x2:e:interp=linear:w=$w:h=$h" -y "$work/ff_back.png"
+$pomc -q convert "$work/ff_linear.png" -o "$work/ours_back.png" --to equirect --width $w --interp bilinear --in-layout ffmpeg-c3x2
+for f in ff_back ours_back; do
+  ffmpeg -v error -i "$work/$f.png" -f rawvideo -pix_fmt rgb24 -y "$work/$f.rgb"
+done
 for f in ff_near ff_linear ours_near ours_linear canon; do
   ffmpeg -v error -i "$work/$f.png" -f rawvideo -pix_fmt rgb24 -y "$work/$f.rgb"
 done
@@ -40,4 +46,8 @@ def report(a, b, label):
 report("ours_near", "ff_near", "ffmpeg-c3x2 nearest vs ffmpeg near")
 report("ours_linear", "ff_linear", "ffmpeg-c3x2 bilinear vs ffmpeg linear")
 report("canon", "ff_near", "control: canonical vs ffmpeg near")
+a = np.fromfile(f"{work}/ff_back.rgb", np.uint8).reshape(2 * n, 4 * n, 3).astype(np.int16)
+b = np.fromfile(f"{work}/ours_back.rgb", np.uint8).reshape(2 * n, 4 * n, 3).astype(np.int16)
+d = np.abs(a - b)
+print(f"{'cube->equirect, bilinear vs linear':34} mean {d.mean():6.2f}  >32: {(d.max(axis=2) > 32).mean() * 100:5.1f}%")
 PY
