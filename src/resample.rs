@@ -551,6 +551,40 @@ impl Source for CubeSource {
         }
     }
 
+    /// Separable 4×4 inside a face; near an edge, the general tap list.
+    #[inline(always)]
+    fn bicubic<T: Texel>(&self, data: &[T], ch: usize, face: u8, x: f32, y: f32, out: &mut [T]) {
+        let (fx, fy) = (x - 0.5, y - 0.5);
+        let (x0, y0) = (floor_i64(fx) - 1, floor_i64(fy) - 1);
+        let n = self.n as i64;
+        if ch > 4 || x0 < 0 || y0 < 0 || x0 + 3 >= n || y0 + 3 >= n {
+            let mut taps = Taps::EMPTY;
+            self.taps_at(face, x, y, Filter::Bicubic, &mut taps);
+            resolve(data, ch, &taps, &SampleOptions::default(), out);
+            return;
+        }
+        let wx = cubic_weights(fx - (x0 + 1) as f32);
+        let wy = cubic_weights(fy - (y0 + 1) as f32);
+        let base = self.face_index(face as usize, x0 as usize, y0 as usize) * ch;
+        let row = 3 * self.n * ch;
+        let mut acc = [0.0f32; 4];
+        for (j, wyj) in wy.iter().enumerate() {
+            let mut racc = [0.0f32; 4];
+            for (i, wxi) in wx.iter().enumerate() {
+                let k = base + j * row + i * ch;
+                for (a, v) in racc.iter_mut().zip(&data[k..k + ch]) {
+                    *a += wxi * v.to_f32();
+                }
+            }
+            for (a, r) in acc.iter_mut().zip(racc) {
+                *a += wyj * r;
+            }
+        }
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o = T::from_f32(a);
+        }
+    }
+
     /// Inside a face (all but the border texels) the four taps are direct; across an edge, the general
     /// tap list finds the neighbouring face's texels.
     #[inline(always)]
