@@ -1,7 +1,22 @@
-//! Planar parametrisations of the sphere of directions (spec §3): pixel ↔ direction.
-//! INTERFACE STUB: `Equirect` and `Cube3x2` bodies to be implemented (equirect.rs, cube.rs, layout.rs).
+//! Planar parametrisations of the sphere of directions (spec §3, thesis appendix A): pixel ↔ direction.
+//!
+//! - [`Equirect`]: the 2:1 lat-long canvas (thesis A.2);
+//! - [`Cube3x2`]: the thesis's 3×2 cube map (thesis A.3), with per-face access through [`CubeFace`] and
+//!   [`FacePoint`];
+//! - [`layout`]: other tools' cube-map layouts (ffmpeg `c3x2`, OpenEXR vertical strip, py360convert
+//!   `horizon`) as exact face re-orderings of the canonical 3×2 canvas.
+//!
+//! Every `dir_to_pixel` is total: any input, including zero, NaN, infinite or denormal components, gives
+//! a point inside the canvas and never NaN (spec §3.4).
 
 use glam::{DVec2, DVec3};
+
+mod cube;
+mod equirect;
+pub mod layout;
+
+pub use cube::{Cube3x2, CubeFace, FacePoint};
+pub use equirect::Equirect;
 
 /// A parametrisation of the sphere by a `width × height` canvas.
 /// Continuous pixel coordinates: pixel `(i, j)` covers `[i, i+1) × [j, j+1)`, centre `(i+0.5, j+0.5)`.
@@ -44,77 +59,6 @@ pub struct MappingError {
     pub kind: MappingKind,
     pub width: usize,
     pub height: usize,
-}
-
-/// Equirect (lat-long) 2:1 canvas (thesis A.2).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Equirect {
-    width: usize,
-    height: usize,
-}
-
-impl Equirect {
-    pub fn new(width: usize, height: usize) -> Result<Self, MappingError> {
-        if width == 0 || width != 2 * height {
-            return Err(MappingError { kind: MappingKind::Equirect, width, height });
-        }
-        Ok(Equirect { width, height })
-    }
-}
-
-impl Mapping for Equirect {
-    fn width(&self) -> usize {
-        self.width
-    }
-    fn height(&self) -> usize {
-        self.height
-    }
-    fn pixel_to_dir(&self, _x: f64, _y: f64) -> DVec3 {
-        todo!()
-    }
-    fn dir_to_pixel(&self, _d: DVec3) -> DVec2 {
-        todo!()
-    }
-    fn solid_angle(&self, _i: usize, _j: usize) -> f64 {
-        todo!()
-    }
-}
-
-/// 3×2 cube map with square faces of `face` pixels (thesis A.3).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Cube3x2 {
-    face: usize,
-}
-
-impl Cube3x2 {
-    pub fn new(width: usize, height: usize) -> Result<Self, MappingError> {
-        if height == 0 || height % 2 != 0 || width * 2 != height * 3 {
-            return Err(MappingError { kind: MappingKind::Cube3x2, width, height });
-        }
-        Ok(Cube3x2 { face: height / 2 })
-    }
-    /// Face size in pixels.
-    pub fn face_size(&self) -> usize {
-        self.face
-    }
-}
-
-impl Mapping for Cube3x2 {
-    fn width(&self) -> usize {
-        3 * self.face
-    }
-    fn height(&self) -> usize {
-        2 * self.face
-    }
-    fn pixel_to_dir(&self, _x: f64, _y: f64) -> DVec3 {
-        todo!()
-    }
-    fn dir_to_pixel(&self, _d: DVec3) -> DVec2 {
-        todo!()
-    }
-    fn solid_angle(&self, _i: usize, _j: usize) -> f64 {
-        todo!()
-    }
 }
 
 /// Either mapping, chosen at run time.
@@ -160,5 +104,36 @@ impl Mapping for AnyMapping {
     }
     fn solid_angle(&self, i: usize, j: usize) -> f64 {
         self.inner().solid_angle(i, j)
+    }
+}
+
+/// Largest `f64` strictly below a positive finite `x`: the upper end of a half-open `[0, x)` range.
+#[inline]
+pub(crate) fn below(x: f64) -> f64 {
+    debug_assert!(x > 0.0 && x.is_finite());
+    f64::from_bits(x.to_bits() - 1)
+}
+
+/// Make any direction usable by the inverse mappings (spec §3.4):
+/// - a NaN component, or the zero vector, has no direction: `None` (callers map it to the +Z pole);
+/// - infinite components dominate: they become `±1` and the finite ones `0`.
+///
+/// Finite vectors are returned unchanged; the mappings only use ratios, `atan2` and `hypot`, which are
+/// safe for denormal and huge components.
+#[inline]
+pub(crate) fn sanitize_dir(d: DVec3) -> Option<DVec3> {
+    if d.is_nan() {
+        return None;
+    }
+    let d = if d.is_finite() {
+        d
+    } else {
+        let f = |c: f64| if c.is_infinite() { c.signum() } else { 0.0 };
+        DVec3::new(f(d.x), f(d.y), f(d.z))
+    };
+    if d == DVec3::ZERO {
+        None
+    } else {
+        Some(d)
     }
 }

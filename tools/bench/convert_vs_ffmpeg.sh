@@ -20,7 +20,11 @@ hyperfine --warmup 1 --runs "$runs" --export-json docs/benchmarks-convert.json \
   -n "ffmpeg v360 (linear)" \
   "ffmpeg -v error -threads $threads -i $work/in.png -vf v360=e:c3x2:interp=linear:w=6144:h=4096 -y $work/ffmpeg.png"
 
-# Stage breakdown of pomc (decode / resample / encode) from its own JSON report.
-$pomc convert "$work/in.png" -o "$work/pomc.png" --to cube --face-size 2048 --interp bilinear \
-  --layout ffmpeg-c3x2 --json > "$work/pomc.json"
-cat "$work/pomc.json"
+# Stage breakdown of pomc (decode / resample / encode / total, ms) from its own JSON report, 3 runs.
+echo "pomc stages (ms): decode resample encode total"
+for i in 1 2 3; do
+  $pomc --json convert "$work/in.png" -o "$work/pomc.png" --to cube --face-size 2048 --interp bilinear \
+    --layout ffmpeg-c3x2 > "$work/pomc.json"
+  python3 -c 'import json,sys; t=json.load(open(sys.argv[1]))["timings_ms"]; print(t["decode"], t["resample"], t["encode"], t["total"])' "$work/pomc.json"
+done
+echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p' | head -1), load $(cut -d' ' -f1-3 /proc/loadavg)"
