@@ -1,0 +1,83 @@
+//! Export of layer meshes: binary PLY, OBJ, glTF 2.0 binary (`.glb`).
+//!
+//! Positions are world positions by default (the manifest's LocalToWorld applied); triangles whose
+//! transform mirrors space (negative determinant) are re-wound so they stay counter-clockwise as seen
+//! from the panorama centre. Texture coordinates are the vertex's pixel centre over the canvas size. A
+//! triangle crossing the equirect seam gets its own copies of the vertices on the low side with `u + 1`
+//! (the glTF sampler repeats), and each pole gets one copy per triangle at the mean `u` of the other two,
+//! so no triangle smears the whole texture. The half-pixel strips joining cube faces are not remapped.
+
+pub mod gltf;
+pub mod obj;
+pub mod ply;
+
+use glam::{DMat4, DVec3};
+
+use super::{is_pole, LayerMesh};
+
+/// A mesh ready to write: per-corner attributes deduplicated into vertices.
+#[derive(Clone, Debug, Default)]
+pub struct ExportMesh {
+    pub positions: Vec<[f32; 3]>,
+    pub uvs: Vec<[f32; 2]>,
+    /// Linear RGB of the vertex's pixel (0..1), for formats with vertex colours.
+    pub colours: Vec<[f32; 3]>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Prepare `mesh` for writing. `colour(id)` gives a source pixel's linear RGB.
+pub fn prepare(mesh: &LayerMesh, transform: DMat4, colour: &dyn Fn(u32) -> [f32; 3]) -> ExportMesh {
+    let (w, h) = (mesh.width, mesh.height);
+    let flip = transform.determinant() < 0.0;
+    let base_uv = |id: u32| -> [f64; 2] {
+        if is_pole(id, w, h) {
+            let south = id as usize > w * h;
+            [0.5, if south { 1.0 } else { 0.0 }]
+        } else {
+            [((id as usize % w) as f64 + 0.5) / w as f64, ((id as usize / w) as f64 + 0.5) / h as f64]
+        }
+    };
+    let mut out = ExportMesh::default();
+    let mut map = std::collections::HashMap::new();
+    for t in &mesh.triangles {
+        let ids = t.map(|v| mesh.sources[v as usize]);
+        let mut uv = ids.map(base_uv);
+        let real: Vec<usize> = (0..3).filter(|&k| !is_pole(ids[k], w, h)).collect();
+        let us: Vec<f64> = real.iter().map(|&k| uv[k][0]).collect();
+        let (mn, mx) = us.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &u| (a.0.min(u), a.1.max(u)));
+        if mx - mn > 0.5 {
+            for &k in &real {
+                if uv[k][0] < 0.5 {
+                    uv[k][0] += 1.0;
+                }
+            }
+        }
+        if real.len() < 3 && !real.is_empty() {
+            let mean = real.iter().map(|&k| uv[k][0]).sum::<f64>() / real.len() as f64;
+            for k in (0..3).filter(|k| !real.contains(k)) {
+                uv[k][0] = mean;
+            }
+        }
+        let mut tri = [0u32; 3];
+        for k in 0..3 {
+            let uvf = [uv[k][0] as f32, uv[k][1] as f32];
+            let key = (t[k], uvf[0].to_bits(), uvf[1].to_bits());
+            tri[k] = *map.entry(key).or_insert_with(|| {
+                let p: DVec3 = transform.transform_point3(mesh.positions[t[k] as usize]);
+                out.positions.push(p.as_vec3().to_array());
+                out.uvs.push(uvf);
+                out.colours.push(if is_pole(ids[k], w, h) { [0.5; 3] } else { colour(ids[k]) });
+                (out.positions.len() - 1) as u32
+            });
+        }
+        out.triangles.push(if flip { [tri[0], tri[2], tri[1]] } else { tri });
+    }
+    out
+}
+
+/// Linear → sRGB-encoded 8-bit.
+pub fn srgb8(v: f32) -> u8 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0 + 0.5) as u8
+}
