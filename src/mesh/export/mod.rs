@@ -81,3 +81,69 @@ pub fn srgb8(v: f32) -> u8 {
     let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
     (s * 255.0 + 0.5) as u8
 }
+
+/// Output formats, chosen by file extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Ply,
+    Obj,
+    Glb,
+}
+
+impl Format {
+    /// The format of `path`'s extension (`.ply`, `.obj`, `.glb`), case-insensitive.
+    pub fn from_path(path: &std::path::Path) -> Result<Format, super::MeshError> {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        match ext.as_str() {
+            "ply" => Ok(Format::Ply),
+            "obj" => Ok(Format::Obj),
+            "glb" => Ok(Format::Glb),
+            _ => Err(super::MeshError::Export(format!(
+                "{}: unknown mesh format (use .ply, .obj or .glb)",
+                path.display()
+            ))),
+        }
+    }
+}
+
+/// 8-bit sRGB RGB of a layer's colour channels (black where a channel is missing).
+pub fn colour_rgb8(image: &crate::layer::LayerImage) -> Vec<u8> {
+    let n = image.width * image.height;
+    let ch: Vec<Option<&[f32]>> =
+        ["R", "G", "B"].iter().map(|c| image.channel(c).map(|c| c.data.as_slice())).collect();
+    let mut out = vec![0u8; 3 * n];
+    for (k, c) in ch.iter().enumerate() {
+        if let Some(c) = c {
+            for i in 0..n {
+                out[3 * i + k] = srgb8(c[i]);
+            }
+        }
+    }
+    out
+}
+
+/// Encode `mesh` in `format`, in world coordinates when `local_to_world` is given (panorama-local
+/// otherwise); glTF output is additionally converted to Y-up.
+pub fn to_bytes(
+    mesh: &LayerMesh,
+    image: &crate::layer::LayerImage,
+    local_to_world: Option<DMat4>,
+    format: Format,
+) -> Result<Vec<u8>, super::MeshError> {
+    let local_to_world = local_to_world.unwrap_or(DMat4::IDENTITY);
+    let channel = |name: &str| image.channel(name).map(|c| c.data.as_slice());
+    let (r, g, b) = (channel("R"), channel("G"), channel("B"));
+    let colour = |id: u32| -> [f32; 3] {
+        let i = id as usize;
+        [r, g, b].map(|c| c.and_then(|c| c.get(i).copied()).unwrap_or(0.0))
+    };
+    Ok(match format {
+        Format::Ply => ply::to_bytes(&prepare(mesh, local_to_world, &colour)),
+        Format::Obj => obj::to_string(&prepare(mesh, local_to_world, &colour)).into_bytes(),
+        Format::Glb => {
+            let m = prepare(mesh, gltf::z_up_to_y_up() * local_to_world, &colour);
+            let png = gltf::png_rgb8(image.width as u32, image.height as u32, &colour_rgb8(image))?;
+            gltf::to_glb(&m, &png)?
+        }
+    })
+}
