@@ -65,6 +65,7 @@ fn glb_is_well_formed_and_passes_the_khronos_validator() {
             .output()
             .expect("node runs");
         let report = String::from_utf8_lossy(&out.stdout);
+        eprintln!("glTF-Validator on {}: {report}", path.display());
         assert!(
             out.status.success(),
             "glTF-Validator reports errors:\n{report}\n{}",

@@ -50,6 +50,23 @@ impl Rays {
         }
     }
 
+    /// `n·r(x, y)` as a function of the lattice position: affine on a cube face (`r` is affine in
+    /// `x, y` there), through the ray tables on the equirect.
+    #[inline]
+    pub fn plane_dot(&self, n: DVec3) -> PlaneDot<'_> {
+        match self {
+            Rays::Face { face, n: size } => {
+                let [c, r, d] = face.frame();
+                let k = 2.0 / *size as f64;
+                // s = k(x + ½) − 1, t = k(y + ½) − 1.
+                let (nr, nd) = (n.dot(r), n.dot(d));
+                let a = n.dot(c) + nr * (0.5 * k - 1.0) + nd * (0.5 * k - 1.0);
+                PlaneDot::Affine { a, bx: nr * k, by: nd * k }
+            }
+            Rays::Equirect { .. } => PlaneDot::Rays { rays: self, n },
+        }
+    }
+
     /// Ray through lattice vertex `(x, y)` (unit for the equirect, on the cube for a face).
     #[inline]
     pub fn ray(&self, x: usize, y: usize) -> DVec3 {
@@ -63,6 +80,22 @@ impl Rays {
                 let st = sin_theta[y];
                 DVec3::new(st * cos_phi[x], st * sin_phi[x], cos_theta[y])
             }
+        }
+    }
+}
+
+/// `n·r` over the lattice, see [`Rays::plane_dot`].
+pub enum PlaneDot<'a> {
+    Affine { a: f64, bx: f64, by: f64 },
+    Rays { rays: &'a Rays, n: DVec3 },
+}
+
+impl PlaneDot<'_> {
+    #[inline]
+    pub fn at(&self, x: usize, y: usize) -> f64 {
+        match self {
+            PlaneDot::Affine { a, bx, by } => a + bx * x as f64 + by * y as f64,
+            PlaneDot::Rays { rays, n } => n.dot(rays.ray(x, y)),
         }
     }
 }
