@@ -66,3 +66,20 @@ fn timing_cube_2048() {
         );
     }
 }
+
+/// Sweep of `--max-error` on the room background (6×N² cube map, N from `POMC_MESH_N`, default 1024):
+/// CSV lines `pomc,E,triangles,p99_rel,max_rel,seconds` for tools/bench/mesh_vs_delatin.py.
+#[test]
+#[ignore]
+fn sweep_max_error() {
+    let n = std::env::var("POMC_MESH_N").ok().and_then(|v| v.parse().ok()).unwrap_or(1024);
+    let (m, bg) = background(n);
+    for e in [0.02, 0.01, 0.005, 0.002, 0.001, 0.0005] {
+        let p = MeshParams { max_error: Some(e), max_angle_deg: None, ..MeshParams::default() };
+        let t = Instant::now();
+        let a = mesh::mesh_layer(&bg, &m, &p).unwrap();
+        let secs = t.elapsed().as_secs_f64();
+        let s = error::measure(&a.mesh.positions, &a.mesh.triangles, &bg, &m);
+        println!("CSV pomc,{e},{},{},{},{secs}", a.mesh.triangles.len(), s.p99_rel, s.max_rel);
+    }
+}
