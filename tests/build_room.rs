@@ -175,3 +175,32 @@ fn stiff_scenes_stay_finite() {
         }
     }
 }
+
+#[test]
+fn geometry_classification_separates_floor_ceiling_walls() {
+    let m = AnyMapping::new(MappingKind::Equirect, 512, 256).unwrap();
+    let r = render_on(&Scene::room(), &m);
+    let options = BuildOptions { classify: build::Classify::Geometry, ..BuildOptions::default() };
+    let b = build::build(&input(&r, m, false), &options, &|_| {}).unwrap();
+    let roles: Vec<Role> = b.layers.iter().map(|l| l.role).collect();
+    for role in [Role::Floor, Role::Ceiling, Role::Wall, Role::Object] {
+        assert!(roles.contains(&role), "no {role:?} layer: {:?}", b.report.layers);
+    }
+    let scene = Scene::room();
+    for (role, kind) in [
+        (Role::Floor, pomc_fixtures::SurfaceKind::Floor),
+        (Role::Ceiling, pomc_fixtures::SurfaceKind::Ceiling),
+        (Role::Wall, pomc_fixtures::SurfaceKind::Wall),
+    ] {
+        let layer = b.layers.iter().find(|l| l.role == role).unwrap();
+        let own: Vec<usize> = (0..b.layer_of.len()).filter(|&p| b.layer_of[p] == layer.order).collect();
+        let right = own
+            .iter()
+            .filter(|&&p| {
+                let d = m.pixel_dir(p % m.width(), p / m.width());
+                scene.hits(DVec3::ZERO, d)[0].kind == kind
+            })
+            .count();
+        assert!(right as f64 >= 0.99 * own.len() as f64, "{role:?}: {right} of {} right", own.len());
+    }
+}

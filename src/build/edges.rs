@@ -1,11 +1,10 @@
 //! Where a surface ends: depth discontinuities (scale-free) and folds (normal discontinuities)
 //! between 8-neighbours, and normals estimated from depth when the input has none.
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 
-use super::graph::{Neighbours, OFFSETS};
-use crate::mapping::Mapping;
+use super::graph::Neighbours;
 
 /// Tuning of the discontinuity tests.
 #[derive(Clone, Copy, Debug)]
@@ -43,16 +42,78 @@ fn usable(d: f32) -> bool {
     d > 0.0 && !d.is_nan()
 }
 
-/// Classify the link between `p` and its neighbour `k`.
-pub fn link(
-    nb: &Neighbours,
-    depth: &[f32],
-    normals: Option<&[Vec3]>,
-    p: usize,
-    k: usize,
-    o: &EdgeOptions,
-) -> Option<Link> {
-    let q = nb.get(p, k)?;
+/// The depth links of every pixel to its 8 neighbours, computed once (bit `k` per pixel):
+/// whether the pair can be compared at all, and whether its depth jumps. Folds are decided on
+/// demand from normals, which are estimated from these links.
+#[derive(Clone, Debug)]
+pub struct Links {
+    usable: Vec<u8>,
+    jump: Vec<u8>,
+    fold_cos: Option<f32>,
+}
+
+impl Links {
+    /// Classify every pixel's 8 links (in parallel).
+    pub fn compute(nb: &Neighbours, depth: &[f32], o: &EdgeOptions) -> Links {
+        let (usable, jump): (Vec<u8>, Vec<u8>) = (0..nb.len())
+            .into_par_iter()
+            .map(|p| {
+                let (x, y) = (p % nb.width(), p / nb.width());
+                let (mut u, mut j) = (0u8, 0u8);
+                for k in 0..8 {
+                    match depth_link(nb, depth, x, y, k, o) {
+                        Some(Link::Jump) => {
+                            u |= 1 << k;
+                            j |= 1 << k;
+                        }
+                        Some(_) => u |= 1 << k,
+                        None => {}
+                    }
+                }
+                (u, j)
+            })
+            .unzip();
+        Links { usable, jump, fold_cos: o.fold_deg.map(|a| a.to_radians().cos() as f32) }
+    }
+
+    /// Both depths usable and the pair is on one surface as far as depth can tell.
+    #[inline]
+    pub fn continuous(&self, p: usize, k: usize) -> bool {
+        (self.usable[p] & !self.jump[p]) >> k & 1 == 1
+    }
+
+    /// The depth jumps between `p` and its neighbour `k`.
+    #[inline]
+    pub fn is_jump(&self, p: usize, k: usize) -> bool {
+        self.jump[p] >> k & 1 == 1
+    }
+
+    /// The full link of pixel `(x, y)` to neighbour `k`, with folds from `normals` (zero
+    /// normals never fold).
+    #[inline]
+    pub fn link(&self, nb: &Neighbours, normals: &[Vec3], x: usize, y: usize, k: usize) -> Option<Link> {
+        let p = y * nb.width() + x;
+        if self.usable[p] >> k & 1 == 0 {
+            return None;
+        }
+        if self.is_jump(p, k) {
+            return Some(Link::Jump);
+        }
+        if let Some(limit) = self.fold_cos {
+            let q = nb.get_at(x, y, k)?;
+            let (np, nq) = (normals[p], normals[q]);
+            if np != Vec3::ZERO && nq != Vec3::ZERO && np.dot(nq) < limit {
+                return Some(Link::Fold);
+            }
+        }
+        Some(Link::Smooth)
+    }
+}
+
+/// Depth-only classification of the link between pixel `(x, y)` and its neighbour `k`.
+fn depth_link(nb: &Neighbours, depth: &[f32], x: usize, y: usize, k: usize, o: &EdgeOptions) -> Option<Link> {
+    let p = y * nb.width() + x;
+    let q = nb.get_at(x, y, k)?;
     let (a, b) = (depth[p], depth[q]);
     if !usable(a) || !usable(b) {
         return None;
@@ -62,14 +123,8 @@ pub fn link(
     }
     let (a, b) = (a as f64, b as f64);
     let rel = (a - b).abs() / a.min(b);
-    if rel > o.jump && !smooth_by_extrapolation(nb, depth, p, q, k, a, b, o.extrapolation) {
+    if rel > o.jump && !smooth_by_extrapolation(nb, depth, x, y, k, a, b, o.extrapolation) {
         return Some(Link::Jump);
-    }
-    if let (Some(n), Some(limit)) = (normals, o.fold_deg) {
-        let (np, nq) = (n[p], n[q]);
-        if np != Vec3::ZERO && nq != Vec3::ZERO && np.dot(nq) < limit.to_radians().cos() as f32 {
-            return Some(Link::Fold);
-        }
     }
     Some(Link::Smooth)
 }
@@ -80,16 +135,15 @@ pub fn link(
 fn smooth_by_extrapolation(
     nb: &Neighbours,
     depth: &[f32],
-    p: usize,
-    q: usize,
+    x: usize,
+    y: usize,
     k: usize,
     a: f64,
     b: f64,
     tol: f64,
 ) -> bool {
-    let back = opposite(k);
-    let behind_p = nb.get(p, back).map(|i| depth[i] as f64);
-    let beyond_q = nb.get(q, k).map(|i| depth[i] as f64);
+    let behind_p = nb.get_at(x, y, opposite(k)).map(|i| depth[i] as f64);
+    let beyond_q = nb.get2_at(x, y, k).map(|i| depth[i] as f64);
     let min = a.min(b);
     let ok = |pred: f64, actual: f64| pred.is_finite() && (pred - actual).abs() / min <= tol;
     let from_p = behind_p.filter(|&d| d > 0.0 && d.is_finite()).is_some_and(|d| ok(2.0 * a - d, b));
@@ -98,41 +152,40 @@ fn smooth_by_extrapolation(
     from_p && from_q
 }
 
-/// Index of the opposite offset in [`OFFSETS`].
+/// Index of the opposite offset in [`OFFSETS`] (pairs are adjacent: 0↔1, 2↔3, 4↔7, 5↔6).
+#[inline]
 pub fn opposite(k: usize) -> usize {
-    let (dx, dy) = OFFSETS[k];
-    OFFSETS.iter().position(|&o| o == (-dx, -dy)).expect("offsets are symmetric")
+    [1, 0, 3, 2, 7, 6, 5, 4][k]
 }
 
 /// Unit normals estimated from depth (facing the centre). Each tangent is a one-sided difference
 /// taken on the side where the surface runs straighter (its next difference turns least), so a
 /// crease gives each side its own plane's normal instead of a blurred average that would hide
 /// the fold; differences never cross a depth jump. Zero where no estimate exists.
-pub fn estimate_normals(nb: &Neighbours, depth: &[f32], o: &EdgeOptions) -> Vec<Vec3> {
-    let m = *nb.mapping();
-    let point = |i: usize| -> Option<DVec3> {
-        let d = depth[i];
-        (d > 0.0 && d.is_finite()).then(|| m.pixel_dir(i % nb.width(), i / nb.width()) * d as f64)
-    };
-    let no_fold = EdgeOptions { fold_deg: None, ..*o };
-    // The neighbour `k` of `p` when it lies on the same surface.
-    let step = |p: usize, k: usize| -> Option<(usize, DVec3)> {
-        if link(nb, depth, None, p, k, &no_fold) != Some(Link::Smooth) {
-            return None;
-        }
-        let q = nb.get(p, k)?;
-        Some((q, point(q)?))
-    };
+pub fn estimate_normals(nb: &Neighbours, links: &Links, points: &[Vec3]) -> Vec<Vec3> {
     (0..nb.len())
         .into_par_iter()
         .map(|p| {
-            let Some(c) = point(p) else { return Vec3::ZERO };
-            let tangent = |fwd: usize, bwd: usize| -> Option<DVec3> {
-                let one_sided = |k: usize| -> Option<(DVec3, f64)> {
-                    let (q, pq) = step(p, k)?;
+            let (x, y) = (p % nb.width(), p / nb.width());
+            // The neighbour `k` of `p`, and the one after it, when they lie on the same surface.
+            let step = |k: usize| -> Option<(usize, Vec3)> {
+                let q = nb.get_at(x, y, k).filter(|_| links.continuous(p, k))?;
+                points[q].is_finite().then_some((q, points[q]))
+            };
+            let step2 = |q: usize, k: usize| -> Option<Vec3> {
+                let r = nb.get2_at(x, y, k).filter(|_| links.continuous(q, k))?;
+                points[r].is_finite().then_some(points[r])
+            };
+            let c = points[p];
+            if !c.is_finite() {
+                return Vec3::ZERO;
+            }
+            let tangent = |fwd: usize, bwd: usize| -> Option<Vec3> {
+                let one_sided = |k: usize| -> Option<(Vec3, f32)> {
+                    let (q, pq) = step(k)?;
                     let t = pq - c;
-                    let straight = match step(q, k) {
-                        Some((_, pr)) => t.normalize_or_zero().dot((pr - pq).normalize_or_zero()),
+                    let straight = match step2(q, k) {
+                        Some(pr) => t.normalize_or_zero().dot((pr - pq).normalize_or_zero()),
                         None => 0.0,
                     };
                     Some((if k == fwd { t } else { -t }, straight))
@@ -146,15 +199,12 @@ pub fn estimate_normals(nb: &Neighbours, depth: &[f32], o: &EdgeOptions) -> Vec<
             };
             match (tangent(0, 1), tangent(2, 3)) {
                 (Some(tx), Some(ty)) => {
-                    let mut n = tx.cross(ty);
-                    if n.length_squared() == 0.0 || !n.is_finite() {
-                        return Vec3::ZERO;
-                    }
-                    n = n.normalize();
+                    let n = tx.cross(ty).normalize_or_zero();
                     if n.dot(c) > 0.0 {
-                        n = -n;
+                        -n
+                    } else {
+                        n
                     }
-                    n.as_vec3()
                 }
                 _ => Vec3::ZERO,
             }
@@ -162,8 +212,17 @@ pub fn estimate_normals(nb: &Neighbours, depth: &[f32], o: &EdgeOptions) -> Vec<
         .collect()
 }
 
+/// 3D points of the pixels (panorama frame); non-finite where the depth is not a finite distance.
+pub fn points(dirs: &[Vec3], depth: &[f32]) -> Vec<Vec3> {
+    dirs.par_iter()
+        .zip(depth)
+        .map(|(&d, &z)| if z > 0.0 && z.is_finite() { d * z } else { Vec3::NAN })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
+    use super::super::graph::OFFSETS;
     use super::*;
     use crate::mapping::{AnyMapping, MappingKind};
 
@@ -187,12 +246,11 @@ mod tests {
                     depth[y * 16 + x] = 5.0 * scale;
                 }
             }
-            let p = 3 * 16 + 7;
-            assert_eq!(link(&nb, &depth, None, p, 0, &o), Some(Link::Jump), "scale {scale}");
-            assert_eq!(link(&nb, &depth, None, p, 1, &o), Some(Link::Smooth));
+            assert_eq!(depth_link(&nb, &depth, 7, 3, 0, &o), Some(Link::Jump), "scale {scale}");
+            assert_eq!(depth_link(&nb, &depth, 7, 3, 1, &o), Some(Link::Smooth));
         }
         // A linear ramp with a large relative step per pixel is smooth, not a discontinuity.
         let depth: Vec<f32> = (0..128).map(|i| 1.0 + 0.5 * (i % 16) as f32).collect();
-        assert_eq!(link(&nb, &depth, None, 3 * 16 + 2, 0, &o), Some(Link::Smooth));
+        assert_eq!(depth_link(&nb, &depth, 2, 3, 0, &o), Some(Link::Smooth));
     }
 }

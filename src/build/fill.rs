@@ -11,7 +11,7 @@ use std::collections::{HashMap, VecDeque};
 
 use glam::Vec3;
 
-use super::edges::{link, EdgeOptions, Link};
+use super::edges::Links;
 use super::graph::Neighbours;
 
 /// The fill of one layer: extra pixels with their depth and the pixel whose colour they take.
@@ -37,7 +37,7 @@ pub struct FillContext<'a> {
     pub freedom_radius: f64,
     /// Extra band, radians (a couple of pixels: reconstruction filters reach that far).
     pub margin: f64,
-    pub edges: EdgeOptions,
+    pub links: &'a Links,
 }
 
 /// Largest angle (radians) a camera within `r` of the centre can open between an occluding
@@ -63,11 +63,9 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
             continue;
         }
         let borders = (0..8).any(|j| {
-            cx.nb.get(p, j).is_some_and(|q| {
-                cx.layer_of[q] != u32::MAX
-                    && cx.layer_of[q] > k
-                    && link(cx.nb, cx.depth, None, p, j, &cx.edges) == Some(Link::Jump)
-            })
+            cx.nb
+                .get(p, j)
+                .is_some_and(|q| cx.layer_of[q] != u32::MAX && cx.layer_of[q] > k && cx.links.is_jump(p, j))
         });
         if borders {
             *seed = p as u32;

@@ -10,16 +10,26 @@ use crate::mapping::{AnyMapping, Mapping};
 pub const OFFSETS: [(i32, i32); 8] = [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)];
 
 /// Neighbour lookup for one canvas.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Neighbours {
     mapping: AnyMapping,
     width: usize,
     height: usize,
+    /// Columns / rows whose 8 neighbours are plain offsets (not at the canvas or a face edge).
+    interior_col: Vec<bool>,
+    interior_row: Vec<bool>,
 }
 
 impl Neighbours {
     pub fn new(mapping: AnyMapping) -> Self {
-        Neighbours { mapping, width: mapping.width(), height: mapping.height() }
+        let (width, height) = (mapping.width(), mapping.height());
+        let tile = match mapping {
+            AnyMapping::Equirect(_) => width.max(height),
+            AnyMapping::Cube(_) => height / 2,
+        };
+        let interior =
+            |len: usize| (0..len).map(|i| i % tile >= 1 && i % tile + 1 < tile && i + 1 < len).collect();
+        Neighbours { mapping, width, height, interior_col: interior(width), interior_row: interior(height) }
     }
 
     pub fn width(&self) -> usize {
@@ -46,8 +56,36 @@ impl Neighbours {
     /// has no distinct neighbour (a cube corner's missing diagonal).
     #[inline]
     pub fn get(&self, p: usize, k: usize) -> Option<usize> {
-        let (x, y) = ((p % self.width) as i64, (p / self.width) as i64);
+        self.get_at(p % self.width, p / self.width, k)
+    }
+
+    /// [`Neighbours::get`] for a pixel given by its coordinates (no division in the common case:
+    /// hot loops walk rows and know them).
+    #[inline]
+    pub fn get_at(&self, x: usize, y: usize, k: usize) -> Option<usize> {
         let (dx, dy) = OFFSETS[k];
+        if self.interior_col[x] && self.interior_row[y] {
+            // Interior of the canvas (equirect) or of a face (cube): plain offsets.
+            let nx = (x as isize + dx as isize) as usize;
+            let ny = (y as isize + dy as isize) as usize;
+            return Some(ny * self.width + nx);
+        }
+        self.get_slow(x as i64, y as i64, dx, dy, y * self.width + x)
+    }
+
+    /// The neighbour of the neighbour, two steps along `k` (continuing over edges step by step).
+    #[inline]
+    pub fn get2_at(&self, x: usize, y: usize, k: usize) -> Option<usize> {
+        let (dx, dy) = OFFSETS[k];
+        let q = self.get_at(x, y, k)?;
+        if self.interior_col[x] && self.interior_row[y] {
+            let (qx, qy) = ((x as isize + dx as isize) as usize, (y as isize + dy as isize) as usize);
+            return self.get_at(qx, qy, k);
+        }
+        self.get(q, k)
+    }
+
+    fn get_slow(&self, x: i64, y: i64, dx: i32, dy: i32, p: usize) -> Option<usize> {
         let (nx, ny) = (x + dx as i64, y + dy as i64);
         match self.mapping {
             AnyMapping::Equirect(_) => {

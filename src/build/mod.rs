@@ -51,6 +51,7 @@ pub struct BuildOptions {
     pub infinity: bool,
     /// Extra fill band in pixels beyond the parallax band (reconstruction filters reach ~1-2 px).
     pub margin_px: f64,
+    pub classify: Classify,
 }
 
 impl Default for BuildOptions {
@@ -62,8 +63,74 @@ impl Default for BuildOptions {
             normals_out: false,
             infinity: true,
             margin_px: 2.0,
+            classify: Classify::Depth,
         }
     }
+}
+
+/// How layers are separated beyond the minimal layering.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Classify {
+    /// Occlusion levels (and depth bands) only.
+    #[default]
+    Depth,
+    /// Also split the background into floor, ceiling and walls by the segments' mean normals
+    /// (thesis 6.2.4.2; `+Z` is up in the panorama frame).
+    Geometry,
+}
+
+/// Surface class of a background segment under [`Classify::Geometry`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum SurfaceClass {
+    Floor,
+    Wall,
+    Ceiling,
+    Any,
+}
+
+/// Which layer a pixel goes to; the derived order is the painter's order (far first).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+struct LayerKey {
+    level: u32,
+    band_rev: u32,
+    class: SurfaceClass,
+}
+
+/// Classify segments by their area-weighted mean normal (facing the centre) and position:
+/// a floor faces up and lies below the centre, a ceiling faces down above it, a wall is
+/// near-vertical; anything else stays generic background.
+fn segment_classes(
+    seg: &segment::Segments,
+    normals: &[Vec3],
+    dirs: &[Vec3],
+    depth: &[f32],
+) -> Vec<SurfaceClass> {
+    let count = seg.size.len();
+    let mut sum_n = vec![Vec3::ZERO; count];
+    let mut sum_z = vec![0.0f64; count];
+    for p in 0..seg.id.len() {
+        let s = seg.id[p];
+        if s != NO_SEGMENT {
+            sum_n[s as usize] += normals[p];
+            sum_z[s as usize] += (dirs[p].z * depth[p]) as f64;
+        }
+    }
+    let (cos_flat, sin_vertical) = (25f32.to_radians().cos(), 25f32.to_radians().sin());
+    (0..count)
+        .map(|s| {
+            let n = sum_n[s].normalize_or_zero();
+            let below = sum_z[s] < 0.0;
+            if n.z > cos_flat && below {
+                SurfaceClass::Floor
+            } else if n.z < -cos_flat && !below {
+                SurfaceClass::Ceiling
+            } else if n != Vec3::ZERO && n.z.abs() < sin_vertical {
+                SurfaceClass::Wall
+            } else {
+                SurfaceClass::Any
+            }
+        })
+        .collect()
 }
 
 /// Errors of [`build`].
@@ -194,12 +261,12 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         .collect();
     let unknown_pixels = depth.iter().filter(|d| d.is_nan()).count();
     let nb = Neighbours::new(m);
-    let dirs: Vec<Vec3> =
-        (0..n).into_par_iter().map(|p| m.pixel_dir(p % m.width(), p / m.width()).as_vec3()).collect();
+    let dirs = pixel_dirs(&m);
     lap("classify", &mut stages);
 
     // (2) Normals.
     progress("normals");
+    let links = edges::Links::compute(&nb, &depth, &o.segment.edges);
     let normals: Vec<Vec3> = match &input.normals {
         Some(given) if given.len() == n => given
             .par_iter()
@@ -213,37 +280,59 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
                 }
             })
             .collect(),
-        _ => edges::estimate_normals(&nb, &depth, &o.segment.edges),
+        _ => edges::estimate_normals(&nb, &links, &edges::points(&dirs, &depth)),
     };
     lap("normals", &mut stages);
 
     // (3, 4) Links, segments, levels.
     progress("segments");
-    let seg = segment(&nb, &depth, Some(&normals), &o.segment);
+    let seg = segment(&nb, &depth, &links, &normals, &o.segment);
     lap("segments", &mut stages);
 
-    // (5) Layer keys: infinity first, then (level, depth band far→near).
+    // (5) Layer keys: infinity first, then (level, depth band far→near, surface class).
     progress("layers");
     let band_of = |d: f32| o.depth_bands.iter().filter(|&&b| (d as f64) >= b).count() as u32;
     let nbands = o.depth_bands.len() as u32 + 1;
-    let key_of = |p: usize| -> Option<u64> {
+    let class = match o.classify {
+        Classify::Depth => vec![SurfaceClass::Any; seg.size.len()],
+        Classify::Geometry => segment_classes(&seg, &normals, &dirs, &depth),
+    };
+    let key_of = |p: usize| -> Option<LayerKey> {
         let s = seg.id[p];
         if s == NO_SEGMENT {
             return None;
         }
-        let level = seg.level[s as usize] as u64;
-        // Farther bands come first within a level.
-        Some(level * nbands as u64 + (nbands - 1 - band_of(depth[p])) as u64)
+        let level = seg.level[s as usize];
+        Some(LayerKey {
+            level,
+            band_rev: nbands - 1 - band_of(depth[p]),
+            class: if level == 0 { class[s as usize] } else { SurfaceClass::Any },
+        })
     };
     let has_infinity = depth.iter().any(|d| d.is_infinite());
-    let mut keys: Vec<u64> =
-        (0..n).filter_map(key_of).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+    let pixel_keys: Vec<Option<LayerKey>> = (0..n).into_par_iter().map(key_of).collect();
+    let mut keys: Vec<LayerKey> = pixel_keys
+        .par_iter()
+        .fold(std::collections::BTreeSet::new, |mut set, k| {
+            if let Some(k) = k {
+                set.insert(*k);
+            }
+            set
+        })
+        .reduce(std::collections::BTreeSet::new, |mut a, b| {
+            a.extend(b);
+            a
+        })
+        .into_iter()
+        .collect();
     if keys.is_empty() && !has_infinity {
-        keys.push(0); // all unknown: one background layer of unknown depths
+        // All unknown: one background layer.
+        keys.push(LayerKey { level: 0, band_rev: 0, class: SurfaceClass::Any });
     }
     let first = has_infinity as u32;
     let mut layer_of: Vec<u32> = (0..n)
-        .map(|p| match key_of(p) {
+        .into_par_iter()
+        .map(|p| match pixel_keys[p] {
             Some(k) => first + keys.binary_search(&k).expect("key collected") as u32,
             None if depth[p].is_infinite() => 0,
             None => u32::MAX,
@@ -263,7 +352,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         layer_of: &layer_of,
         freedom_radius: o.freedom_radius,
         margin: o.margin_px * alpha,
-        edges: o.segment.edges,
+        links: &links,
     };
     let fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(&cx, k)).collect();
     lap("fill", &mut stages);
@@ -271,22 +360,24 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
     // (7) Images, names, roles, order.
     progress("images");
     let mut layers = Vec::new();
-    let mut level_count = std::collections::BTreeMap::<u64, u32>::new();
+    let mut name_count = std::collections::BTreeMap::<String, u32>::new();
     for (k, f) in fills.iter().enumerate() {
-        let (name, role) = if has_infinity && k == 0 {
+        let (base, role) = if has_infinity && k == 0 {
             ("infinity".to_string(), Role::Infinity)
         } else {
             let key = keys[k - first as usize];
-            let level = key / nbands as u64;
-            let idx = level_count.entry(level).or_default();
-            *idx += 1;
-            let suffix = if *idx > 1 { format!("-{idx}") } else { String::new() };
-            if level == 0 {
-                (format!("background{suffix}"), Role::Background)
-            } else {
-                (format!("objects-{level}{suffix}"), Role::Object)
+            match (key.level, key.class) {
+                (0, SurfaceClass::Floor) => ("floor".to_string(), Role::Floor),
+                (0, SurfaceClass::Ceiling) => ("ceiling".to_string(), Role::Ceiling),
+                (0, SurfaceClass::Wall) => ("walls".to_string(), Role::Wall),
+                (0, SurfaceClass::Any) => ("background".to_string(), Role::Background),
+                (level, _) => (format!("objects-{level}"), Role::Object),
             }
         };
+        // Depth bands give several layers of one kind: number them.
+        let idx = name_count.entry(base.clone()).or_default();
+        *idx += 1;
+        let name = if *idx > 1 { format!("{base}-{idx}") } else { base };
         let layer = layer_image(input, &depth, &normals, &layer_of, k as u32, f, o.normals_out);
         layers.push(BuiltLayer {
             name,
@@ -374,6 +465,39 @@ fn assign_unknown(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [u32], firs
     }
 }
 
+/// Unit direction of every pixel centre. The equirect is separable (per-column azimuth, per-row
+/// polar angle), which saves two thirds of the trigonometry on big canvases.
+pub fn pixel_dirs(m: &AnyMapping) -> Vec<Vec3> {
+    let (w, h) = (m.width(), m.height());
+    match m {
+        AnyMapping::Equirect(_) => {
+            let cols: Vec<(f64, f64)> = (0..w)
+                .map(|i| {
+                    let d = m.pixel_dir(i, h / 2);
+                    let r = d.x.hypot(d.y);
+                    (d.x / r, d.y / r)
+                })
+                .collect();
+            let rows: Vec<(f64, f64)> = (0..h)
+                .map(|j| {
+                    let d = m.pixel_dir(0, j);
+                    (d.x.hypot(d.y), d.z)
+                })
+                .collect();
+            (0..w * h)
+                .into_par_iter()
+                .map(|p| {
+                    let ((c, s), (st, ct)) = (cols[p % w], rows[p / w]);
+                    Vec3::new((st * c) as f32, (st * s) as f32, ct as f32)
+                })
+                .collect()
+        }
+        AnyMapping::Cube(_) => {
+            (0..w * h).into_par_iter().map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect()
+        }
+    }
+}
+
 /// The image of layer `k`: its own pixels (as seen from the centre) plus its fill.
 fn layer_image(
     input: &RgbdInput,
@@ -386,14 +510,10 @@ fn layer_image(
 ) -> LayerImage {
     let m = input.mapping;
     let n = m.width() * m.height();
-    let mut z = vec![OUTSIDE_DEPTH; n];
-    let mut src = vec![usize::MAX; n];
-    for p in 0..n {
-        if layer_of[p] == k {
-            z[p] = depth[p];
-            src[p] = p;
-        }
-    }
+    let (mut z, mut src): (Vec<f32>, Vec<usize>) = (0..n)
+        .into_par_iter()
+        .map(|p| if layer_of[p] == k { (depth[p], p) } else { (OUTSIDE_DEPTH, usize::MAX) })
+        .unzip();
     for &(p, d, c) in &fill.pixels {
         z[p] = d;
         src[p] = c;
@@ -401,7 +521,8 @@ fn layer_image(
     let mut img = LayerImage::new(m.width(), m.height());
     let half = |v: f32| half::f16::from_f32(v).to_f32();
     for (c, name) in ["R", "G", "B"].iter().enumerate() {
-        let data = src.iter().map(|&s| if s == usize::MAX { 0.0 } else { half(input.rgb[c][s]) }).collect();
+        let data =
+            src.par_iter().map(|&s| if s == usize::MAX { 0.0 } else { half(input.rgb[c][s]) }).collect();
         img.set_channel(name, SampleType::F16, data);
     }
     img.set_channel("Z", SampleType::F32, z);

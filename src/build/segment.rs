@@ -5,8 +5,9 @@
 use std::collections::HashMap;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
-use super::edges::{link, EdgeOptions, Link};
+use super::edges::{EdgeOptions, Link, Links};
 use super::graph::Neighbours;
 
 /// Union-find with path halving and union by size.
@@ -72,17 +73,43 @@ impl Default for SegmentOptions {
 }
 
 /// Segment the finite-depth pixels and order the segments into levels.
-pub fn segment(nb: &Neighbours, depth: &[f32], normals: Option<&[Vec3]>, o: &SegmentOptions) -> Segments {
+pub fn segment(
+    nb: &Neighbours,
+    depth: &[f32],
+    links: &Links,
+    normals: &[Vec3],
+    o: &SegmentOptions,
+) -> Segments {
     let n = nb.len();
     let finite = |i: usize| depth[i] > 0.0 && depth[i].is_finite();
+    // Each undirected pair once: right, down, down-right, down-left. Links are classified in
+    // parallel (bit i of each mask = HALF[i]); the union-find that follows is a cheap serial pass.
+    const HALF: [usize; 4] = [0, 2, 4, 5];
+    let masks: Vec<(u8, u8, u8)> = (0..n)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % nb.width(), p / nb.width());
+            let (mut smooth, mut jump, mut fold) = (0u8, 0u8, 0u8);
+            if finite(p) {
+                for (i, &k) in HALF.iter().enumerate() {
+                    match links.link(nb, normals, x, y, k) {
+                        Some(Link::Smooth) => smooth |= 1 << i,
+                        Some(Link::Jump) => jump |= 1 << i,
+                        Some(Link::Fold) => fold |= 1 << i,
+                        None => {}
+                    }
+                }
+            }
+            (smooth, jump, fold)
+        })
+        .collect();
     let mut dsu = Dsu::new(n);
-    // Each undirected pair once: right, down, down-right, down-left.
-    for p in 0..n {
-        if !finite(p) {
+    for (p, &(smooth, _, _)) in masks.iter().enumerate() {
+        if smooth == 0 {
             continue;
         }
-        for k in [0usize, 2, 4, 5] {
-            if link(nb, depth, normals, p, k, &o.edges) == Some(Link::Smooth) {
+        for (i, &k) in HALF.iter().enumerate() {
+            if smooth >> i & 1 == 1 {
                 let q = nb.get(p, k).expect("link implies a neighbour");
                 dsu.union(p as u32, q as u32);
             }
@@ -90,19 +117,21 @@ pub fn segment(nb: &Neighbours, depth: &[f32], normals: Option<&[Vec3]>, o: &Seg
     }
     // Compact ids.
     let mut id = vec![NO_SEGMENT; n];
-    let mut root_to_id: HashMap<u32, u32> = HashMap::new();
+    // Indexed by root pixel: a plain table beats hashing 8M pixels.
+    let mut root_to_id = vec![NO_SEGMENT; n];
     let mut size: Vec<u32> = Vec::new();
     let mut depth_sum: Vec<f64> = Vec::new();
     for p in 0..n {
         if !finite(p) {
             continue;
         }
-        let r = dsu.find(p as u32);
-        let s = *root_to_id.entry(r).or_insert_with(|| {
+        let r = dsu.find(p as u32) as usize;
+        if root_to_id[r] == NO_SEGMENT {
+            root_to_id[r] = size.len() as u32;
             size.push(0);
             depth_sum.push(0.0);
-            (size.len() - 1) as u32
-        });
+        }
+        let s = root_to_id[r];
         id[p] = s;
         size[s as usize] += 1;
         depth_sum[s as usize] += depth[p] as f64;
@@ -111,26 +140,25 @@ pub fn segment(nb: &Neighbours, depth: &[f32], normals: Option<&[Vec3]>, o: &Seg
     // Relations between segments along their borders.
     let mut jumps: HashMap<(u32, u32), u32> = HashMap::new();
     let mut folds: HashMap<(u32, u32), u32> = HashMap::new();
-    for p in 0..n {
-        if id[p] == NO_SEGMENT {
+    for (p, &(_, jump, fold)) in masks.iter().enumerate() {
+        if jump | fold == 0 || id[p] == NO_SEGMENT {
             continue;
         }
-        for k in [0usize, 2, 4, 5] {
-            let Some(l) = link(nb, depth, normals, p, k, &o.edges) else { continue };
+        for (i, &k) in HALF.iter().enumerate() {
+            let (is_jump, is_fold) = (jump >> i & 1 == 1, fold >> i & 1 == 1);
+            if !is_jump && !is_fold {
+                continue;
+            }
             let q = nb.get(p, k).expect("link implies a neighbour");
             let (a, b) = (id[p], id[q]);
             if a == b || b == NO_SEGMENT {
                 continue;
             }
-            match l {
-                Link::Jump => {
-                    let (near, far) = if depth[p] < depth[q] { (a, b) } else { (b, a) };
-                    *jumps.entry((near, far)).or_default() += 1;
-                }
-                Link::Fold => {
-                    *folds.entry((a.min(b), a.max(b))).or_default() += 1;
-                }
-                Link::Smooth => {}
+            if is_jump {
+                let (near, far) = if depth[p] < depth[q] { (a, b) } else { (b, a) };
+                *jumps.entry((near, far)).or_default() += 1;
+            } else {
+                *folds.entry((a.min(b), a.max(b))).or_default() += 1;
             }
         }
     }

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use pomc::build::input::{self, Convention, DepthKind, Preset};
-use pomc::build::{self, BuildOptions};
+use pomc::build::{self, BuildOptions, Classify};
 use pomc::layer_io::ReadLimits;
 use pomc::manifest::Transform;
 use pomc::panorama::{self, SaveOptions};
@@ -38,6 +38,14 @@ enum ConventionArg {
     Blender,
     /// OpenEXR lat-long: longitude decreasing, +Y up
     Openexr,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum ClassifyArg {
+    /// Occlusion levels (and depth bands) only
+    Depth,
+    /// Also split the background into floor, ceiling and walls
+    Geometry,
 }
 
 #[derive(clap::Args, Debug)]
@@ -87,6 +95,9 @@ pub struct Args {
     /// Split layers by depth at these distances (m), e.g. 2,5 (thesis 6.2.4.1).
     #[arg(long, value_delimiter = ',')]
     depth_bands: Vec<f64>,
+    /// Layer classification: by depth only, or also floor / ceiling / walls (thesis 6.2.4.2).
+    #[arg(long, value_enum, default_value = "depth")]
+    classify: ClassifyArg,
     /// Write normals into the layers.
     #[arg(long)]
     normals: bool,
@@ -123,6 +134,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         depth_bands: args.depth_bands.clone(),
         normals_out: args.normals,
         infinity: !args.no_infinity,
+        classify: if args.classify == ClassifyArg::Geometry { Classify::Geometry } else { Classify::Depth },
         ..BuildOptions::default()
     };
     options.segment.edges.jump = args.jump;
