@@ -216,3 +216,46 @@ impl Tree {
         (k == bits.len()).then_some(tree)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Splits everything: a full tree.
+    struct All;
+    impl Subdivide for All {
+        fn kind(&self, _: &Rect) -> NodeKind {
+            NodeKind::Full
+        }
+        fn split(&self, r: &Rect, _: NodeKind) -> bool {
+            r.splittable()
+        }
+    }
+
+    #[test]
+    fn degenerate_splits_are_two_way_and_cells_stop() {
+        assert_eq!(Rect::new(0, 0, 3, 1).children().1, 2);
+        assert_eq!(Rect::new(0, 0, 1, 5).children().1, 2);
+        assert_eq!(Rect::new(0, 0, 1, 1).children().1, 0);
+        let (c, n) = Rect::new(0, 0, 5, 3).children();
+        assert_eq!(n, 4);
+        assert_eq!(c[0], Rect::new(0, 0, 2, 1));
+        assert_eq!(c[3], Rect::new(2, 1, 5, 3));
+    }
+
+    #[test]
+    fn full_tree_leaves_are_every_cell_and_bits_round_trip() {
+        // A 2:1 canvas with a non-power-of-two side, like the thesis's worst 3×1 cells.
+        let tree = Tree::build(13, 7, &All).unwrap();
+        let leaves = tree.leaves();
+        assert_eq!(leaves.len(), 12 * 6);
+        assert!(leaves.iter().all(|&i| tree.nodes[i].rect.cells() == 1));
+        let bits = tree.bits();
+        let back = Tree::from_bits(13, 7, &All, &bits).unwrap();
+        assert_eq!(back.bits(), bits);
+        assert!(Tree::from_bits(13, 7, &All, &bits[..bits.len() - 1]).is_none());
+        let mut extra = bits.clone();
+        extra.push(false);
+        assert!(Tree::from_bits(13, 7, &All, &extra).is_none());
+    }
+}
