@@ -47,6 +47,8 @@ fn thesis_reproduction_cube_1024() {
         );
         assert!(na as f64 <= 0.08 * nu as f64);
         assert!(s.p99_rel <= 0.005);
+        // Thesis 7.4.2.7: a mesh of 1 M triangles in < 122 KB.
+        assert!(bytes as f64 * 1e6 / (na as f64) < 122_000.0);
     }
 }
 
