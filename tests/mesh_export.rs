@@ -79,3 +79,22 @@ fn unknown_extension_is_a_typed_error() {
     let e = Format::from_path(std::path::Path::new("x.stl")).unwrap_err();
     assert_eq!(e.code(), "MESH_EXPORT_FAILED");
 }
+
+#[test]
+fn every_exported_triangle_samples_one_region_of_the_texture() {
+    for (m, _, mesh) in meshes() {
+        let e = export::prepare(&mesh, DMat4::IDENTITY, &|_| [0.0; 3]);
+        let cube = matches!(m, AnyMapping::Cube(_));
+        for t in &e.triangles {
+            let uv = t.map(|i| e.uvs[i as usize]);
+            let span = |k: usize| {
+                let (a, b) =
+                    uv.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |a, p| (a.0.min(p[k]), a.1.max(p[k])));
+                b - a
+            };
+            // Within one cube face (a third by a half of the atlas), or a short step across the seam.
+            let (su, sv) = if cube { (1.0 / 3.0, 0.5) } else { (0.25, 0.5) };
+            assert!(span(0) <= su + 1e-6 && span(1) <= sv + 1e-6, "triangle spans {uv:?}");
+        }
+    }
+}

@@ -42,6 +42,9 @@ pub fn prepare(mesh: &LayerMesh, transform: DMat4, colour: &dyn Fn(u32) -> [f32;
     for t in &mesh.triangles {
         let ids = t.map(|v| mesh.sources[v as usize]);
         let mut uv = ids.map(base_uv);
+        if w * 2 == h * 3 {
+            cube_strip_uvs(mesh, t, &ids, &mut uv);
+        }
         let real: Vec<usize> = (0..3).filter(|&k| !is_pole(ids[k], w, h)).collect();
         let us: Vec<f64> = real.iter().map(|&k| uv[k][0]).collect();
         let (mn, mx) = us.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &u| (a.0.min(u), a.1.max(u)));
@@ -73,6 +76,33 @@ pub fn prepare(mesh: &LayerMesh, transform: DMat4, colour: &dyn Fn(u32) -> [f32;
         out.triangles.push(if flip { [tri[0], tri[2], tri[1]] } else { tri });
     }
     out
+}
+
+/// Cube-map strip triangles: texture coordinates of every vertex on the first vertex's face.
+fn cube_strip_uvs(mesh: &LayerMesh, t: &[u32; 3], ids: &[u32; 3], uv: &mut [[f64; 2]; 3]) {
+    let (w, h) = (mesh.width, mesh.height);
+    let n = h / 2;
+    let slot = |id: u32| ((id as usize % w) / n, (id as usize / w) / n);
+    let (s0, t0) = slot(ids[0]);
+    if ids.iter().all(|&id| slot(id) == (s0, t0)) {
+        return;
+    }
+    let Some(face) = crate::mapping::CubeFace::from_index(3 * t0 + s0) else { return };
+    let [c, r, d] = face.frame();
+    let nf = n as f64;
+    let lim = 1.0 - 1.0 / nf;
+    for k in 1..3 {
+        if slot(ids[k]) == (s0, t0) {
+            continue;
+        }
+        let p = mesh.positions[t[k] as usize];
+        let z = p.dot(c);
+        if z <= 0.0 {
+            continue;
+        }
+        let (s, tt) = ((p.dot(r) / z).clamp(-lim, lim), (p.dot(d) / z).clamp(-lim, lim));
+        uv[k] = [(s0 as f64 + (s + 1.0) * 0.5) / 3.0, (t0 as f64 + (tt + 1.0) * 0.5) / 2.0];
+    }
 }
 
 /// Linear → sRGB-encoded 8-bit.
