@@ -146,6 +146,27 @@ fn thesis_normal_test_alone_meshes_planar_walls_coarsely() {
 }
 
 #[test]
+fn estimated_normals_find_the_same_creases_either_way() {
+    use pomc::mesh::normals::NormalWeighting;
+    let m = cube(32);
+    let r = render_on(&Scene::room(), &m);
+    let bg = to_layer(&r.background, false);
+    for w in [NormalWeighting::Area, NormalWeighting::Angle] {
+        let p = MeshParams {
+            max_error: None,
+            feature_angle_deg: Some(10.0),
+            normal_weighting: w,
+            max_angle_deg: None,
+            ..MeshParams::default()
+        };
+        let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
+        assert_closed(&out.mesh);
+        let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+        assert!(s.p99_rel < 0.01, "{w:?}: {s:?}");
+    }
+}
+
+#[test]
 fn bad_inputs_are_typed_errors() {
     let m = cube(8);
     let img = LayerImage::new(24, 16);

@@ -35,7 +35,7 @@ impl<'a> Criterion<'a> {
         let (cw, ch) = (w.saturating_sub(1), h.saturating_sub(1));
         let bad = Sat::from_fn(cw, ch, |x, y| grid.bad_cell(x, y) as u64);
         let normal_sats = params.feature_angle_deg.filter(|_| params.uniform.is_none()).map(|deg| {
-            let n = normals::lattice_normals(image, grid);
+            let n = normals::lattice_normals(image, grid, params.normal_weighting);
             let v = normals::cell_variation(grid, &n);
             let threshold = 1.0 - deg.to_radians().cos();
             let f = Sat::from_fn(cw, ch, |x, y| (v[y * cw + x] >= threshold) as u64);

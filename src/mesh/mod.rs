@@ -73,6 +73,8 @@ pub struct MeshParams {
     pub feature_angle_deg: Option<f64>,
     /// Thesis residual test: split when the mean sub-feature variation of a node reaches this.
     pub residual_threshold: f64,
+    /// Weighting of estimated normals (layers without `N.*` channels).
+    pub normal_weighting: normals::NormalWeighting,
     /// Cap on the angle between the rays of a node's opposite corners (texture distortion, 7.4.3).
     pub max_angle_deg: Option<f64>,
     /// Uniform baseline: leaves of at most `STEP` cells a side (1 = the full 4-8 mesh).
@@ -85,6 +87,7 @@ impl Default for MeshParams {
             max_error: Some(0.005),
             feature_angle_deg: None,
             residual_threshold: 0.05,
+            normal_weighting: normals::NormalWeighting::Area,
             max_angle_deg: Some(20.0),
             uniform: None,
         }

@@ -1,8 +1,9 @@
 //! Lattice normals and their variation `V_N` (thesis eq. 7.10-7.15).
 //!
 //! Normals come from the layer's `N.X, N.Y, N.Z` channels when present, otherwise they are estimated
-//! from depth on the full-resolution triangulation of the lattice: each vertex sums the unnormalised
-//! cross products of its incident triangles, i.e. the area-weighted one-ring average (eq. 7.10).
+//! from depth on the full-resolution triangulation of the lattice: each vertex averages the normals of
+//! its incident triangles weighted by their area (eq. 7.10) or by the triangle's angle at the vertex
+//! (eq. 7.11; steadier where the lattice triangles have very different sizes, e.g. near cube corners).
 //!
 //! The variation is measured per *cell* (the quadtree's unit): `∂x` is the larger of `1 − |⟨N, N'⟩|`
 //! over the cell's two horizontal sides, `∂y` over its two vertical sides, `V_N = ‖(∂x, ∂y)‖`. Taking
@@ -13,11 +14,21 @@ use glam::DVec3;
 use super::grid::Grid;
 use crate::layer::LayerImage;
 
+/// How estimated normals weight the triangles of a vertex's one-ring.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum NormalWeighting {
+    /// By triangle area (eq. 7.10).
+    #[default]
+    Area,
+    /// By the triangle's angle at the vertex (eq. 7.11).
+    Angle,
+}
+
 /// Per-vertex unit normals of the lattice (zero where unknown).
-pub fn lattice_normals(image: &LayerImage, grid: &Grid) -> Vec<DVec3> {
+pub fn lattice_normals(image: &LayerImage, grid: &Grid, weighting: NormalWeighting) -> Vec<DVec3> {
     match (image.channel("N.X"), image.channel("N.Y"), image.channel("N.Z")) {
         (Some(nx), Some(ny), Some(nz)) => from_channels(grid, [&nx.data, &ny.data, &nz.data]),
-        _ => estimate(grid),
+        _ => estimate(grid, weighting),
     }
 }
 
@@ -33,8 +44,8 @@ fn from_channels(grid: &Grid, n: [&Vec<f32>; 3]) -> Vec<DVec3> {
     out
 }
 
-/// Area-weighted one-ring normals on the full-resolution lattice triangulation (diagonal `(x,y)-(x+1,y+1)`).
-pub fn estimate(grid: &Grid) -> Vec<DVec3> {
+/// One-ring normals on the full-resolution lattice triangulation (diagonal `(x,y)-(x+1,y+1)`).
+pub fn estimate(grid: &Grid, weighting: NormalWeighting) -> Vec<DVec3> {
     let (w, h) = (grid.w, grid.h);
     let mut acc = vec![DVec3::ZERO; w * h];
     for y in 0..h.saturating_sub(1) {
@@ -46,8 +57,14 @@ pub fn estimate(grid: &Grid) -> Vec<DVec3> {
                 }
                 let p: Vec<DVec3> = tri.iter().map(|&(a, b)| grid.point(a, b)).collect();
                 let n = (p[1] - p[0]).cross(p[2] - p[0]);
-                for &(a, b) in &tri {
-                    acc[b * w + a] += n;
+                for (k, &(a, b)) in tri.iter().enumerate() {
+                    acc[b * w + a] += match weighting {
+                        NormalWeighting::Area => n,
+                        NormalWeighting::Angle => {
+                            let (e1, e2) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
+                            n.try_normalize().unwrap_or(DVec3::ZERO) * e1.angle_between(e2)
+                        }
+                    };
                 }
             }
         }

@@ -31,6 +31,9 @@ pub struct Args {
     /// Thesis residual threshold (mean sub-feature normal variation of a node).
     #[arg(long, default_value_t = 0.05)]
     residual: f64,
+    /// Weighting of normals estimated from depth when the layer has no N.* channels: area or angle.
+    #[arg(long, default_value = "area", value_parser = ["area", "angle"])]
+    normal_weighting: String,
     /// Cap on a node's angular extent, degrees (texture distortion; 0 disables).
     #[arg(long, default_value_t = 20.0, value_name = "DEG")]
     max_angle: f64,
@@ -63,6 +66,11 @@ fn params(a: &Args) -> MeshParams {
         max_error: (a.max_error > 0.0).then_some(a.max_error),
         feature_angle_deg: a.feature_angle,
         residual_threshold: a.residual,
+        normal_weighting: if a.normal_weighting == "angle" {
+            mesh::normals::NormalWeighting::Angle
+        } else {
+            mesh::normals::NormalWeighting::Area
+        },
         max_angle_deg: (a.max_angle > 0.0).then_some(a.max_angle),
         uniform: a.uniform,
     }
