@@ -23,6 +23,7 @@ pub mod layer;
 pub mod layer_io;
 pub mod manifest;
 pub mod mapping;
+pub mod mesh;
 pub mod pack;
 pub mod panorama;
 pub mod raster;

@@ -1,0 +1,179 @@
+//! The vertex lattice one quadtree is built on.
+//!
+//! **Vertices are pixel centres.** A lattice of `w × h` vertices covers one cube face (`N × N`) or the
+//! whole equirect canvas (`W × H`); vertex `(x, y)` is the centre of pixel `(ox + x, oy + y)` and carries
+//! that pixel's depth. A quadtree node `[x0, x1] × [y0, y1]` is a rectangle of the lattice (inclusive
+//! vertex bounds, `x1 − x0` cells wide); a *cell* is the square between four neighbouring pixel centres.
+//! Meshing pixel centres keeps every vertex an exact sample (no invented depth); the half-pixel gaps
+//! between cube faces, across the equirect seam and around the poles are closed by [`super::stitch`].
+//!
+//! Each vertex stores `λ = depth / |r|`, where `r` is the lattice ray (unnormalised on a cube face), so
+//! that the 3D point is `λ·r`. Invalid vertices (outside, infinite or unknown depth) hold `NaN`.
+
+use glam::DVec3;
+
+use crate::layer::{classify, LayerImage, Sample};
+use crate::mapping::{CubeFace, Equirect, Mapping};
+
+/// Relative depth jump above which two neighbouring samples are not connected (as the validator).
+pub const JUMP_THRESHOLD: f64 = 0.5;
+
+/// `true` when two depths are too far apart to be one continuous surface.
+#[inline]
+pub fn is_jump(a: f64, b: f64) -> bool {
+    (a - b).abs() > JUMP_THRESHOLD * a.min(b)
+}
+
+/// How lattice rays are computed.
+#[derive(Clone, Debug)]
+pub enum Rays {
+    /// A cube face: `r = c + s·R + t·D`, `s = 2(x+½)/N − 1`, `t = 2(y+½)/N − 1`.
+    Face { face: CubeFace, n: usize },
+    /// The equirect canvas: unit rays from per-column and per-row tables.
+    Equirect { cos_phi: Vec<f64>, sin_phi: Vec<f64>, cos_theta: Vec<f64>, sin_theta: Vec<f64> },
+}
+
+impl Rays {
+    pub fn face(face: CubeFace, n: usize) -> Rays {
+        Rays::Face { face, n }
+    }
+
+    pub fn equirect(m: &Equirect) -> Rays {
+        let (w, h) = (m.width(), m.height());
+        let phi: Vec<f64> = (0..w).map(|i| std::f64::consts::TAU * (i as f64 + 0.5) / w as f64).collect();
+        let theta: Vec<f64> = (0..h).map(|j| std::f64::consts::PI * (j as f64 + 0.5) / h as f64).collect();
+        Rays::Equirect {
+            cos_phi: phi.iter().map(|p| p.cos()).collect(),
+            sin_phi: phi.iter().map(|p| p.sin()).collect(),
+            cos_theta: theta.iter().map(|t| t.cos()).collect(),
+            sin_theta: theta.iter().map(|t| t.sin()).collect(),
+        }
+    }
+
+    /// `n·r(x, y)` as a function of the lattice position: affine on a cube face (`r` is affine in
+    /// `x, y` there), through the ray tables on the equirect.
+    #[inline]
+    pub fn plane_dot(&self, n: DVec3) -> PlaneDot<'_> {
+        match self {
+            Rays::Face { face, n: size } => {
+                let [c, r, d] = face.frame();
+                let k = 2.0 / *size as f64;
+                // s = k(x + ½) − 1, t = k(y + ½) − 1.
+                let (nr, nd) = (n.dot(r), n.dot(d));
+                let a = n.dot(c) + nr * (0.5 * k - 1.0) + nd * (0.5 * k - 1.0);
+                PlaneDot::Affine { a, bx: nr * k, by: nd * k }
+            }
+            Rays::Equirect { .. } => PlaneDot::Rays { rays: self, n },
+        }
+    }
+
+    /// Ray through lattice vertex `(x, y)` (unit for the equirect, on the cube for a face).
+    #[inline]
+    pub fn ray(&self, x: usize, y: usize) -> DVec3 {
+        match self {
+            Rays::Face { face, n } => {
+                let s = 2.0 * (x as f64 + 0.5) / *n as f64 - 1.0;
+                let t = 2.0 * (y as f64 + 0.5) / *n as f64 - 1.0;
+                face.cube_point(s, t)
+            }
+            Rays::Equirect { cos_phi, sin_phi, cos_theta, sin_theta } => {
+                let st = sin_theta[y];
+                DVec3::new(st * cos_phi[x], st * sin_phi[x], cos_theta[y])
+            }
+        }
+    }
+}
+
+/// `n·r` over the lattice, see [`Rays::plane_dot`].
+pub enum PlaneDot<'a> {
+    Affine { a: f64, bx: f64, by: f64 },
+    Rays { rays: &'a Rays, n: DVec3 },
+}
+
+impl PlaneDot<'_> {
+    #[inline]
+    pub fn at(&self, x: usize, y: usize) -> f64 {
+        match self {
+            PlaneDot::Affine { a, bx, by } => a + bx * x as f64 + by * y as f64,
+            PlaneDot::Rays { rays, n } => n.dot(rays.ray(x, y)),
+        }
+    }
+}
+
+/// One lattice with its samples.
+#[derive(Clone, Debug)]
+pub struct Grid {
+    /// Canvas origin of vertex `(0, 0)`.
+    pub ox: usize,
+    pub oy: usize,
+    /// Lattice size in vertices.
+    pub w: usize,
+    pub h: usize,
+    /// Canvas width (for canvas pixel indices).
+    pub canvas_w: usize,
+    pub rays: Rays,
+    /// `λ` per vertex, `NaN` when the pixel cannot be meshed.
+    pub lambda: Vec<f32>,
+    /// Depth per vertex (`NaN` when invalid).
+    pub depth: Vec<f32>,
+}
+
+impl Grid {
+    /// Sample the lattice `w × h` at canvas origin `(ox, oy)` from a full-canvas layer image.
+    pub fn new(image: &LayerImage, ox: usize, oy: usize, w: usize, h: usize, rays: Rays) -> Grid {
+        let mut lambda = vec![f32::NAN; w * h];
+        let mut depth = vec![f32::NAN; w * h];
+        let (Some(z), a) = (image.depth(), image.coverage()) else {
+            return Grid { ox, oy, w, h, canvas_w: image.width, rays, lambda, depth };
+        };
+        for y in 0..h {
+            for x in 0..w {
+                let i = (oy + y) * image.width + ox + x;
+                if let Sample::Surface(d) = classify(z[i], a.map(|a| a[i])) {
+                    if d > 0.0 && d.is_finite() {
+                        depth[y * w + x] = d;
+                        lambda[y * w + x] = (d as f64 / rays.ray(x, y).length()) as f32;
+                    }
+                }
+            }
+        }
+        Grid { ox, oy, w, h, canvas_w: image.width, rays, lambda, depth }
+    }
+
+    /// Canvas pixel index of vertex `(x, y)`.
+    #[inline]
+    pub fn pixel(&self, x: usize, y: usize) -> u32 {
+        ((self.oy + y) * self.canvas_w + self.ox + x) as u32
+    }
+
+    #[inline]
+    pub fn valid(&self, x: usize, y: usize) -> bool {
+        !self.lambda[y * self.w + x].is_nan()
+    }
+
+    #[inline]
+    pub fn depth_at(&self, x: usize, y: usize) -> f64 {
+        self.depth[y * self.w + x] as f64
+    }
+
+    /// 3D point (panorama frame) of vertex `(x, y)`; meaningless when invalid.
+    #[inline]
+    pub fn point(&self, x: usize, y: usize) -> DVec3 {
+        self.rays.ray(x, y) * self.lambda[y * self.w + x] as f64
+    }
+
+    /// Two valid vertices that may be joined by an edge.
+    #[inline]
+    pub fn connected(&self, a: (usize, usize), b: (usize, usize)) -> bool {
+        self.valid(a.0, a.1)
+            && self.valid(b.0, b.1)
+            && !is_jump(self.depth_at(a.0, a.1), self.depth_at(b.0, b.1))
+    }
+
+    /// A cell that cannot be one continuous quad: a corner invalid or a jump along a side or diagonal.
+    pub fn bad_cell(&self, x: usize, y: usize) -> bool {
+        let c = [(x, y), (x + 1, y), (x + 1, y + 1), (x, y + 1)];
+        let pairs = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 2), (1, 3)];
+        pairs.iter().any(|&(i, j)| !self.connected(c[i], c[j]))
+    }
+}

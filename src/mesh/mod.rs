@@ -1,0 +1,279 @@
+//! Adaptive quadtree meshes of layers (thesis 7.4): build, stitch, measure, encode and export.
+//!
+//! Pipeline for one layer: sample one vertex lattice per cube face (or the whole equirect canvas,
+//! [`grid`]), build the summed-area tables and the discrete quadtree with the subdivision function `S`
+//! ([`sat`], [`normals`], [`criterion`], [`quadtree`]), balance it 2:1 ([`balance`]), triangulate the
+//! leaves without cracks ([`triangulate`]), close the gaps between lattices ([`stitch`]). [`error`]
+//! measures a mesh against the layer by casting every pixel's ray; [`encode`] stores the quadtrees as a
+//! bit string; [`export`] writes PLY, OBJ and glTF binary.
+
+pub mod balance;
+pub mod criterion;
+pub mod encode;
+pub mod error;
+pub mod export;
+pub mod grid;
+pub mod normals;
+pub mod quadtree;
+pub mod sat;
+pub mod stitch;
+pub mod triangulate;
+
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::layer::LayerImage;
+use crate::mapping::{AnyMapping, CubeFace, Mapping};
+use grid::{Grid, Rays};
+use quadtree::Tree;
+
+/// Errors of meshing, encoding and export. Codes are stable.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshError {
+    #[error("the layer has no depth channel Z")]
+    NoDepth,
+    #[error("the layer is {got_w}x{got_h} but the mapping canvas is {want_w}x{want_h}")]
+    CanvasMismatch { got_w: usize, got_h: usize, want_w: usize, want_h: usize },
+    #[error("invalid mesh parameter: {0}")]
+    Params(String),
+    #[error("invalid mesh encoding: {0}")]
+    Encoding(String),
+    #[error("export failed: {0}")]
+    Export(String),
+    #[error("{path}: {source}")]
+    Io {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl MeshError {
+    /// Stable machine-readable code.
+    pub fn code(&self) -> &'static str {
+        match self {
+            MeshError::NoDepth => "MESH_NO_DEPTH",
+            MeshError::CanvasMismatch { .. } => "MESH_CANVAS_MISMATCH",
+            MeshError::Params(_) => "MESH_PARAMS_INVALID",
+            MeshError::Encoding(_) => "MESH_ENCODING_INVALID",
+            MeshError::Export(_) => "MESH_EXPORT_FAILED",
+            MeshError::Io { .. } => "IO_ERROR",
+        }
+    }
+}
+
+/// What drives the subdivision. Several tests may be combined; `uniform` overrides the others.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshParams {
+    /// Maximum relative distance, along each pixel's ray, between the mesh and the sample.
+    pub max_error: Option<f64>,
+    /// Thesis feature test: split where adjacent normals differ by more than this angle (degrees).
+    pub feature_angle_deg: Option<f64>,
+    /// Thesis residual test: split when the mean sub-feature variation of a node reaches this.
+    pub residual_threshold: f64,
+    /// Weighting of estimated normals (layers without `N.*` channels).
+    pub normal_weighting: normals::NormalWeighting,
+    /// Cap on the angle between the rays of a node's opposite corners (texture distortion, 7.4.3).
+    pub max_angle_deg: Option<f64>,
+    /// Uniform baseline: leaves of at most `STEP` cells a side (1 = the full 4-8 mesh).
+    pub uniform: Option<u32>,
+}
+
+impl Default for MeshParams {
+    fn default() -> Self {
+        MeshParams {
+            max_error: Some(0.005),
+            feature_angle_deg: None,
+            residual_threshold: 0.05,
+            normal_weighting: normals::NormalWeighting::Area,
+            max_angle_deg: Some(20.0),
+            uniform: None,
+        }
+    }
+}
+
+impl MeshParams {
+    /// Reject non-finite or out-of-range values.
+    pub fn check(&self) -> Result<(), MeshError> {
+        let bad = |what: &str| Err(MeshError::Params(what.to_string()));
+        if self.max_error.is_some_and(|e| !(e.is_finite() && e > 0.0)) {
+            return bad("max-error must be a positive number");
+        }
+        if self.feature_angle_deg.is_some_and(|a| !(a.is_finite() && a > 0.0 && a < 180.0)) {
+            return bad("feature angle must be in (0, 180) degrees");
+        }
+        if self.max_angle_deg.is_some_and(|a| !(a.is_finite() && a > 0.0 && a <= 180.0)) {
+            return bad("max-angle must be in (0, 180] degrees");
+        }
+        if !(self.residual_threshold.is_finite() && self.residual_threshold > 0.0) {
+            return bad("residual threshold must be positive");
+        }
+        if self.uniform == Some(0) {
+            return bad("uniform step must be at least 1");
+        }
+        Ok(())
+    }
+}
+
+/// A vertex's origin: a canvas pixel (its centre, at its depth) or, on the equirect, a pole.
+pub fn is_pole(id: u32, width: usize, height: usize) -> bool {
+    id as usize >= width * height
+}
+
+/// A triangle mesh of one layer, in the panorama's local frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LayerMesh {
+    pub width: usize,
+    pub height: usize,
+    /// Canvas pixel index of each vertex (`≥ W·H` for the equirect poles, see [`stitch::pole_ids`]).
+    pub sources: Vec<u32>,
+    /// Panorama-local positions.
+    pub positions: Vec<DVec3>,
+    /// Counter-clockwise as seen from the panorama centre.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Wall-clock times of the stages, in milliseconds.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct StageTimes {
+    pub sample_ms: f64,
+    pub quadtree_ms: f64,
+    pub triangulate_ms: f64,
+    pub assemble_ms: f64,
+}
+
+/// A mesh with the quadtrees it came from.
+#[derive(Clone, Debug)]
+pub struct Meshed {
+    pub mesh: LayerMesh,
+    /// One tree per lattice (`None` for a lattice without cells).
+    pub trees: Vec<Option<Tree>>,
+    pub times: StageTimes,
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// The vertex lattices of a canvas: six faces, or the single equirect canvas.
+pub fn lattices(image: &LayerImage, mapping: &AnyMapping) -> Result<Vec<Grid>, MeshError> {
+    let (w, h) = (mapping.width(), mapping.height());
+    if image.width != w || image.height != h {
+        return Err(MeshError::CanvasMismatch {
+            got_w: image.width,
+            got_h: image.height,
+            want_w: w,
+            want_h: h,
+        });
+    }
+    if image.depth().is_none() {
+        return Err(MeshError::NoDepth);
+    }
+    Ok(match mapping {
+        AnyMapping::Equirect(m) => vec![Grid::new(image, 0, 0, w, h, Rays::equirect(m))],
+        AnyMapping::Cube(c) => {
+            let n = c.face_size();
+            CubeFace::ALL
+                .par_iter()
+                .map(|f| {
+                    let (s0, t0) = f.grid();
+                    Grid::new(image, s0 * n, t0 * n, n, n, Rays::face(*f, n))
+                })
+                .collect()
+        }
+    })
+}
+
+/// Mesh one layer.
+pub fn mesh_layer(
+    image: &LayerImage,
+    mapping: &AnyMapping,
+    params: &MeshParams,
+) -> Result<Meshed, MeshError> {
+    params.check()?;
+    let t = Instant::now();
+    let grids = lattices(image, mapping)?;
+    let sample_ms = ms(t);
+    let t = Instant::now();
+    let trees: Vec<Option<Tree>> = grids
+        .par_iter()
+        .map(|g| {
+            let c = criterion::Criterion::new(g, image, params);
+            let mut tree = Tree::build(g.w, g.h, &c)?;
+            balance::balance(&mut tree, &c);
+            Some(tree)
+        })
+        .collect();
+    let quadtree_ms = ms(t);
+    let (mesh, triangulate_ms, assemble_ms) = mesh_from_trees(&grids, &trees, mapping);
+    Ok(Meshed { mesh, trees, times: StageTimes { sample_ms, quadtree_ms, triangulate_ms, assemble_ms } })
+}
+
+/// Triangulate, stitch and assemble; shared by [`mesh_layer`] and the decoder.
+fn mesh_from_trees(grids: &[Grid], trees: &[Option<Tree>], mapping: &AnyMapping) -> (LayerMesh, f64, f64) {
+    let t = Instant::now();
+    let parts: Vec<(Vec<[u32; 3]>, Vec<bool>)> = grids
+        .par_iter()
+        .zip(trees.par_iter())
+        .map(|(g, tree)| match tree {
+            Some(tree) => {
+                let used = triangulate::used_vertices(tree, g);
+                (triangulate::triangulate(tree, g, &used), used)
+            }
+            None => (Vec::new(), vec![false; g.w * g.h]),
+        })
+        .collect();
+    let mut tris: Vec<[u32; 3]> = parts.iter().flat_map(|p| p.0.iter().copied()).collect();
+    let used: Vec<Vec<bool>> = parts.into_iter().map(|p| p.1).collect();
+    let mut poles = [f64::NAN; 2];
+    match mapping {
+        AnyMapping::Cube(_) => stitch::stitch_cube(grids, &used, &mut tris),
+        AnyMapping::Equirect(_) => poles = stitch::stitch_equirect(&grids[0], &used[0], &mut tris),
+    }
+    let triangulate_ms = ms(t);
+    let t = Instant::now();
+    let mesh = assemble(grids, mapping, &tris, poles);
+    (mesh, triangulate_ms, ms(t))
+}
+
+/// Compact canvas ids into vertices, compute positions, orient towards the centre.
+fn assemble(grids: &[Grid], mapping: &AnyMapping, tris: &[[u32; 3]], poles: [f64; 2]) -> LayerMesh {
+    let (w, h) = (mapping.width(), mapping.height());
+    let mut sources: Vec<u32> = tris.iter().flatten().copied().collect();
+    sources.par_sort_unstable();
+    sources.dedup();
+    let depth_of = |id: u32| -> f64 {
+        let (x, y) = (id as usize % w, id as usize / w);
+        let g = grids.iter().find(|g| x >= g.ox && x < g.ox + g.w && y >= g.oy && y < g.oy + g.h);
+        g.map_or(f64::NAN, |g| g.depth_at(x - g.ox, y - g.oy))
+    };
+    let positions: Vec<DVec3> = sources
+        .par_iter()
+        .map(|&id| {
+            if is_pole(id, w, h) {
+                let p = (id as usize - w * h).min(1);
+                DVec3::new(0.0, 0.0, if p == 0 { 1.0 } else { -1.0 }) * poles[p]
+            } else {
+                mapping.pixel_dir(id as usize % w, id as usize / w) * depth_of(id)
+            }
+        })
+        .collect();
+    let index = |id: u32| sources.binary_search(&id).map_or(0, |i| i as u32);
+    let triangles: Vec<[u32; 3]> = tris
+        .par_iter()
+        .map(|t| {
+            let v = t.map(index);
+            let p = v.map(|i| positions[i as usize]);
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            // Counter-clockwise seen from the centre: the normal points back at the viewer.
+            if n.dot(p[0] + p[1] + p[2]) > 0.0 {
+                [v[0], v[2], v[1]]
+            } else {
+                v
+            }
+        })
+        .collect();
+    LayerMesh { width: w, height: h, sources, positions, triangles }
+}

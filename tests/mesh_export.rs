@@ -1,0 +1,100 @@
+//! Export formats: PLY/OBJ structure, GLB structure, and (when `POMC_GLTF_VALIDATOR` points at an
+//! `npm install gltf-validator` node_modules directory) the Khronos glTF-Validator with no errors.
+
+use glam::DMat4;
+use pomc::mapping::{AnyMapping, Cube3x2, Equirect};
+use pomc::mesh::export::{self, Format};
+use pomc::mesh::{self, MeshParams};
+use pomc_fixtures::layers::{render_on, to_layer};
+use pomc_fixtures::Scene;
+
+fn meshes() -> Vec<(AnyMapping, pomc::layer::LayerImage, mesh::LayerMesh)> {
+    let maps = [
+        AnyMapping::Cube(Cube3x2::new(96, 64).unwrap()),
+        AnyMapping::Equirect(Equirect::new(96, 48).unwrap()),
+    ];
+    maps.into_iter()
+        .flat_map(|m| {
+            let r = render_on(&Scene::room(), &m);
+            [to_layer(&r.background, false), to_layer(&r.objects, false)].map(|img| {
+                let out = mesh::mesh_layer(&img, &m, &MeshParams::default()).unwrap();
+                (m, img, out.mesh)
+            })
+        })
+        .collect()
+}
+
+fn world() -> DMat4 {
+    DMat4::from_translation(glam::DVec3::new(0.0, 0.0, 1.2))
+        * DMat4::from_scale(glam::DVec3::new(-1.0, 1.0, 1.0))
+}
+
+#[test]
+fn ply_and_obj_have_the_declared_counts() {
+    for (_, img, m) in meshes() {
+        let ply = export::to_bytes(&m, &img, Some(world()), Format::Ply).unwrap();
+        let head = String::from_utf8_lossy(&ply[..400.min(ply.len())]).to_string();
+        let end = head.find("end_header\n").unwrap() + "end_header\n".len();
+        let nv: usize =
+            head.split("element vertex ").nth(1).unwrap().split('\n').next().unwrap().parse().unwrap();
+        let nf: usize =
+            head.split("element face ").nth(1).unwrap().split('\n').next().unwrap().parse().unwrap();
+        assert_eq!(nf, m.triangles.len());
+        assert_eq!(ply.len(), end + nv * 23 + nf * 13);
+        let obj = String::from_utf8(export::to_bytes(&m, &img, None, Format::Obj).unwrap()).unwrap();
+        assert_eq!(obj.lines().filter(|l| l.starts_with("f ")).count(), m.triangles.len());
+    }
+}
+
+#[test]
+fn glb_is_well_formed_and_passes_the_khronos_validator() {
+    let dir = tempfile::tempdir().unwrap();
+    for (k, (_, img, m)) in meshes().into_iter().enumerate() {
+        let glb = export::to_bytes(&m, &img, Some(world()), Format::Glb).unwrap();
+        assert_eq!(&glb[..4], b"glTF");
+        assert_eq!(u32::from_le_bytes(glb[8..12].try_into().unwrap()) as usize, glb.len());
+        assert_eq!(glb.len() % 4, 0);
+        let path = dir.path().join(format!("m{k}.glb"));
+        std::fs::write(&path, &glb).unwrap();
+        let Ok(modules) = std::env::var("POMC_GLTF_VALIDATOR") else { continue };
+        let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tools/gltf_validate.mjs");
+        let out = std::process::Command::new("node")
+            .arg(script)
+            .arg(&path)
+            .env("POMC_GLTF_VALIDATOR", &modules)
+            .output()
+            .expect("node runs");
+        let report = String::from_utf8_lossy(&out.stdout);
+        eprintln!("glTF-Validator on {}: {report}", path.display());
+        assert!(
+            out.status.success(),
+            "glTF-Validator reports errors:\n{report}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
+
+#[test]
+fn unknown_extension_is_a_typed_error() {
+    let e = Format::from_path(std::path::Path::new("x.stl")).unwrap_err();
+    assert_eq!(e.code(), "MESH_EXPORT_FAILED");
+}
+
+#[test]
+fn every_exported_triangle_samples_one_region_of_the_texture() {
+    for (m, _, mesh) in meshes() {
+        let e = export::prepare(&mesh, DMat4::IDENTITY, &|_| [0.0; 3]);
+        let cube = matches!(m, AnyMapping::Cube(_));
+        for t in &e.triangles {
+            let uv = t.map(|i| e.uvs[i as usize]);
+            let span = |k: usize| {
+                let (a, b) =
+                    uv.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |a, p| (a.0.min(p[k]), a.1.max(p[k])));
+                b - a
+            };
+            // Within one cube face (a third by a half of the atlas), or a short step across the seam.
+            let (su, sv) = if cube { (1.0 / 3.0, 0.5) } else { (0.25, 0.5) };
+            assert!(span(0) <= su + 1e-6 && span(1) <= sv + 1e-6, "triangle spans {uv:?}");
+        }
+    }
+}

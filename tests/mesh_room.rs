@@ -1,0 +1,183 @@
+//! Meshing the analytic room: watertightness, error bound, balance, determinism, encoding.
+
+use std::collections::HashMap;
+
+use pomc::layer::LayerImage;
+use pomc::mapping::{AnyMapping, Cube3x2, Equirect};
+use pomc::mesh::{self, balance, encode, error, LayerMesh, MeshParams};
+use pomc_fixtures::layers::{render_on, to_layer};
+use pomc_fixtures::Scene;
+
+fn cube(n: usize) -> AnyMapping {
+    AnyMapping::Cube(Cube3x2::new(3 * n, 2 * n).unwrap())
+}
+
+fn equirect(h: usize) -> AnyMapping {
+    AnyMapping::Equirect(Equirect::new(2 * h, h).unwrap())
+}
+
+fn room(m: &AnyMapping) -> (LayerImage, LayerImage) {
+    let r = render_on(&Scene::room(), m);
+    (to_layer(&r.background, true), to_layer(&r.objects, true))
+}
+
+/// Undirected edge → number of triangles using it.
+fn edge_counts(m: &LayerMesh) -> HashMap<(u32, u32), usize> {
+    let mut e = HashMap::new();
+    for t in &m.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *e.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    e
+}
+
+/// Closed 2-manifold of genus 0: every edge in exactly two triangles, each directed edge once, χ = 2.
+fn assert_closed(m: &LayerMesh) {
+    let e = edge_counts(m);
+    let bad: Vec<_> = e.iter().filter(|(_, &c)| c != 2).take(5).collect();
+    assert!(bad.is_empty(), "edges not shared by exactly two triangles: {bad:?} (of {})", e.len());
+    let mut directed = std::collections::HashSet::new();
+    for t in &m.triangles {
+        for k in 0..3 {
+            assert!(directed.insert((t[k], t[(k + 1) % 3])), "inconsistent orientation");
+        }
+    }
+    let chi = m.positions.len() as i64 - e.len() as i64 + m.triangles.len() as i64;
+    assert_eq!(chi, 2, "Euler characteristic");
+}
+
+#[test]
+fn cube_background_is_watertight_and_within_bound() {
+    let m = cube(48);
+    let (bg, _) = room(&m);
+    let p = MeshParams { max_error: Some(0.005), ..MeshParams::default() };
+    let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
+    assert_closed(&out.mesh);
+    for t in out.trees.iter().flatten() {
+        assert!(balance::is_balanced(t));
+    }
+    let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+    assert_eq!(s.unhit, 0, "{s:?}");
+    assert!(s.max_rel <= 0.005 + 1e-6, "{s:?}");
+    let uniform = 6 * 47 * 47 * 2;
+    assert!(out.mesh.triangles.len() < uniform / 4, "{} triangles", out.mesh.triangles.len());
+}
+
+#[test]
+fn equirect_background_is_watertight_across_seam_and_poles() {
+    let m = equirect(40);
+    let (bg, _) = room(&m);
+    let out = mesh::mesh_layer(&bg, &m, &MeshParams::default()).unwrap();
+    assert_closed(&out.mesh);
+    assert!(out.mesh.positions.iter().all(|p| p.is_finite()));
+    let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+    assert_eq!(s.unhit, 0, "{s:?}");
+    assert!(s.p99_rel <= 0.005, "{s:?}");
+}
+
+#[test]
+fn uniform_step_one_is_the_full_4_8_mesh() {
+    let m = cube(12);
+    let (bg, _) = room(&m);
+    let p = MeshParams { uniform: Some(1), ..MeshParams::default() };
+    let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
+    assert_closed(&out.mesh);
+    let per_face = 11 * 11 * 2;
+    // Faces plus edge strips (12 edges × 2·11 triangles) plus 8 corner triangles.
+    assert_eq!(out.mesh.triangles.len(), 6 * per_face + 12 * 22 + 8);
+}
+
+#[test]
+fn objects_layer_follows_the_mask_and_never_bridges_jumps() {
+    for m in [cube(40), equirect(40)] {
+        let (_, obj) = room(&m);
+        let out = mesh::mesh_layer(&obj, &m, &MeshParams::default()).unwrap();
+        assert!(!out.mesh.triangles.is_empty());
+        assert!(edge_counts(&out.mesh).values().all(|&c| c <= 2));
+        let z = obj.depth().unwrap();
+        let (w, h) = (out.mesh.width, out.mesh.height);
+        for t in &out.mesh.triangles {
+            let d: Vec<f64> = t.iter().map(|&v| out.mesh.positions[v as usize].length()).collect();
+            for k in 0..3 {
+                let id = out.mesh.sources[t[k] as usize] as usize;
+                if id < w * h {
+                    assert!(z[id] > 0.0, "vertex outside the domain");
+                }
+                let (a, b) = (d[k], d[(k + 1) % 3]);
+                assert!((a - b).abs() <= 0.5 * a.min(b) + 1e-9, "edge across a depth jump");
+            }
+        }
+        let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &obj, &m);
+        assert!(s.p99_rel <= 0.005, "{s:?}");
+    }
+}
+
+#[test]
+fn meshing_is_deterministic_and_decodes_to_the_same_triangles() {
+    for m in [cube(32), equirect(32)] {
+        let (bg, obj) = room(&m);
+        for layer in [&bg, &obj] {
+            let a = mesh::mesh_layer(layer, &m, &MeshParams::default()).unwrap();
+            let b = mesh::mesh_layer(layer, &m, &MeshParams::default()).unwrap();
+            assert!(a.mesh == b.mesh, "two runs differ");
+            let bytes = encode::encode(&a.trees, &m).unwrap();
+            let back = encode::decode(&bytes, layer, &m).unwrap();
+            assert!(back == a.mesh, "decoded mesh differs");
+        }
+    }
+}
+
+#[test]
+fn thesis_normal_test_alone_meshes_planar_walls_coarsely() {
+    let m = cube(48);
+    let (bg, _) = room(&m);
+    let p = MeshParams {
+        max_error: None,
+        feature_angle_deg: Some(10.0),
+        max_angle_deg: None,
+        ..MeshParams::default()
+    };
+    let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
+    assert_closed(&out.mesh);
+    let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+    assert!(s.p99_rel < 0.01, "{s:?}");
+}
+
+#[test]
+fn estimated_normals_find_the_same_creases_either_way() {
+    use pomc::mesh::normals::NormalWeighting;
+    let m = cube(32);
+    let r = render_on(&Scene::room(), &m);
+    let bg = to_layer(&r.background, false);
+    for w in [NormalWeighting::Area, NormalWeighting::Angle] {
+        let p = MeshParams {
+            max_error: None,
+            feature_angle_deg: Some(10.0),
+            normal_weighting: w,
+            max_angle_deg: None,
+            ..MeshParams::default()
+        };
+        let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
+        assert_closed(&out.mesh);
+        let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+        assert!(s.p99_rel < 0.01, "{w:?}: {s:?}");
+    }
+}
+
+#[test]
+fn bad_inputs_are_typed_errors() {
+    let m = cube(8);
+    let img = LayerImage::new(24, 16);
+    assert_eq!(mesh::mesh_layer(&img, &m, &MeshParams::default()).unwrap_err().code(), "MESH_NO_DEPTH");
+    let img = LayerImage::new(10, 10);
+    assert_eq!(
+        mesh::mesh_layer(&img, &m, &MeshParams::default()).unwrap_err().code(),
+        "MESH_CANVAS_MISMATCH"
+    );
+    let p = MeshParams { max_error: Some(f64::NAN), ..MeshParams::default() };
+    let (bg, _) = room(&m);
+    assert_eq!(mesh::mesh_layer(&bg, &m, &p).unwrap_err().code(), "MESH_PARAMS_INVALID");
+    assert_eq!(encode::decode(b"nonsense", &bg, &m).unwrap_err().code(), "MESH_ENCODING_INVALID");
+}

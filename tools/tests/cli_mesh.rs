@@ -1,0 +1,57 @@
+//! `pomc mesh` end to end on the room fixture: JSON figures, the three export formats, `--store`.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use pomc::mapping::{AnyMapping, MappingKind};
+
+fn pomc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pomc")).args(args).output().expect("pomc runs")
+}
+
+fn room(dir: &Path, kind: MappingKind, w: usize, h: usize) {
+    let m = AnyMapping::new(kind, w, h).unwrap();
+    pomc_fixtures::layers::write_room(dir, &m).unwrap();
+}
+
+#[test]
+fn mesh_reports_figures_and_writes_every_format() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path(), MappingKind::Cube3x2, 144, 96);
+    let d = dir.path().to_str().unwrap();
+    for (layer, ext) in [("0", "glb"), ("1", "ply"), ("0", "obj")] {
+        let out_path = dir.path().join(format!("m{layer}.{ext}"));
+        let out = pomc(&["mesh", d, "--layer", layer, "-o", out_path.to_str().unwrap(), "--json"]);
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert!(v["triangles"].as_u64().unwrap() > 0);
+        assert!(v["error"]["p99_rel"].as_f64().unwrap() <= 0.005);
+        assert!(v["encoded_bytes"].as_u64().unwrap() > 9);
+        assert!(std::fs::metadata(&out_path).unwrap().len() > 0);
+    }
+}
+
+#[test]
+fn store_references_the_mesh_from_the_manifest() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path(), MappingKind::Equirect, 128, 64);
+    let d = dir.path().to_str().unwrap();
+    let out = pomc(&["mesh", d, "--store", "--no-metric", "--quiet"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let xml = std::fs::read_to_string(dir.path().join("panorama.xml")).unwrap();
+    assert!(xml.contains("<Mesh file=\"room.pomcmesh\""), "{xml}");
+    assert!(dir.path().join("room.pomcmesh").is_file());
+    // Storing again replaces the reference instead of adding a second one.
+    assert_eq!(pomc(&["mesh", d, "--store", "--no-metric", "--quiet"]).status.code(), Some(0));
+    let xml = std::fs::read_to_string(dir.path().join("panorama.xml")).unwrap();
+    assert_eq!(xml.matches("<Mesh").count(), 1);
+}
+
+#[test]
+fn mesh_errors_are_coded() {
+    let out = pomc(&["mesh", "/nonexistent/pano", "--json"]);
+    assert_eq!(out.status.code(), Some(2));
+    let dir = tempfile::tempdir().unwrap();
+    let out = pomc(&["mesh", dir.path().to_str().unwrap(), "--max-error", "NaN"]);
+    assert_eq!(out.status.code(), Some(2));
+}
