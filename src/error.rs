@@ -20,6 +20,8 @@ pub enum Error {
     Build(#[from] crate::build::BuildError),
     #[error(transparent)]
     Input(#[from] crate::build::input::InputError),
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -39,6 +41,7 @@ impl Error {
             Error::Panorama(e) => e.code(),
             Error::Build(e) => e.code(),
             Error::Input(e) => e.code(),
+            Error::Render(e) => e.code(),
             Error::Io { .. } => "IO_ERROR",
         }
     }

@@ -26,6 +26,7 @@ pub mod mapping;
 pub mod pack;
 pub mod panorama;
 pub mod raster;
+pub mod render;
 pub mod resample;
 pub mod validate;
 
