@@ -404,11 +404,14 @@ impl LayerCtx<'_> {
         }
         let count = |s: f64| ((s / self.o.spacing).ceil() as usize).clamp(1, self.o.max_subsamples.max(1));
         let (nx, ny) = (count(sx), count(sy));
-        if !self.camera.wraps() && self.off_screen(c.q, sx.max(sy)) {
+        // Past the sub-sample cap, widen the filter so the sparser samples still overlap.
+        let stretch = (sx / nx as f64).max(sy / ny as f64) / self.o.spacing;
+        let radius = self.o.radius * stretch.max(1.0);
+        if !self.camera.wraps() && self.off_screen(c.q, sx.max(sy) + radius) {
             return 0;
         }
         if nx == 1 && ny == 1 {
-            splat(self.camera, self.o.radius, c.q, c.dist, c.rgb, acc);
+            splat(self.camera, radius, c.q, c.dist, c.rgb, acc);
             return 1;
         }
         let mut done = 0;
@@ -419,7 +422,7 @@ impl LayerCtx<'_> {
                 let (cam, rgb) = interpolate(c, &linked, ox, oy);
                 if let Some(q) = self.camera.project(cam) {
                     let dist = if c.dist.is_infinite() { f32::INFINITY } else { cam.length() as f32 };
-                    splat(self.camera, self.o.radius, q, dist, rgb, acc);
+                    splat(self.camera, radius, q, dist, rgb, acc);
                     done += 1;
                 }
             }
@@ -427,32 +430,45 @@ impl LayerCtx<'_> {
         done
     }
 
-    /// Whether a pixel's splat footprint (centre `q`, reach `spread`) misses the output entirely.
-    fn off_screen(&self, q: DVec2, spread: f64) -> bool {
-        let reach = spread + self.o.radius + 1.0;
+    /// Whether a pixel's splat footprint (centre `q`, reach `reach` pixels) misses the output.
+    fn off_screen(&self, q: DVec2, reach: f64) -> bool {
+        let reach = reach + 1.0;
         let (w, h) = (self.camera.width() as f64, self.camera.height() as f64);
         q.x + reach < 0.0 || q.y + reach < 0.0 || q.x - reach > w || q.y - reach > h
     }
 }
 
 /// The surface point and colour at offset `(ox, oy)` ∈ (-½, ½)² from the pixel centre: bilinear
-/// over the quad towards the neighbours on that side; a neighbour across a discontinuity is
-/// replaced by the pixel itself (the splat stops at the pixel's own sample).
+/// over the quad towards the neighbours on that side. A neighbour across a discontinuity (or
+/// outside the layer) is replaced by the mirror image of the opposite neighbour (`2c − n`), or by
+/// the pixel itself: the pixel still covers its whole footprint — so layers that abut without a
+/// depth jump (an object standing on the floor) leave no crack between them — but never reaches
+/// into the next pixel across a discontinuity. Synthesised corners take the pixel's colour.
 #[inline]
 fn interpolate(c: &Pt, linked: &[Option<&Pt>; 8], ox: f64, oy: f64) -> (DVec3, [f32; 3]) {
     let (sx, sy) = (if ox >= 0.0 { 1 } else { -1 }, if oy >= 0.0 { 1 } else { -1 });
-    let h = linked[offset_index(sx, 0)].unwrap_or(c);
-    let v = linked[offset_index(0, sy)].unwrap_or(c);
-    let d = linked[offset_index(sx, sy)].unwrap_or(c);
+    let side = |dx: i64, dy: i64| -> (DVec3, [f32; 3]) {
+        match (linked[offset_index(dx, dy)], linked[offset_index(-dx, -dy)]) {
+            (Some(n), _) => (n.cam, n.rgb),
+            (None, Some(m)) => (c.cam * 2.0 - m.cam, c.rgb),
+            (None, None) => (c.cam, c.rgb),
+        }
+    };
+    let h = side(sx, 0);
+    let v = side(0, sy);
+    let d = match linked[offset_index(sx, sy)] {
+        Some(n) => (n.cam, n.rgb),
+        None => (h.0 + v.0 - c.cam, c.rgb),
+    };
     let (wx, wy) = (ox.abs(), oy.abs());
     let w = [(1.0 - wx) * (1.0 - wy), wx * (1.0 - wy), (1.0 - wx) * wy, wx * wy];
-    let pts = [c, h, v, d];
+    let pts = [(c.cam, c.rgb), h, v, d];
     let mut cam = DVec3::ZERO;
     let mut rgb = [0.0f32; 3];
     for (p, &wk) in pts.iter().zip(&w) {
-        cam += p.cam * wk;
+        cam += p.0 * wk;
         for k in 0..3 {
-            rgb[k] += p.rgb[k] * wk as f32;
+            rgb[k] += p.1[k] * wk as f32;
         }
     }
     (cam, rgb)
