@@ -44,7 +44,7 @@ pub struct SplatOptions {
 
 impl Default for SplatOptions {
     fn default() -> Self {
-        SplatOptions { radius: 0.75, jump: 0.1, tolerance: 0.03, spacing: 0.75, max_subsamples: 32 }
+        SplatOptions { radius: 0.75, jump: 0.1, tolerance: 0.01, spacing: 0.75, max_subsamples: 32 }
     }
 }
 

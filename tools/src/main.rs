@@ -7,6 +7,7 @@ mod cmd_build;
 mod cmd_convert;
 mod cmd_info;
 mod cmd_pack;
+mod cmd_render;
 mod cmd_validate;
 mod output;
 
@@ -47,6 +48,8 @@ enum Command {
     Pack(cmd_pack::PackArgs),
     /// Restore full canvases of packed layers.
     Unpack(cmd_pack::UnpackArgs),
+    /// Render a view from a camera near the panorama centre (point splatting).
+    Render(cmd_render::Args),
 }
 
 /// A failed command: what to print and the exit code.
@@ -72,6 +75,7 @@ fn main() -> ExitCode {
         Command::Build(a) => cmd_build::run(a, out),
         Command::Pack(a) => cmd_pack::run_pack(a, out),
         Command::Unpack(a) => cmd_pack::run_unpack(a, out),
+        Command::Render(a) => cmd_render::run(a, out),
     };
     match result {
         Ok(code) => ExitCode::from(code),
