@@ -186,7 +186,7 @@ impl Camera {
         match self {
             Camera::Perspective(c) => {
                 let len = p.length();
-                if !(p.z > MIN_FORWARD_COS * len) || !len.is_finite() {
+                if p.z.is_nan() || p.z <= MIN_FORWARD_COS * len || !len.is_finite() {
                     return None;
                 }
                 let q = DVec2::new(

@@ -204,7 +204,7 @@ impl Cull {
             .to_cols_array()
             .iter()
             .fold(0.0f64, |a, v| a.max(v.abs()));
-        if !(s2 > 0.0) || off > 1e-9 * s2 {
+        if s2.is_nan() || s2 <= 0.0 || off > 1e-9 * s2 {
             return None;
         }
         let inv = local_to_world.inverse();
@@ -467,8 +467,8 @@ fn interpolate(c: &Pt, linked: &[Option<&Pt>; 8], ox: f64, oy: f64) -> (DVec3, [
     let mut rgb = [0.0f32; 3];
     for (p, &wk) in pts.iter().zip(&w) {
         cam += p.0 * wk;
-        for k in 0..3 {
-            rgb[k] += p.1[k] * wk as f32;
+        for (out, v) in rgb.iter_mut().zip(p.1) {
+            *out += v * wk as f32;
         }
     }
     (cam, rgb)
