@@ -218,3 +218,42 @@ fn bad_input_is_a_typed_error() {
     assert_eq!(render::render(&[], DMat4::IDENTITY, &cam, &bad).unwrap_err().code(), "RENDER_BAD_OPTIONS");
     let _ = m.width();
 }
+
+/// Columns of a frame's colour, mirrored left to right.
+fn mirrored(f: &Frame) -> Frame {
+    let mut m = f.clone();
+    for k in 0..3 {
+        for y in 0..f.height {
+            for x in 0..f.width {
+                m.rgb[k][y * f.width + x] = f.rgb[k][y * f.width + f.width - 1 - x];
+            }
+        }
+    }
+    m
+}
+
+#[test]
+fn local_to_world_places_the_panorama_in_the_world() {
+    let scene = Scene::room();
+    let s = systems(&scene, MappingKind::Equirect, 512, 256);
+    let layers: Vec<RenderLayer> =
+        s.layered.iter().map(|image| RenderLayer { image, mapping: s.mapping }).collect();
+    let (eye, at) = (DVec3::new(0.2, 0.3, 0.1), DVec3::new(2.0, 0.0, -0.8));
+    let local = persp(eye, at);
+    let base = render::render(&layers, DMat4::IDENTITY, &local, &SplatOptions::default()).unwrap().frame;
+    // The thesis's example transform (translate, rotate 90° about Z, mirror X) and a uniform scale.
+    let m = DMat4::from_translation(DVec3::new(0.0, 0.0, 1.15))
+        * DMat4::from_rotation_z(90f64.to_radians())
+        * DMat4::from_scale(DVec3::new(-2.0, 2.0, 2.0));
+    let world = Camera::Perspective(
+        Perspective::new(m.transform_point3(eye), m.transform_point3(at), DVec3::Z, 60.0, 320, 180).unwrap(),
+    );
+    let moved = render::render(&layers, m, &world, &SplatOptions::default()).unwrap().frame;
+    // The mirror swaps left and right; distances double.
+    let p = metrics::psnr(&mirrored(&moved), &base);
+    assert!(p > 40.0, "PSNR against the identity render {p}");
+    let centre = 90 * 320 + 160;
+    assert!((moved.depth[centre] / base.depth[centre] - 2.0).abs() < 0.01);
+    assert_eq!(moved.holes(), base.holes());
+    assert_eq!(render::centre(m), DVec3::new(0.0, 0.0, 1.15));
+}
