@@ -122,3 +122,51 @@ fn failures_are_json_with_a_code_when_asked() {
     let v = json(&out);
     assert_eq!(v["error"]["code"], "PANORAMA_NOT_FOUND");
 }
+
+#[test]
+fn build_from_the_bundled_rgbd_fixture_is_valid() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-rgbd");
+    let out = tempfile::tempdir().unwrap();
+    let report_file = out.path().join("report.json");
+    let pano = out.path().join("pano");
+    let run = pomc(&[
+        "build",
+        "--colour",
+        root.join("colour.png").to_str().unwrap(),
+        "--depth",
+        root.join("depth.exr").to_str().unwrap(),
+        "-o",
+        pano.to_str().unwrap(),
+        "--report",
+        report_file.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
+    let v = json(&run);
+    assert_eq!(v["coverage"], 1.0);
+    let layers = v["layers"].as_array().unwrap();
+    assert_eq!(layers.len(), 2, "{layers:?}");
+    assert_eq!(layers[0]["role"], "background");
+    assert!(layers[0]["filled_pixels"].as_u64().unwrap() > 0);
+    let saved: serde_json::Value = serde_json::from_slice(&std::fs::read(&report_file).unwrap()).unwrap();
+    assert_eq!(saved["layers"], v["layers"]);
+    let check = pomc(&["validate", pano.to_str().unwrap(), "--json"]);
+    assert_eq!(check.status.code(), Some(0), "{}", String::from_utf8_lossy(&check.stdout));
+
+    // A depth file of the wrong size is refused with a code naming both files.
+    let bad = pomc(&[
+        "build",
+        "--colour",
+        root.join("colour.png").to_str().unwrap(),
+        "--depth",
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../fixtures/data/room-cube/room.exr")
+            .to_str()
+            .unwrap(),
+        "-o",
+        out.path().join("bad").to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert_eq!(json(&bad)["error"]["code"], "INPUT_SIZE_MISMATCH");
+}
