@@ -252,6 +252,8 @@ struct LayerCtx<'a> {
     dirs: Dirs,
     nb: Neighbours,
     camera: &'a Camera,
+    /// [`Camera::x_scale`] of each output row's centre (no trigonometry in the inner loops).
+    scales: &'a [f64],
     /// Panorama-local → camera space.
     to_cam: DMat4,
     cull: Option<Cull>,
@@ -369,7 +371,7 @@ impl LayerCtx<'_> {
             let w = self.camera.width() as f64;
             dx -= w * (dx / w).round();
         }
-        (dx * self.camera.x_scale(a.y)).hypot(b.y - a.y)
+        (dx * row_scale(self.scales, a.y)).hypot(b.y - a.y)
     }
 
     fn continuous(&self, a: f32, b: f32) -> bool {
@@ -411,7 +413,7 @@ impl LayerCtx<'_> {
             return 0;
         }
         if nx == 1 && ny == 1 {
-            splat(self.camera, radius, c.q, c.dist, c.rgb, acc);
+            splat(self.camera, self.scales, radius, c.q, c.dist, c.rgb, acc);
             return 1;
         }
         let mut done = 0;
@@ -422,7 +424,7 @@ impl LayerCtx<'_> {
                 let (cam, rgb) = interpolate(c, &linked, ox, oy);
                 if let Some(q) = self.camera.project(cam) {
                     let dist = if c.dist.is_infinite() { f32::INFINITY } else { cam.length() as f32 };
-                    splat(self.camera, radius, q, dist, rgb, acc);
+                    splat(self.camera, self.scales, radius, q, dist, rgb, acc);
                     done += 1;
                 }
             }
@@ -474,11 +476,17 @@ fn interpolate(c: &Pt, linked: &[Option<&Pt>; 8], ox: f64, oy: f64) -> (DVec3, [
     (cam, rgb)
 }
 
+/// The horizontal metric at output row coordinate `y` (clamped into the image).
+#[inline]
+fn row_scale(scales: &[f64], y: f64) -> f64 {
+    scales[(y.max(0.0) as usize).min(scales.len() - 1)]
+}
+
 /// Filter one sample into the output with a tent of radius `r` (thesis Alg. 9). Equirect outputs
 /// widen the kernel horizontally by `1 / sin θ` so it covers the same solid angle near the poles,
 /// and wrap it around the seam.
 #[inline]
-fn splat(camera: &Camera, r: f64, q: DVec2, dist: f32, rgb: [f32; 3], acc: &mut Accum) {
+fn splat(camera: &Camera, scales: &[f64], r: f64, q: DVec2, dist: f32, rgb: [f32; 3], acc: &mut Accum) {
     let (w, h) = (acc.width as i64, acc.height as i64);
     let y0 = ((q.y - r - 0.5).ceil() as i64).max(0);
     let y1 = ((q.y + r - 0.5).floor() as i64).min(h - 1);
@@ -488,7 +496,7 @@ fn splat(camera: &Camera, r: f64, q: DVec2, dist: f32, rgb: [f32; 3], acc: &mut 
         if fy <= 0.0 {
             continue;
         }
-        let s = camera.x_scale(py as f64 + 0.5);
+        let s = scales[py as usize];
         let rx = (r / s).min(w as f64 / 2.0);
         let mut x0 = (q.x - rx - 0.5).ceil() as i64;
         let mut x1 = (q.x + rx - 0.5).floor() as i64;
@@ -516,6 +524,7 @@ pub fn splat_layers(
     o: &SplatOptions,
 ) -> (Accum, SplatCounts) {
     let to_cam = camera.to_camera() * local_to_world;
+    let scales: Vec<f64> = (0..camera.height()).map(|y| camera.x_scale(y as f64 + 0.5)).collect();
     let cull = Cull::new(camera, local_to_world);
     let ctxs: Vec<LayerCtx> = layers
         .iter()
@@ -524,6 +533,7 @@ pub fn splat_layers(
             dirs: Dirs::new(planes.mapping),
             nb: Neighbours::new(planes.mapping),
             camera,
+            scales: &scales,
             to_cam,
             cull,
             o: *o,
