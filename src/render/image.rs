@@ -157,7 +157,7 @@ mod tests {
     #[test]
     fn empty_cells_are_holes_without_nan() {
         let mut acc = Accum::new(2, 1, 0.03);
-        acc.add(1, f32::INFINITY, 0.5, [1.0, 0.5, 0.25]);
+        acc.add(1, f32::INFINITY, 0.5, [1.0, 0.5, 0.25], 0);
         let f = Frame::from_accum(&acc);
         assert_eq!(f.covered, vec![false, true]);
         assert_eq!(f.depth, vec![OUTSIDE_DEPTH, f32::INFINITY]);

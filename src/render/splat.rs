@@ -248,6 +248,8 @@ struct Pt {
 
 /// Everything a tile needs, shared by all tiles of one layer.
 struct LayerCtx<'a> {
+    /// Index of the layer (its samples never blend with another layer's).
+    index: u32,
     planes: LayerPlanes<'a>,
     dirs: Dirs,
     nb: Neighbours,
@@ -413,7 +415,8 @@ impl LayerCtx<'_> {
             return 0;
         }
         if nx == 1 && ny == 1 {
-            splat(self.camera, self.scales, radius, c.q, c.dist, c.rgb, acc);
+            let one = Splat { q: c.q, dist: c.dist, rgb: c.rgb, layer: self.index };
+            splat(self.camera, self.scales, radius, &one, acc);
             return 1;
         }
         let mut done = 0;
@@ -424,7 +427,7 @@ impl LayerCtx<'_> {
                 let (cam, rgb) = interpolate(c, &linked, ox, oy);
                 if let Some(q) = self.camera.project(cam) {
                     let dist = if c.dist.is_infinite() { f32::INFINITY } else { cam.length() as f32 };
-                    splat(self.camera, self.scales, radius, q, dist, rgb, acc);
+                    splat(self.camera, self.scales, radius, &Splat { q, dist, rgb, layer: self.index }, acc);
                     done += 1;
                 }
             }
@@ -476,6 +479,17 @@ fn interpolate(c: &Pt, linked: &[Option<&Pt>; 8], ox: f64, oy: f64) -> (DVec3, [
     (cam, rgb)
 }
 
+/// One sample ready to filter into the output.
+#[derive(Clone, Copy, Debug)]
+struct Splat {
+    /// Output pixel coordinates.
+    q: DVec2,
+    /// Camera distance.
+    dist: f32,
+    rgb: [f32; 3],
+    layer: u32,
+}
+
 /// The horizontal metric at output row coordinate `y` (clamped into the image).
 #[inline]
 fn row_scale(scales: &[f64], y: f64) -> f64 {
@@ -486,7 +500,8 @@ fn row_scale(scales: &[f64], y: f64) -> f64 {
 /// widen the kernel horizontally by `1 / sin θ` so it covers the same solid angle near the poles,
 /// and wrap it around the seam.
 #[inline]
-fn splat(camera: &Camera, scales: &[f64], r: f64, q: DVec2, dist: f32, rgb: [f32; 3], acc: &mut Accum) {
+fn splat(camera: &Camera, scales: &[f64], r: f64, s: &Splat, acc: &mut Accum) {
+    let q = s.q;
     let (w, h) = (acc.width as i64, acc.height as i64);
     let y0 = ((q.y - r - 0.5).ceil() as i64).max(0);
     let y1 = ((q.y + r - 0.5).floor() as i64).min(h - 1);
@@ -496,8 +511,8 @@ fn splat(camera: &Camera, scales: &[f64], r: f64, q: DVec2, dist: f32, rgb: [f32
         if fy <= 0.0 {
             continue;
         }
-        let s = scales[py as usize];
-        let rx = (r / s).min(w as f64 / 2.0);
+        let sc = scales[py as usize];
+        let rx = (r / sc).min(w as f64 / 2.0);
         let mut x0 = (q.x - rx - 0.5).ceil() as i64;
         let mut x1 = (q.x + rx - 0.5).floor() as i64;
         if wraps {
@@ -508,9 +523,9 @@ fn splat(camera: &Camera, scales: &[f64], r: f64, q: DVec2, dist: f32, rgb: [f32
         }
         let row = (py * w) as usize;
         for px in x0..=x1 {
-            let fx = 1.0 - (px as f64 + 0.5 - q.x).abs() * s / r;
+            let fx = 1.0 - (px as f64 + 0.5 - q.x).abs() * sc / r;
             if fx > 0.0 {
-                acc.add(row + px.rem_euclid(w) as usize, dist, (fx * fy) as f32, rgb);
+                acc.add(row + px.rem_euclid(w) as usize, s.dist, (fx * fy) as f32, s.rgb, s.layer);
             }
         }
     }
@@ -528,7 +543,9 @@ pub fn splat_layers(
     let cull = Cull::new(camera, local_to_world);
     let ctxs: Vec<LayerCtx> = layers
         .iter()
-        .map(|&planes| LayerCtx {
+        .enumerate()
+        .map(|(index, &planes)| LayerCtx {
+            index: index as u32,
             planes,
             dirs: Dirs::new(planes.mapping),
             nb: Neighbours::new(planes.mapping),
