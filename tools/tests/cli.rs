@@ -159,10 +159,7 @@ fn build_from_the_bundled_rgbd_fixture_is_valid() {
         "--colour",
         root.join("colour.png").to_str().unwrap(),
         "--depth",
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../fixtures/data/room-cube/room.exr")
-            .to_str()
-            .unwrap(),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-cube/room.exr").to_str().unwrap(),
         "-o",
         out.path().join("bad").to_str().unwrap(),
         "--json",
