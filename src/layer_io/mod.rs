@@ -1,11 +1,24 @@
-//! Layer file I/O (spec §4): native single-part OpenEXR layers, and the thesis form (8-bit PNG
-//! colour + EXR depth). INTERFACE STUB.
+//! Layer file I/O (spec §4): native single-part OpenEXR layers, and the thesis form (8/16-bit PNG
+//! colour + EXR depth).
 //!
-//! Every reader checks the header against [`ReadLimits`] before decoding pixels.
+//! Every reader checks the header against [`ReadLimits`] before decoding pixels, so a hostile
+//! header claiming a gigantic image costs a few hundred bytes of reading, not gigabytes of memory.
+//!
+//! - `exr`: the native form ([`read_header`], [`read_exr`], [`write_exr`], and their in-memory
+//!   variants for fuzzing and tests);
+//! - `thesis`: the thesis form ([`read_thesis_layer`]);
+//! - [`halfbits`]: bit-exact half ↔ float conversion (NaN payloads kept).
 
-use std::path::{Path, PathBuf};
+mod exr;
+pub mod halfbits;
+mod thesis;
 
-use crate::layer::{LayerImage, SampleType};
+use std::path::PathBuf;
+
+use crate::layer::SampleType;
+
+pub use self::exr::{read_exr, read_exr_bytes, read_header, read_header_bytes, write_exr, write_exr_bytes};
+pub use self::thesis::read_thesis_layer;
 
 /// Size limits checked from file headers before any pixel is decoded.
 #[derive(Clone, Copy, Debug)]
@@ -16,12 +29,41 @@ pub struct ReadLimits {
     pub max_pixels: u64,
     /// Largest channel count accepted.
     pub max_channels: usize,
+    /// Largest decoded size in memory, in bytes (pixels × channels × 4: every channel is `f32`
+    /// in memory). Bounds what a small, highly compressed file can make the reader allocate.
+    pub max_decoded_bytes: u64,
+}
+
+impl ReadLimits {
+    /// Refuse `width × height × channels` when beyond these limits (checked in u64: no overflow).
+    pub fn check(&self, width: u64, height: u64, channels: usize) -> Result<(), String> {
+        let max_dim = self.max_dimension as u64;
+        if width > max_dim || height > max_dim {
+            return Err(format!("at most {} pixels wide and high", self.max_dimension));
+        }
+        if width.saturating_mul(height) > self.max_pixels {
+            return Err(format!("at most {} pixels", self.max_pixels));
+        }
+        if channels > self.max_channels {
+            return Err(format!("at most {} channels", self.max_channels));
+        }
+        let bytes = width.saturating_mul(height).saturating_mul(channels as u64).saturating_mul(4);
+        if bytes > self.max_decoded_bytes {
+            return Err(format!("at most {} decoded bytes", self.max_decoded_bytes));
+        }
+        Ok(())
+    }
 }
 
 impl Default for ReadLimits {
     fn default() -> Self {
-        // 16K × 8K equirect, a few attribute channels.
-        ReadLimits { max_dimension: 1 << 15, max_pixels: 1 << 28, max_channels: 64 }
+        // 16K × 8K equirect, a few attribute channels; 4 GiB decoded (16K × 8K × 8 channels).
+        ReadLimits {
+            max_dimension: 1 << 15,
+            max_pixels: 1 << 28,
+            max_channels: 64,
+            max_decoded_bytes: 4 << 30,
+        }
     }
 }
 
@@ -43,6 +85,14 @@ pub enum Compression {
 }
 
 impl Compression {
+    /// Lossless for every sample type, hence allowed when writing (bit-exact round trips).
+    pub fn is_lossless(self) -> bool {
+        matches!(
+            self,
+            Compression::None | Compression::Rle | Compression::Zip1 | Compression::Zip16 | Compression::Piz
+        )
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Compression::None => "none",
@@ -74,14 +124,21 @@ impl Default for WriteOptions {
 }
 
 /// What an EXR header says, read without decoding pixels.
+///
+/// `width × height` is the size of the data window: the layer canvas is the data window, whatever
+/// its origin and whatever the display window (spec §4.6).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ExrHeader {
     pub width: usize,
     pub height: usize,
+    /// Origin of the data window (informative; pixel `(0,0)` of the layer is this corner).
+    pub origin: (i32, i32),
     /// Channel names and sample types, in file order.
     pub channels: Vec<(String, SampleType)>,
     pub compression: Compression,
     pub tiled: bool,
+    /// Tiled with MIP or RIP levels (only the full-resolution level is read).
+    pub mip_levels: bool,
 }
 
 /// Errors reading or writing layer files. Each names the file.
@@ -129,28 +186,5 @@ impl LayerIoError {
     }
 }
 
-/// Read an EXR header (no pixels), checking it against `limits`.
-pub fn read_header(_path: &Path, _limits: &ReadLimits) -> Result<ExrHeader, LayerIoError> {
-    todo!("layer_io::read_header")
-}
-
-/// Read a native layer EXR (all channels, as f32 in memory with their file types recorded).
-pub fn read_exr(_path: &Path, _limits: &ReadLimits) -> Result<LayerImage, LayerIoError> {
-    todo!("layer_io::read_exr")
-}
-
-/// Write a layer EXR atomically (single part, scanlines, lossless compression).
-pub fn write_exr(_path: &Path, _image: &LayerImage, _options: &WriteOptions) -> Result<(), crate::Error> {
-    todo!("layer_io::write_exr")
-}
-
-/// Read the thesis form: colour image (8/16-bit PNG, RGB or RGBA; alpha = coverage), depth EXR
-/// (a `Z`, `Y`, `R` or single channel; negative = outside), optional normals EXR.
-pub fn read_thesis_layer(
-    _map: &Path,
-    _depth: &Path,
-    _normals: Option<&Path>,
-    _limits: &ReadLimits,
-) -> Result<LayerImage, LayerIoError> {
-    todo!("layer_io::read_thesis_layer")
-}
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,346 @@
+//! The native layer form: one single-part, flat OpenEXR image per layer (spec §4).
+//!
+//! Reading is done in two steps so that hostile files cost nothing: the header alone is parsed
+//! and checked (part count, deep data, size limits), and only then are the pixels decoded, from
+//! a file read into memory with a size cap derived from the header. The `exr` crate is wrapped in
+//! `catch_unwind` as a last line of defence: malformed data must give an error, never a panic.
+
+use std::io::{Cursor, Read};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::Path;
+
+use exr::meta::attribute::{LevelMode, SampleType as ExrSampleType};
+use exr::meta::{BlockDescription, MetaData};
+use exr::prelude::{self as xr, ReadChannels, ReadLayers, WritableImage};
+
+use super::halfbits::{f32_to_half, half_to_f32};
+use super::{Compression, ExrHeader, LayerIoError, ReadLimits, WriteOptions};
+use crate::layer::{LayerImage, SampleType};
+
+/// OpenEXR magic number, little-endian.
+const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+/// Version-field flag bits (OpenEXR file layout, "version field").
+const FLAG_DEEP: u32 = 1 << 11;
+/// Bytes allowed beyond the pixel data (headers, offset tables, compression overhead).
+const SLACK_BYTES: u64 = 16 << 20;
+
+/// Read an EXR header (no pixels), checking it against `limits`.
+pub fn read_header(path: &Path, limits: &ReadLimits) -> Result<ExrHeader, LayerIoError> {
+    let file = open(path)?;
+    // The header is at most a few kilobytes; cap what the parser may consume anyway.
+    let reader = std::io::BufReader::new(file.take(SLACK_BYTES));
+    let (header, _) = parse_header(reader, path, limits)?;
+    Ok(header)
+}
+
+/// [`read_header`] on bytes already in memory (`path` only names them in errors).
+pub fn read_header_bytes(bytes: &[u8], path: &Path, limits: &ReadLimits) -> Result<ExrHeader, LayerIoError> {
+    parse_header(Cursor::new(bytes), path, limits).map(|(h, _)| h)
+}
+
+/// Read a native layer EXR: all channels of its single part as `f32`, their file types recorded.
+pub fn read_exr(path: &Path, limits: &ReadLimits) -> Result<LayerImage, LayerIoError> {
+    let header = read_header(path, limits)?;
+    let cap = byte_cap(&header);
+    let len = std::fs::metadata(path).map_err(|e| io_error(path, e))?.len();
+    if len > cap {
+        return Err(unreadable(
+            path,
+            format!("the file is {len} bytes, more than the {cap} bytes its header can account for"),
+        ));
+    }
+    let bytes = std::fs::read(path).map_err(|e| io_error(path, e))?;
+    read_exr_bytes(&bytes, path, limits)
+}
+
+/// [`read_exr`] on bytes already in memory (`path` only names them in errors).
+pub fn read_exr_bytes(bytes: &[u8], path: &Path, limits: &ReadLimits) -> Result<LayerImage, LayerIoError> {
+    let mut cursor = Cursor::new(bytes);
+    let (header, chunk_count) = parse_header(&mut cursor, path, limits)?;
+    let header_end = cursor.position();
+    // A chunk placed past the end of the file: refuse before the decoder allocates the image.
+    if let Some(reason) = truncation(bytes, header_end, chunk_count) {
+        return Err(LayerIoError::Truncated { path: path.to_path_buf(), reason });
+    }
+    let decoded = guarded(path, || {
+        xr::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .non_parallel()
+            .from_buffered(Cursor::new(bytes))
+    })?;
+    let image = match decoded {
+        Ok(image) => image,
+        Err(e) => {
+            if let Some(reason) = truncation(bytes, header_end, chunk_count) {
+                return Err(LayerIoError::Truncated { path: path.to_path_buf(), reason });
+            }
+            return Err(map_exr_error(path, e));
+        }
+    };
+    to_layer(path, &header, image.layer_data.channel_data.list)
+}
+
+/// Write a layer EXR atomically (single part, scanlines, lossless compression).
+pub fn write_exr(path: &Path, image: &LayerImage, options: &WriteOptions) -> Result<(), crate::Error> {
+    let bytes = write_exr_bytes(path, image, options)?;
+    crate::fsutil::write_bytes_atomic(path, &bytes)
+}
+
+/// Encode a layer as EXR bytes (what [`write_exr`] writes; `path` only names errors).
+pub fn write_exr_bytes(
+    path: &Path,
+    image: &LayerImage,
+    options: &WriteOptions,
+) -> Result<Vec<u8>, LayerIoError> {
+    let unsupported = |what: String| LayerIoError::Unsupported { path: path.to_path_buf(), what };
+    if !options.compression.is_lossless() {
+        return Err(unsupported(format!(
+            "writing with {} compression (lossy for some sample types; use zip, zips, piz, rle or none)",
+            options.compression.name()
+        )));
+    }
+    if image.width == 0 || image.height == 0 || image.channels.is_empty() {
+        return Err(unsupported(format!(
+            "writing an empty image ({}x{}, {} channels)",
+            image.width,
+            image.height,
+            image.channels.len()
+        )));
+    }
+    let channels: xr::SmallVec<[xr::AnyChannel<xr::FlatSamples>; 4]> =
+        image.channels.iter().map(|c| xr::AnyChannel::new(c.name.as_str(), to_samples(c))).collect();
+    let encoding = xr::Encoding {
+        compression: to_exr_compression(options.compression),
+        blocks: xr::Blocks::ScanLines,
+        line_order: xr::LineOrder::Increasing,
+    };
+    let exr_image = xr::Image::from_encoded_channels(
+        (image.width, image.height),
+        encoding,
+        xr::AnyChannels::sort(channels),
+    );
+    let mut out = Cursor::new(Vec::new());
+    match exr_image.write().to_buffered(&mut out) {
+        Ok(()) => Ok(out.into_inner()),
+        Err(e) => Err(map_exr_error(path, e)),
+    }
+}
+
+/// Parse and check the header; returns it with the part's chunk count (for truncation checks).
+fn parse_header(
+    mut reader: impl Read,
+    path: &Path,
+    limits: &ReadLimits,
+) -> Result<(ExrHeader, usize), LayerIoError> {
+    let mut prefix = [0u8; 8];
+    if let Err(e) = reader.read_exact(&mut prefix) {
+        return Err(if e.kind() == std::io::ErrorKind::UnexpectedEof {
+            unreadable(path, "shorter than an EXR header (8 bytes)".into())
+        } else {
+            io_error(path, e)
+        });
+    }
+    if prefix[..4] != MAGIC {
+        return Err(unreadable(path, "not an OpenEXR file (bad magic number)".into()));
+    }
+    let flags = u32::from_le_bytes([prefix[4], prefix[5], prefix[6], prefix[7]]);
+    if flags & FLAG_DEEP != 0 {
+        return Err(LayerIoError::Deep { path: path.to_path_buf() });
+    }
+    let meta = guarded(path, || MetaData::read_from_buffered(Cursor::new(prefix).chain(reader), true))?
+        .map_err(|e| map_header_error(path, e))?;
+    if meta.headers.len() != 1 {
+        return Err(LayerIoError::MultiPart { path: path.to_path_buf(), parts: meta.headers.len() });
+    }
+    let h = &meta.headers[0];
+    if h.deep {
+        return Err(LayerIoError::Deep { path: path.to_path_buf() });
+    }
+    let (w, hgt) = (h.layer_size.0, h.layer_size.1);
+    limits.check(w as u64, hgt as u64, h.channels.list.len()).map_err(|limit| LayerIoError::TooLarge {
+        path: path.to_path_buf(),
+        width: w as u64,
+        height: hgt as u64,
+        channels: h.channels.list.len(),
+        limit,
+    })?;
+    if let Some(c) = h.channels.list.iter().find(|c| c.sampling != xr::Vec2(1, 1)) {
+        return Err(LayerIoError::Unsupported {
+            path: path.to_path_buf(),
+            what: format!("subsampled channel {} ({:?})", c.name, c.sampling),
+        });
+    }
+    if w == 0 || hgt == 0 {
+        return Err(unreadable(path, "empty data window".into()));
+    }
+    let (tiled, mip_levels) = match &h.blocks {
+        BlockDescription::ScanLines => (false, false),
+        BlockDescription::Tiles(t) => (true, t.level_mode != LevelMode::Singular),
+    };
+    let header = ExrHeader {
+        width: w,
+        height: hgt,
+        origin: (h.own_attributes.layer_position.0, h.own_attributes.layer_position.1),
+        channels: h
+            .channels
+            .list
+            .iter()
+            .map(|c| (c.name.to_string(), from_exr_type(c.sample_type)))
+            .collect(),
+        compression: from_exr_compression(h.compression),
+        tiled,
+        mip_levels,
+    };
+    Ok((header, h.chunk_count))
+}
+
+/// Largest file size a header can account for: all levels of raw pixels (RIP maps at most
+/// quadruple the data) plus headers and offset tables.
+fn byte_cap(h: &ExrHeader) -> u64 {
+    let bytes_per_pixel: u64 =
+        h.channels.iter().map(|(_, t)| if *t == SampleType::F16 { 2 } else { 4 }).sum();
+    let raw = (h.width as u64).saturating_mul(h.height as u64).saturating_mul(bytes_per_pixel);
+    let levels = if h.mip_levels { 4 } else { 1 };
+    raw.saturating_mul(levels).saturating_add(raw / 2).saturating_add(SLACK_BYTES)
+}
+
+/// Why a file that failed to decode is truncated, if it is: its offset table or a chunk it
+/// points to ends past the end of the file.
+fn truncation(bytes: &[u8], header_end: u64, chunk_count: usize) -> Option<String> {
+    let len = bytes.len() as u64;
+    let table_end = header_end.saturating_add(8 * chunk_count as u64);
+    if table_end > len {
+        return Some(format!("offset table needs {table_end} bytes, file has {len}"));
+    }
+    let table = &bytes[header_end as usize..table_end as usize];
+    let beyond = table
+        .chunks_exact(8)
+        .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+        .filter(|&off| off >= len)
+        .count();
+    (beyond > 0).then(|| {
+        format!("{beyond} of {chunk_count} pixel chunks start past the end of the file ({len} bytes)")
+    })
+}
+
+/// Run `f`, turning a panic of the decoder into an error.
+fn guarded<T>(path: &Path, f: impl FnOnce() -> T) -> Result<T, LayerIoError> {
+    catch_unwind(AssertUnwindSafe(f))
+        .map_err(|_| unreadable(path, "the EXR decoder failed on malformed data".into()))
+}
+
+/// Move the decoded channels into a planar `f32` layer.
+fn to_layer(
+    path: &Path,
+    header: &ExrHeader,
+    channels: xr::SmallVec<[xr::AnyChannel<xr::FlatSamples>; 4]>,
+) -> Result<LayerImage, LayerIoError> {
+    let mut image = LayerImage::new(header.width, header.height);
+    for c in channels {
+        let (sample_type, data) = from_samples(c.sample_data);
+        if data.len() != header.width * header.height {
+            return Err(unreadable(path, format!("channel {} has {} samples", c.name, data.len())));
+        }
+        image.set_channel(&c.name.to_string(), sample_type, data);
+    }
+    Ok(image)
+}
+
+fn from_samples(samples: xr::FlatSamples) -> (SampleType, Vec<f32>) {
+    match samples {
+        xr::FlatSamples::F16(v) => (SampleType::F16, v.into_iter().map(half_to_f32).collect()),
+        xr::FlatSamples::F32(v) => (SampleType::F32, v),
+        xr::FlatSamples::U32(v) => (SampleType::U32, v.into_iter().map(|x| x as f32).collect()),
+    }
+}
+
+/// A channel's samples in its file type. `U32` rounds to the nearest integer, saturating
+/// (NaN becomes 0): in memory such channels are `f32`, exact up to 2²⁴.
+fn to_samples(c: &crate::layer::Channel) -> xr::FlatSamples {
+    match c.sample_type {
+        SampleType::F16 => xr::FlatSamples::F16(c.data.iter().map(|&x| f32_to_half(x)).collect()),
+        SampleType::F32 => xr::FlatSamples::F32(c.data.clone()),
+        SampleType::U32 => xr::FlatSamples::U32(c.data.iter().map(|&x| x.round() as u32).collect()),
+    }
+}
+
+fn from_exr_type(t: ExrSampleType) -> SampleType {
+    match t {
+        ExrSampleType::F16 => SampleType::F16,
+        ExrSampleType::F32 => SampleType::F32,
+        ExrSampleType::U32 => SampleType::U32,
+    }
+}
+
+fn from_exr_compression(c: xr::Compression) -> Compression {
+    use xr::Compression as X;
+    match c {
+        X::Uncompressed => Compression::None,
+        X::RLE => Compression::Rle,
+        X::ZIP1 => Compression::Zip1,
+        X::ZIP16 => Compression::Zip16,
+        X::PIZ => Compression::Piz,
+        X::PXR24 => Compression::Pxr24,
+        X::B44 => Compression::B44,
+        X::B44A => Compression::B44a,
+        X::DWAA(_) => Compression::Dwaa,
+        X::DWAB(_) => Compression::Dwab,
+        #[allow(unreachable_patterns)]
+        _ => Compression::Other,
+    }
+}
+
+/// Only called with lossless kinds (checked by the caller).
+fn to_exr_compression(c: Compression) -> xr::Compression {
+    use xr::Compression as X;
+    match c {
+        Compression::Rle => X::RLE,
+        Compression::Zip1 => X::ZIP1,
+        Compression::Zip16 => X::ZIP16,
+        Compression::Piz => X::PIZ,
+        _ => X::Uncompressed,
+    }
+}
+
+fn open(path: &Path) -> Result<std::fs::File, LayerIoError> {
+    std::fs::File::open(path).map_err(|e| io_error(path, e))
+}
+
+pub(super) fn io_error(path: &Path, e: std::io::Error) -> LayerIoError {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => LayerIoError::NotFound { path: path.to_path_buf() },
+        _ => LayerIoError::Io { path: path.to_path_buf(), source: e },
+    }
+}
+
+fn unreadable(path: &Path, reason: String) -> LayerIoError {
+    LayerIoError::Unreadable { path: path.to_path_buf(), reason }
+}
+
+/// While reading the header, running out of bytes means the file is cut short.
+fn map_header_error(path: &Path, e: exr::error::Error) -> LayerIoError {
+    match e {
+        exr::error::Error::Invalid(m) if m.contains("missing bytes") => {
+            LayerIoError::Truncated { path: path.to_path_buf(), reason: "the header is incomplete".into() }
+        }
+        other => map_exr_error(path, other),
+    }
+}
+
+fn map_exr_error(path: &Path, e: exr::error::Error) -> LayerIoError {
+    match e {
+        exr::error::Error::Io(io) => io_error(path, io),
+        exr::error::Error::NotSupported(what) => {
+            LayerIoError::Unsupported { path: path.to_path_buf(), what: what.into_owned() }
+        }
+        exr::error::Error::Invalid(m) if m.contains("missing bytes") => {
+            LayerIoError::Truncated { path: path.to_path_buf(), reason: m.into_owned() }
+        }
+        exr::error::Error::Invalid(m) => unreadable(path, m.into_owned()),
+        exr::error::Error::Aborted => unreadable(path, "decoding aborted".into()),
+    }
+}

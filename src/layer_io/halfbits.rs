@@ -1,0 +1,67 @@
+//! Bit-exact conversion between IEEE half and `f32`.
+//!
+//! Layers keep every channel as `f32` in memory; a channel stored as half must come back to the
+//! very same 16 bits when written again. `half`'s conversions (and the F16C instructions) quiet
+//! signalling NaNs, which would change the bits of a NaN-coded sample: NaNs are therefore mapped
+//! by hand (payload shifted into the top of the `f32` mantissa, nothing else touched). Every other
+//! value converts exactly half → f32, and f32 → half rounds to nearest-even (exact whenever the
+//! value is representable as half, which is what [`SampleType::F16`](crate::layer::SampleType)
+//! promises).
+
+use half::f16;
+
+/// Half → `f32`, exact for all 65 536 bit patterns (NaN payloads and sign kept).
+#[inline]
+pub fn half_to_f32(h: f16) -> f32 {
+    let bits = h.to_bits();
+    if bits & 0x7c00 == 0x7c00 && bits & 0x03ff != 0 {
+        let sign = u32::from(bits & 0x8000) << 16;
+        let payload = u32::from(bits & 0x03ff) << 13;
+        f32::from_bits(sign | 0x7f80_0000 | payload)
+    } else {
+        h.to_f32()
+    }
+}
+
+/// `f32` → half: inverse of [`half_to_f32`] on its image; other values round to nearest-even.
+/// A NaN whose payload lives only in the low 13 bits keeps being a NaN (quiet bit set).
+#[inline]
+pub fn f32_to_half(x: f32) -> f16 {
+    if x.is_nan() {
+        let bits = x.to_bits();
+        let sign = ((bits >> 16) & 0x8000) as u16;
+        let mut payload = ((bits >> 13) & 0x03ff) as u16;
+        if payload == 0 {
+            payload = 0x0200;
+        }
+        f16::from_bits(sign | 0x7c00 | payload)
+    } else {
+        f16::from_f32(x)
+    }
+}
+
+/// Whether `x` survives `f32 → half → f32` unchanged, bit for bit.
+pub fn is_exact_half(x: f32) -> bool {
+    half_to_f32(f32_to_half(x)).to_bits() == x.to_bits()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn all_half_patterns_round_trip() {
+        for bits in 0..=u16::MAX {
+            let h = f16::from_bits(bits);
+            assert_eq!(f32_to_half(half_to_f32(h)).to_bits(), bits, "pattern {bits:#06x}");
+        }
+    }
+
+    #[test]
+    fn finite_values_match_half_crate() {
+        for x in [0.0f32, -0.0, 1.0, 0.1, 65504.0, 1e-7, -3.5, f32::INFINITY, f32::NEG_INFINITY] {
+            assert_eq!(f32_to_half(x).to_bits(), f16::from_f32(x).to_bits());
+        }
+        assert!(f32_to_half(f32::from_bits(0x7f80_0001)).is_nan());
+    }
+}

@@ -1,0 +1,227 @@
+//! Patch-packed compression (spec §5; thesis eq. 6.16-6.17).
+//!
+//! A sparse layer's occupied pixels are cut into rectangles, packed into a compact atlas, and
+//! recorded in a patch table: `canvas(u+s, v+t) = atlas(x+s, y+t)` for `(s,t) ∈ [0,w)×[0,h)`.
+//!
+//! - [`cut`]: domain → disjoint rectangles wasting at most a third of their area;
+//! - [`maxrects`]: rectangles → atlas positions;
+//! - `table`: validation ([`check_table`]) of a (possibly hostile) patch table;
+//! - this module: copying pixels between canvas and atlas.
+
+pub mod cut;
+pub mod maxrects;
+mod table;
+
+use crate::layer::{Channel, LayerImage, OUTSIDE_DEPTH};
+use crate::layer_io::ReadLimits;
+
+pub use self::table::check_table;
+
+/// Largest guard band [`pack_layer`] accepts (bilinear or bicubic sampling needs 1 or 2).
+pub const MAX_PADDING: u32 = 64;
+
+/// One row of the patch table: origin `(u, v)` in the full canvas, origin `(x, y)` in the atlas,
+/// size `w × h`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+pub struct Patch {
+    pub u: u32,
+    pub v: u32,
+    pub x: u32,
+    pub y: u32,
+    pub w: u32,
+    pub h: u32,
+}
+
+/// Tuning of [`pack_layer`].
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PackOptions {
+    /// Guard band copied around each patch in the atlas (pixels), for bilinear sampling.
+    pub padding: u32,
+}
+
+/// A packed layer: atlas image plus patch table, and the full canvas size.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PackedLayer {
+    pub canvas_width: u32,
+    pub canvas_height: u32,
+    pub atlas: LayerImage,
+    pub patches: Vec<Patch>,
+}
+
+impl PackedLayer {
+    /// Pixels in the atlas.
+    pub fn atlas_area(&self) -> usize {
+        self.atlas.width * self.atlas.height
+    }
+}
+
+/// Errors of packing and unpacking.
+#[derive(Debug, thiserror::Error)]
+pub enum PackError {
+    #[error("patch table is invalid: {0}")]
+    BadTable(TableProblem),
+    #[error("canvas {width}x{height} is too large to unpack (limit {limit} pixels)")]
+    TooLarge { width: u32, height: u32, limit: u64 },
+    #[error("padding of {padding} pixels is more than the {max} allowed; use a guard band of a few pixels")]
+    PaddingTooLarge { padding: u32, max: u32 },
+}
+
+impl PackError {
+    pub fn code(&self) -> &'static str {
+        match self {
+            PackError::BadTable(p) => p.code(),
+            PackError::TooLarge { .. } => "LAYER_TOO_LARGE",
+            PackError::PaddingTooLarge { .. } => "PACK_PADDING_TOO_LARGE",
+        }
+    }
+}
+
+/// What is wrong with one patch of a table.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum TableProblemKind {
+    Empty,
+    OutOfCanvas,
+    OutOfAtlas,
+    OverlapAtlas { other: usize },
+    OverlapCanvas { other: usize },
+}
+
+/// A problem with patch number `patch` of a table.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("patch {patch}: {kind:?}")]
+pub struct TableProblem {
+    pub patch: usize,
+    pub kind: TableProblemKind,
+}
+
+impl TableProblem {
+    pub fn code(&self) -> &'static str {
+        match self.kind {
+            TableProblemKind::Empty => "PATCH_EMPTY",
+            TableProblemKind::OutOfCanvas => "PATCH_OUT_OF_CANVAS",
+            TableProblemKind::OutOfAtlas => "PATCH_OUT_OF_ATLAS",
+            TableProblemKind::OverlapAtlas { .. } => "PATCH_OVERLAP_ATLAS",
+            TableProblemKind::OverlapCanvas { .. } => "PATCH_OVERLAP_CANVAS",
+        }
+    }
+}
+
+/// Pack a layer's occupied pixels (its domain) into an atlas.
+///
+/// With `padding = 0`, the atlas of a layer whose domain is not tiny holds at most twice the
+/// occupied pixels (a property of this packer, tested; not a requirement of the format). A layer
+/// with an empty domain packs into a 1×1 atlas of one outside pixel and no patches.
+pub fn pack_layer(image: &LayerImage, options: &PackOptions) -> Result<PackedLayer, PackError> {
+    let (cw, ch) = canvas_size(image)?;
+    if options.padding > MAX_PADDING {
+        return Err(PackError::PaddingTooLarge { padding: options.padding, max: MAX_PADDING });
+    }
+    let rects = cut::cover(&image.domain(), image.width, image.height, options.padding);
+    let pad = options.padding;
+    let sizes: Vec<(u32, u32)> = rects.iter().map(|r| (r.w + 2 * pad, r.h + 2 * pad)).collect();
+    let packing = maxrects::pack(&sizes);
+    let patches: Vec<Patch> = rects
+        .iter()
+        .zip(&packing.positions)
+        .map(|(r, &(x, y))| Patch { u: r.x, v: r.y, x: x + pad, y: y + pad, w: r.w, h: r.h })
+        .collect();
+    let (aw, ah) = (packing.width.max(1), packing.height.max(1));
+    let limits = ReadLimits::default();
+    if limits.check(u64::from(aw), u64::from(ah), image.channels.len()).is_err() {
+        return Err(PackError::TooLarge { width: aw, height: ah, limit: limits.max_pixels });
+    }
+    let (aw, ah) = (aw as usize, ah as usize);
+    let mut atlas = blank_like(image, aw, ah);
+    for p in &patches {
+        copy_padded(image, &mut atlas, p, pad);
+    }
+    Ok(PackedLayer { canvas_width: cw, canvas_height: ch, atlas, patches })
+}
+
+/// Restore the full canvas; pixels in no patch are outside (`A = 0`, `Z = -1`, other channels 0).
+///
+/// The table is validated first, and canvases beyond the default [`ReadLimits`] are refused,
+/// both before anything is allocated.
+pub fn unpack(packed: &PackedLayer) -> Result<LayerImage, PackError> {
+    unpack_with_limits(packed, &ReadLimits::default())
+}
+
+/// [`unpack`] with explicit limits on the canvas (pixels, dimensions, decoded bytes).
+pub fn unpack_with_limits(packed: &PackedLayer, limits: &ReadLimits) -> Result<LayerImage, PackError> {
+    let (cw, ch) = (packed.canvas_width, packed.canvas_height);
+    let (aw, ah) = canvas_size(&packed.atlas)?;
+    if let Some(problem) = check_table(cw, ch, aw, ah, &packed.patches).into_iter().next() {
+        return Err(PackError::BadTable(problem));
+    }
+    let channels = packed.atlas.channels.len();
+    if limits.check(u64::from(cw), u64::from(ch), channels).is_err() {
+        return Err(PackError::TooLarge { width: cw, height: ch, limit: limits.max_pixels });
+    }
+    let mut canvas = blank_like(&packed.atlas, cw as usize, ch as usize);
+    for p in &packed.patches {
+        copy_rect(&packed.atlas, (p.x, p.y), &mut canvas, (p.u, p.v), (p.w, p.h));
+    }
+    Ok(canvas)
+}
+
+/// Image size as u32 (patch tables are u32).
+fn canvas_size(image: &LayerImage) -> Result<(u32, u32), PackError> {
+    match (u32::try_from(image.width), u32::try_from(image.height)) {
+        (Ok(w), Ok(h)) => Ok((w, h)),
+        _ => Err(PackError::TooLarge {
+            width: image.width.min(u32::MAX as usize) as u32,
+            height: image.height.min(u32::MAX as usize) as u32,
+            limit: ReadLimits::default().max_pixels,
+        }),
+    }
+}
+
+/// The value every channel takes outside the domain.
+fn outside_value(name: &str) -> f32 {
+    match name {
+        "Z" => OUTSIDE_DEPTH,
+        _ => 0.0,
+    }
+}
+
+/// An image of `w × h` with the channels (names, types) of `like`, every pixel outside.
+fn blank_like(like: &LayerImage, w: usize, h: usize) -> LayerImage {
+    let channels = like
+        .channels
+        .iter()
+        .map(|c| Channel {
+            name: c.name.clone(),
+            sample_type: c.sample_type,
+            data: vec![outside_value(&c.name); w * h],
+        })
+        .collect();
+    LayerImage { width: w, height: h, channels }
+}
+
+/// Copy a `w × h` block between images with the same channels (table validated by the caller).
+fn copy_rect(src: &LayerImage, from: (u32, u32), dst: &mut LayerImage, to: (u32, u32), size: (u32, u32)) {
+    let (w, h) = (size.0 as usize, size.1 as usize);
+    for (s, d) in src.channels.iter().zip(dst.channels.iter_mut()) {
+        for t in 0..h {
+            let a = (from.1 as usize + t) * src.width + from.0 as usize;
+            let b = (to.1 as usize + t) * dst.width + to.0 as usize;
+            d.data[b..b + w].copy_from_slice(&s.data[a..a + w]);
+        }
+    }
+}
+
+/// Copy patch `p` and a guard band of `pad` canvas pixels around it (clamped to the canvas).
+fn copy_padded(canvas: &LayerImage, atlas: &mut LayerImage, p: &Patch, pad: u32) {
+    let (pad, cw, ch) = (pad as i64, canvas.width as i64, canvas.height as i64);
+    for (s, d) in canvas.channels.iter().zip(atlas.channels.iter_mut()) {
+        for t in -pad..i64::from(p.h) + pad {
+            let cy = (i64::from(p.v) + t).clamp(0, ch - 1) as usize;
+            let ay = (i64::from(p.y) + t) as usize;
+            for k in -pad..i64::from(p.w) + pad {
+                let cx = (i64::from(p.u) + k).clamp(0, cw - 1) as usize;
+                let ax = (i64::from(p.x) + k) as usize;
+                d.data[ay * atlas.width + ax] = s.data[cy * canvas.width + cx];
+            }
+        }
+    }
+}
