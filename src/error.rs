@@ -22,6 +22,8 @@ pub enum Error {
     Input(#[from] crate::build::input::InputError),
     #[error(transparent)]
     Mesh(#[from] crate::mesh::MeshError),
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -42,6 +44,7 @@ impl Error {
             Error::Build(e) => e.code(),
             Error::Input(e) => e.code(),
             Error::Mesh(e) => e.code(),
+            Error::Render(e) => e.code(),
             Error::Io { .. } => "IO_ERROR",
         }
     }

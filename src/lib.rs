@@ -14,6 +14,7 @@
 //! - [`panorama`]: a whole panorama directory (manifest + layers);
 //! - [`validate`]: the validator and its stable codes;
 //! - [`raster`]: the plain interleaved image container used everywhere;
+//! - [`render`]: views from a displaced camera by point splatting (spec §9);
 //! - [`fsutil`]: atomic writes and bounded reads.
 
 pub mod build;
@@ -27,6 +28,7 @@ pub mod mesh;
 pub mod pack;
 pub mod panorama;
 pub mod raster;
+pub mod render;
 pub mod resample;
 pub mod validate;
 

@@ -8,6 +8,7 @@ mod cmd_convert;
 mod cmd_info;
 mod cmd_mesh;
 mod cmd_pack;
+mod cmd_render;
 mod cmd_validate;
 mod output;
 
@@ -50,6 +51,8 @@ enum Command {
     Unpack(cmd_pack::UnpackArgs),
     /// Adaptive quadtree mesh of a layer: error, encoded size, PLY/OBJ/glTF export.
     Mesh(cmd_mesh::Args),
+    /// Render a view from a camera near the panorama centre (point splatting).
+    Render(cmd_render::Args),
 }
 
 /// A failed command: what to print and the exit code.
@@ -76,6 +79,7 @@ fn main() -> ExitCode {
         Command::Pack(a) => cmd_pack::run_pack(a, out),
         Command::Unpack(a) => cmd_pack::run_unpack(a, out),
         Command::Mesh(a) => cmd_mesh::run(a, out),
+        Command::Render(a) => cmd_render::run(a, out),
     };
     match result {
         Ok(code) => ExitCode::from(code),

@@ -1,0 +1,317 @@
+//! Output cameras (spec §9.2): a pinhole perspective camera (eye, look-at, up, horizontal field of
+//! view; seed 002's model) and an equirect camera (a new panorama seen from another centre).
+//!
+//! A camera has two jobs: [`Camera::to_camera`] gives the rigid world → camera transform applied
+//! to every reprojected point, and [`Camera::project`] maps a camera-space point (or a direction,
+//! for content at infinity) to continuous output pixel coordinates. [`Camera::ray`] is the inverse
+//! used by ground-truth ray casting, so both sides of an evaluation use the same pixel centres.
+
+use std::f64::consts::{PI, TAU};
+
+use glam::{DMat4, DVec2, DVec3};
+
+use super::RenderError;
+
+/// Largest output side accepted, pixels (bounds the accumulation buffers).
+pub const MAX_SIDE: usize = 32768;
+/// Largest output pixel count accepted.
+pub const MAX_PIXELS: usize = 1 << 27;
+/// A camera-space point is projected only if it lies at least this far (cosine of its angle with
+/// the optical axis) in front of the eye: keeps `x/z` finite for points grazing the eye plane.
+const MIN_FORWARD_COS: f64 = 1e-6;
+
+/// A pinhole camera: `x` right, `y` down in the image; camera space is `x` right, `y` up, `z`
+/// forward (the viewing direction).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Perspective {
+    pub eye: DVec3,
+    /// Unit right, up and forward vectors in the world (orthonormal, right-handed view frame).
+    pub right: DVec3,
+    pub up: DVec3,
+    pub forward: DVec3,
+    pub width: usize,
+    pub height: usize,
+    /// Focal length in pixels: `(width / 2) / tan(hfov / 2)`.
+    pub focal: f64,
+}
+
+/// An equirect output camera: the world's axes (`+Z` up, azimuth from `+X` towards `+Y`), the
+/// POMC pixel-centre convention, centred at `eye`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EquirectCamera {
+    pub eye: DVec3,
+    pub width: usize,
+    pub height: usize,
+}
+
+/// Any output camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Camera {
+    Perspective(Perspective),
+    Equirect(EquirectCamera),
+}
+
+fn check_size(width: usize, height: usize) -> Result<(), RenderError> {
+    let ok = width > 0
+        && height > 0
+        && width <= MAX_SIDE
+        && height <= MAX_SIDE
+        && width.saturating_mul(height) <= MAX_PIXELS;
+    if ok {
+        Ok(())
+    } else {
+        Err(RenderError::BadSize { width, height })
+    }
+}
+
+fn finite(v: DVec3, what: &str) -> Result<DVec3, RenderError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(RenderError::BadCamera(format!("{what} {v} is not finite")))
+    }
+}
+
+impl Perspective {
+    /// A camera at `eye` looking at `look_at`. `up` need not be orthogonal to the view direction;
+    /// when it is (nearly) parallel to it — e.g. looking straight at a pole with the default `+Z`
+    /// up — the world axis least aligned with the view is used instead, so every viewing direction
+    /// gives a camera.
+    pub fn new(
+        eye: DVec3,
+        look_at: DVec3,
+        up: DVec3,
+        hfov_deg: f64,
+        width: usize,
+        height: usize,
+    ) -> Result<Self, RenderError> {
+        check_size(width, height)?;
+        let (eye, look_at, up) = (finite(eye, "eye")?, finite(look_at, "look-at")?, finite(up, "up")?);
+        if !(hfov_deg > 0.0 && hfov_deg < 180.0) {
+            return Err(RenderError::BadCamera(format!(
+                "horizontal field of view {hfov_deg}° must lie strictly between 0 and 180"
+            )));
+        }
+        let forward = (look_at - eye).try_normalize().ok_or_else(|| {
+            RenderError::BadCamera(format!("look-at {look_at} coincides with the eye {eye}"))
+        })?;
+        let side = forward.cross(up);
+        let right = if side.length() > 1e-9 * up.length() && side.length() > 0.0 {
+            side.normalize()
+        } else {
+            forward.cross(least_aligned_axis(forward)).normalize()
+        };
+        let up = right.cross(forward);
+        let focal = width as f64 / 2.0 / (hfov_deg.to_radians() / 2.0).tan();
+        Ok(Perspective { eye, right, up, forward, width, height, focal })
+    }
+
+    /// Half-angle of the cone around `forward` that contains the whole image (its corners).
+    pub fn half_diagonal_angle(&self) -> f64 {
+        (self.width as f64 / 2.0).hypot(self.height as f64 / 2.0).atan2(self.focal)
+    }
+}
+
+/// The world axis most orthogonal to `d` (a fallback up vector).
+fn least_aligned_axis(d: DVec3) -> DVec3 {
+    let a = d.abs();
+    if a.x <= a.y && a.x <= a.z {
+        DVec3::X
+    } else if a.y <= a.z {
+        DVec3::Y
+    } else {
+        DVec3::Z
+    }
+}
+
+impl EquirectCamera {
+    /// An equirect output of `width × height` (2:1) centred at `eye`.
+    pub fn new(eye: DVec3, width: usize, height: usize) -> Result<Self, RenderError> {
+        check_size(width, height)?;
+        if width != 2 * height {
+            return Err(RenderError::BadSize { width, height });
+        }
+        Ok(EquirectCamera { eye: finite(eye, "eye")?, width, height })
+    }
+}
+
+impl Camera {
+    pub fn width(&self) -> usize {
+        match self {
+            Camera::Perspective(c) => c.width,
+            Camera::Equirect(c) => c.width,
+        }
+    }
+
+    pub fn height(&self) -> usize {
+        match self {
+            Camera::Perspective(c) => c.height,
+            Camera::Equirect(c) => c.height,
+        }
+    }
+
+    pub fn eye(&self) -> DVec3 {
+        match self {
+            Camera::Perspective(c) => c.eye,
+            Camera::Equirect(c) => c.eye,
+        }
+    }
+
+    /// Whether output columns wrap around (the equirect seam).
+    pub fn wraps(&self) -> bool {
+        matches!(self, Camera::Equirect(_))
+    }
+
+    /// World → camera space (rigid): camera space has the eye at the origin.
+    pub fn to_camera(&self) -> DMat4 {
+        match self {
+            Camera::Perspective(c) => {
+                let rot = DMat4::from_cols(
+                    c.right.extend(0.0),
+                    c.up.extend(0.0),
+                    c.forward.extend(0.0),
+                    glam::DVec4::W,
+                )
+                .transpose();
+                rot * DMat4::from_translation(-c.eye)
+            }
+            Camera::Equirect(c) => DMat4::from_translation(-c.eye),
+        }
+    }
+
+    /// Continuous output pixel coordinates of a camera-space point or direction; `None` when it
+    /// is behind (or beside) a perspective camera or at the eye itself. Never NaN.
+    #[inline]
+    pub fn project(&self, p: DVec3) -> Option<DVec2> {
+        match self {
+            Camera::Perspective(c) => {
+                let len = p.length();
+                if p.z.is_nan() || p.z <= MIN_FORWARD_COS * len || !len.is_finite() {
+                    return None;
+                }
+                let q = DVec2::new(
+                    c.width as f64 / 2.0 + c.focal * p.x / p.z,
+                    c.height as f64 / 2.0 - c.focal * p.y / p.z,
+                );
+                q.is_finite().then_some(q)
+            }
+            Camera::Equirect(c) => {
+                if !p.is_finite() || p == DVec3::ZERO {
+                    return None;
+                }
+                let mut phi = p.y.atan2(p.x);
+                if phi < 0.0 {
+                    phi += TAU;
+                }
+                let theta = p.x.hypot(p.y).atan2(p.z);
+                let x = (phi / TAU * c.width as f64).min(c.width as f64 - 1e-9);
+                Some(DVec2::new(x.max(0.0), theta / PI * c.height as f64))
+            }
+        }
+    }
+
+    /// Horizontal metric of the output at row coordinate `y`: how much one output column is worth
+    /// compared with one row. 1 for perspective images; `sin θ` for equirect ones (columns shrink
+    /// towards the poles), clamped at the first row's centre so it never reaches 0.
+    #[inline]
+    pub fn x_scale(&self, y: f64) -> f64 {
+        match self {
+            Camera::Perspective(_) => 1.0,
+            Camera::Equirect(c) => {
+                let h = c.height as f64;
+                (PI * y / h).sin().max((PI * 0.5 / h).sin())
+            }
+        }
+    }
+
+    /// World-space unit direction through continuous output pixel `(x, y)` (pixel centres at
+    /// `i + 0.5`).
+    pub fn ray(&self, x: f64, y: f64) -> DVec3 {
+        match self {
+            Camera::Perspective(c) => (c.forward * c.focal
+                + c.right * (x - c.width as f64 / 2.0)
+                + c.up * (c.height as f64 / 2.0 - y))
+                .normalize(),
+            Camera::Equirect(c) => {
+                let phi = TAU * x / c.width as f64;
+                let theta = PI * y / c.height as f64;
+                let (st, ct) = theta.sin_cos();
+                let (sp, cp) = phi.sin_cos();
+                DVec3::new(st * cp, st * sp, ct)
+            }
+        }
+    }
+
+    /// The cone that contains everything the camera sees: world axis and half-angle; `None` when
+    /// it sees every direction.
+    pub fn view_cone(&self) -> Option<(DVec3, f64)> {
+        match self {
+            Camera::Perspective(c) => Some((c.forward, c.half_diagonal_angle())),
+            Camera::Equirect(_) => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam(eye: DVec3, at: DVec3, up: DVec3) -> Camera {
+        Camera::Perspective(Perspective::new(eye, at, up, 60.0, 96, 54).unwrap())
+    }
+
+    #[test]
+    fn centre_pixel_is_the_look_at_direction() {
+        let c = cam(DVec3::new(1.0, 2.0, 3.0), DVec3::new(4.0, 2.0, 3.0), DVec3::Z);
+        let p = c.to_camera().transform_point3(DVec3::new(4.0, 2.0, 3.0));
+        let q = c.project(p).unwrap();
+        assert!((q - DVec2::new(48.0, 27.0)).length() < 1e-9, "{q}");
+        assert!((c.ray(48.0, 27.0) - DVec3::X).length() < 1e-12);
+        // Up in the world is up in the image (smaller y); +Y is to the left when looking along +X.
+        let up = c.project(c.to_camera().transform_point3(DVec3::new(4.0, 2.0, 3.5))).unwrap();
+        assert!(up.y < 27.0);
+        let left = c.project(c.to_camera().transform_point3(DVec3::new(4.0, 2.5, 3.0))).unwrap();
+        assert!(left.x < 48.0);
+    }
+
+    #[test]
+    fn ray_and_project_are_inverse() {
+        for c in [
+            cam(DVec3::ZERO, DVec3::new(1.0, 1.0, 0.3), DVec3::Z),
+            Camera::Equirect(EquirectCamera::new(DVec3::new(0.1, 0.2, 0.3), 64, 32).unwrap()),
+        ] {
+            for (x, y) in [(0.5, 0.5), (10.25, 20.75), (40.0, 17.0)] {
+                let d = c.ray(x, y);
+                let q = c.project(c.to_camera().transform_vector3(d)).unwrap();
+                assert!((q - DVec2::new(x, y)).length() < 1e-9, "{c:?} {x},{y} -> {q}");
+            }
+        }
+    }
+
+    #[test]
+    fn looking_at_a_pole_falls_back_to_another_up() {
+        let c = Perspective::new(DVec3::ZERO, DVec3::Z, DVec3::Z, 90.0, 10, 10).unwrap();
+        assert!(c.right.is_finite() && (c.right.length() - 1.0).abs() < 1e-12);
+        assert!(c.up.dot(c.forward).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_cameras_are_typed_errors() {
+        let bad = [
+            Perspective::new(DVec3::ZERO, DVec3::ZERO, DVec3::Z, 60.0, 10, 10),
+            Perspective::new(DVec3::ZERO, DVec3::X, DVec3::Z, 180.0, 10, 10),
+            Perspective::new(DVec3::ZERO, DVec3::X, DVec3::Z, f64::NAN, 10, 10),
+            Perspective::new(DVec3::NAN, DVec3::X, DVec3::Z, 60.0, 10, 10),
+            Perspective::new(DVec3::ZERO, DVec3::X, DVec3::Z, 60.0, 0, 10),
+        ];
+        for b in bad {
+            assert!(b.is_err());
+        }
+        assert!(EquirectCamera::new(DVec3::ZERO, 30, 10).is_err());
+        // Behind the camera and at the eye: no projection.
+        let c = cam(DVec3::ZERO, DVec3::X, DVec3::Z);
+        assert!(c.project(DVec3::new(0.0, 0.0, -1.0)).is_none());
+        assert!(c.project(DVec3::ZERO).is_none());
+        assert!(c.project(DVec3::new(1.0, 0.0, 1e-12)).is_none());
+    }
+}

@@ -1,0 +1,617 @@
+//! Adaptive 8-neighbourhood point splatting (thesis 7.3.2, Alg. 10; spec §9.3).
+//!
+//! Every layer pixel is reprojected into the output camera. Its *spread* — the largest distance,
+//! in output pixels, to the reprojections of its 8 neighbours — says how many sub-samples the
+//! pixel needs so that consecutive samples land less than [`SplatOptions::spacing`] apart: the
+//! pixel is resampled on an `nx × ny` grid whose points are bilinear interpolations of the camera
+//! space points (and colours) of the pixel and its neighbours, i.e. of the piecewise-planar surface
+//! through the samples. Only neighbours on the same continuous surface take part: a relative depth
+//! jump above [`SplatOptions::jump`] is a discontinuity inside the layer, and a splat never
+//! stretches across it (that would draw a skin between an object and what is behind it). Each
+//! sample is filtered into the output with a tent (bilinear) kernel of radius
+//! [`SplatOptions::radius`] (Alg. 9) and a per-pixel depth test ([`super::accum`]).
+//!
+//! Work is split in tiles of layer pixels (never straddling a cube face) with a one-pixel apron
+//! resolved across the equirect seam, the poles and cube-face edges; tiles outside the camera's
+//! view cone are culled before any trigonometry. Tiles are dealt round-robin to one accumulation
+//! buffer per thread, merged at the end.
+
+use glam::{DMat3, DMat4, DVec2, DVec3};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::accum::Accum;
+use super::camera::Camera;
+use crate::build::graph::{Neighbours, OFFSETS};
+use crate::layer::{classify, LayerImage, Sample};
+use crate::mapping::{AnyMapping, Mapping};
+
+/// Tuning of the splatting renderer.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SplatOptions {
+    /// Radius of the tent reconstruction filter, output pixels (thesis: 0.75).
+    pub radius: f64,
+    /// Relative depth jump between 8-neighbours above which they are different surfaces.
+    pub jump: f64,
+    /// Relative camera-distance tolerance within which samples blend as one surface.
+    pub tolerance: f64,
+    /// Target distance between consecutive sub-samples, output pixels (< 2 × radius leaves no gap).
+    pub spacing: f64,
+    /// Cap on sub-samples per layer pixel along each axis (bounds the work for content very near
+    /// the camera; beyond it a splat may show gaps).
+    pub max_subsamples: usize,
+}
+
+impl Default for SplatOptions {
+    fn default() -> Self {
+        SplatOptions { radius: 0.75, jump: 0.1, tolerance: 0.01, spacing: 0.75, max_subsamples: 32 }
+    }
+}
+
+/// Side of the square tiles of layer pixels processed as a unit.
+const TILE: usize = 32;
+
+/// Work counters of one render.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct SplatCounts {
+    pub tiles: usize,
+    pub tiles_culled: usize,
+    /// Layer pixels reprojected (inside a layer's domain, in a tile not culled).
+    pub pixels: u64,
+    /// Samples filtered into the output (pixels × their sub-samples).
+    pub samples: u64,
+}
+
+impl SplatCounts {
+    fn add(mut self, o: SplatCounts) -> SplatCounts {
+        self.tiles += o.tiles;
+        self.tiles_culled += o.tiles_culled;
+        self.pixels += o.pixels;
+        self.samples += o.samples;
+        self
+    }
+}
+
+/// One layer's planes, borrowed for splatting.
+#[derive(Clone, Copy, Debug)]
+pub struct LayerPlanes<'a> {
+    pub mapping: AnyMapping,
+    pub z: &'a [f32],
+    pub coverage: Option<&'a [f32]>,
+    pub rgb: [&'a [f32]; 3],
+}
+
+impl<'a> LayerPlanes<'a> {
+    /// The planes of `image`; `None` if a channel among `R`,`G`,`B`,`Z` is missing (the name is
+    /// returned) — checked by the caller, which knows the layer's index.
+    pub fn new(image: &'a LayerImage, mapping: AnyMapping) -> Result<Self, &'static str> {
+        let get = |name: &'static str| image.channel(name).map(|c| c.data.as_slice()).ok_or(name);
+        Ok(LayerPlanes {
+            mapping,
+            z: get("Z")?,
+            coverage: image.coverage(),
+            rgb: [get("R")?, get("G")?, get("B")?],
+        })
+    }
+}
+
+/// Pixel-centre directions of a canvas, with a separable table for the equirect canvas (no
+/// trigonometry per pixel).
+enum Dirs {
+    Equirect { rows: Vec<(f64, f64)>, cols: Vec<(f64, f64)> },
+    Generic(AnyMapping),
+}
+
+impl Dirs {
+    fn new(m: AnyMapping) -> Dirs {
+        match m {
+            AnyMapping::Equirect(_) => {
+                let (w, h) = (m.width(), m.height());
+                let rows = (0..h).map(|j| (std::f64::consts::PI * (j as f64 + 0.5) / h as f64).sin_cos());
+                let cols = (0..w).map(|i| {
+                    let (s, c) = (std::f64::consts::TAU * (i as f64 + 0.5) / w as f64).sin_cos();
+                    (c, s)
+                });
+                Dirs::Equirect { rows: rows.collect(), cols: cols.collect() }
+            }
+            AnyMapping::Cube(_) => Dirs::Generic(m),
+        }
+    }
+
+    #[inline]
+    fn get(&self, i: usize, j: usize) -> DVec3 {
+        match self {
+            Dirs::Equirect { rows, cols } => {
+                let ((st, ct), (cp, sp)) = (rows[j], cols[i]);
+                DVec3::new(st * cp, st * sp, ct)
+            }
+            Dirs::Generic(m) => m.pixel_dir(i, j),
+        }
+    }
+}
+
+/// A rectangle of layer pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Tile {
+    x0: usize,
+    y0: usize,
+    w: usize,
+    h: usize,
+}
+
+/// Split `len` into runs of at most [`TILE`] that never cross a multiple of `segment`.
+fn runs(len: usize, segment: usize) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut s = 0;
+    while s < len {
+        let end = (s + segment).min(len);
+        let mut a = s;
+        while a < end {
+            let b = (a + TILE).min(end);
+            out.push((a, b - a));
+            a = b;
+        }
+        s = end;
+    }
+    out
+}
+
+fn tiles(m: &AnyMapping) -> Vec<Tile> {
+    let seg = match m {
+        AnyMapping::Equirect(_) => m.width().max(m.height()),
+        AnyMapping::Cube(c) => c.face_size(),
+    };
+    let xs = runs(m.width(), seg);
+    runs(m.height(), seg)
+        .into_iter()
+        .flat_map(|(y0, h)| xs.iter().map(move |&(x0, w)| Tile { x0, y0, w, h }))
+        .collect()
+}
+
+/// Index into [`OFFSETS`] of a neighbour offset.
+#[inline]
+const fn offset_index(dx: i64, dy: i64) -> usize {
+    match (dx, dy) {
+        (1, 0) => 0,
+        (-1, 0) => 1,
+        (0, 1) => 2,
+        (0, -1) => 3,
+        (1, 1) => 4,
+        (-1, 1) => 5,
+        (1, -1) => 6,
+        _ => 7,
+    }
+}
+
+/// Culling of tiles against the camera's view cone, in the panorama's local frame (valid when
+/// LocalToWorld is a similarity, which preserves angles).
+#[derive(Clone, Copy, Debug)]
+struct Cull {
+    axis: DVec3,
+    /// Half-angle of the view cone plus margins, radians.
+    half_angle: f64,
+    /// Distance of the eye from the panorama centre, local units.
+    offset: f64,
+}
+
+impl Cull {
+    fn new(camera: &Camera, local_to_world: DMat4) -> Option<Cull> {
+        let (axis_world, half) = camera.view_cone()?;
+        let lin = DMat3::from_mat4(local_to_world);
+        let m = lin.transpose() * lin;
+        let s2 = (m.x_axis.x + m.y_axis.y + m.z_axis.z) / 3.0;
+        let off = (m - DMat3::from_diagonal(DVec3::splat(s2)))
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |a, v| a.max(v.abs()));
+        if s2.is_nan() || s2 <= 0.0 || off > 1e-9 * s2 {
+            return None;
+        }
+        let inv = local_to_world.inverse();
+        let axis = inv.transform_vector3(axis_world).try_normalize()?;
+        let eye = inv.transform_point3(camera.eye());
+        eye.is_finite().then_some(Cull { axis, half_angle: half + 0.02, offset: eye.length() })
+    }
+
+    /// Whether no point of a tile (directions within `spread` of `centre`, finite depths at least
+    /// `zmin`, or infinitely far) can be seen.
+    fn outside(&self, centre: DVec3, spread: f64, zmin: f64) -> bool {
+        let parallax = if zmin.is_infinite() {
+            0.0
+        } else if self.offset < zmin {
+            (self.offset / zmin).asin()
+        } else {
+            return false;
+        };
+        let angle = centre.dot(self.axis).clamp(-1.0, 1.0).acos();
+        angle - spread - parallax > self.half_angle
+    }
+}
+
+/// One reprojected layer pixel.
+#[derive(Clone, Copy, Debug, Default)]
+struct Pt {
+    /// Camera-space point (a direction for infinity samples).
+    cam: DVec3,
+    /// Output pixel coordinates, when projectable.
+    q: DVec2,
+    /// Camera distance (`+inf` for infinity samples).
+    dist: f32,
+    /// Layer depth (for the continuity test).
+    z: f32,
+    rgb: [f32; 3],
+    /// Inside the domain with a usable depth.
+    ok: bool,
+    /// `q` is valid.
+    vis: bool,
+}
+
+/// Everything a tile needs, shared by all tiles of one layer.
+struct LayerCtx<'a> {
+    /// Index of the layer (its samples never blend with another layer's).
+    index: u32,
+    planes: LayerPlanes<'a>,
+    dirs: Dirs,
+    nb: Neighbours,
+    camera: &'a Camera,
+    /// [`Camera::x_scale`] of each output row's centre (no trigonometry in the inner loops).
+    scales: &'a [f64],
+    /// Panorama-local → camera space.
+    to_cam: DMat4,
+    cull: Option<Cull>,
+    o: SplatOptions,
+}
+
+impl LayerCtx<'_> {
+    #[inline]
+    fn sample(&self, p: usize) -> Sample {
+        classify(self.planes.z[p], self.planes.coverage.map(|a| a[p]))
+    }
+
+    fn point(&self, p: usize) -> Pt {
+        let w = self.planes.mapping.width();
+        let (i, j) = (p % w, p / w);
+        let (cam, dist) = match self.sample(p) {
+            Sample::Surface(d) if d >= 0.0 && d.is_finite() => {
+                let c = self.to_cam.transform_point3(self.dirs.get(i, j) * d as f64);
+                (c, c.length() as f32)
+            }
+            Sample::Infinite => (self.to_cam.transform_vector3(self.dirs.get(i, j)), f32::INFINITY),
+            _ => return Pt::default(),
+        };
+        let rgb = [self.planes.rgb[0][p], self.planes.rgb[1][p], self.planes.rgb[2][p]];
+        let q = self.camera.project(cam);
+        Pt { cam, q: q.unwrap_or_default(), dist, z: self.planes.z[p], rgb, ok: true, vis: q.is_some() }
+    }
+
+    /// Whether the tile may be skipped: nothing in the domain, or outside the view cone.
+    fn skip(&self, t: &Tile) -> bool {
+        let w = self.planes.mapping.width();
+        let mut zmin = f64::INFINITY;
+        let mut any = false;
+        for y in t.y0..t.y0 + t.h {
+            for p in y * w + t.x0..y * w + t.x0 + t.w {
+                match self.sample(p) {
+                    Sample::Surface(d) if d >= 0.0 && d.is_finite() => {
+                        any = true;
+                        zmin = zmin.min(d as f64);
+                    }
+                    Sample::Infinite => any = true,
+                    _ => {}
+                }
+            }
+        }
+        if !any {
+            return true;
+        }
+        let Some(cull) = self.cull else { return false };
+        let m = &self.planes.mapping;
+        let (x0, y0, x1, y1) = (t.x0 as f64, t.y0 as f64, (t.x0 + t.w) as f64, (t.y0 + t.h) as f64);
+        let centre = m.pixel_to_dir((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+        let mut spread = 0.0f64;
+        for (x, y) in [
+            (x0, y0),
+            (x1, y0),
+            (x0, y1),
+            (x1, y1),
+            ((x0 + x1) / 2.0, y0),
+            ((x0 + x1) / 2.0, y1),
+            (x0, (y0 + y1) / 2.0),
+            (x1, (y0 + y1) / 2.0),
+        ] {
+            spread = spread.max(centre.dot(m.pixel_to_dir(x, y)).clamp(-1.0, 1.0).acos());
+        }
+        // Two pixels of margin for the apron and sub-samples reaching into neighbouring tiles.
+        let pixel = std::f64::consts::PI / m.height() as f64;
+        cull.outside(centre, spread + 2.0 * pixel, zmin)
+    }
+
+    /// Layer pixel index of apron cell `(ax, ay)` (tile-relative, `-1 ..= w`), across edges.
+    fn apron_index(&self, t: &Tile, ax: i64, ay: i64) -> Option<usize> {
+        let w = self.planes.mapping.width();
+        let bx = ax.clamp(0, t.w as i64 - 1);
+        let by = ay.clamp(0, t.h as i64 - 1);
+        let (x, y) = (t.x0 + bx as usize, t.y0 + by as usize);
+        if (ax, ay) == (bx, by) {
+            return Some(y * w + x);
+        }
+        self.nb.get_at(x, y, offset_index(ax - bx, ay - by))
+    }
+
+    fn splat_tile(&self, t: &Tile, buf: &mut Vec<Pt>, acc: &mut Accum, n: &mut SplatCounts) {
+        n.tiles += 1;
+        if self.skip(t) {
+            n.tiles_culled += 1;
+            return;
+        }
+        let stride = t.w + 2;
+        buf.clear();
+        for ay in -1..=t.h as i64 {
+            for ax in -1..=t.w as i64 {
+                buf.push(self.apron_index(t, ax, ay).map(|p| self.point(p)).unwrap_or_default());
+            }
+        }
+        for ly in 0..t.h {
+            for lx in 0..t.w {
+                let at =
+                    |dx: i64, dy: i64| (ly as i64 + 1 + dy) as usize * stride + (lx as i64 + 1 + dx) as usize;
+                if buf[at(0, 0)].ok {
+                    n.pixels += 1;
+                    let nbrs: [&Pt; 8] =
+                        std::array::from_fn(|k| &buf[at(OFFSETS[k].0 as i64, OFFSETS[k].1 as i64)]);
+                    n.samples += self.splat_pixel(&buf[at(0, 0)], &nbrs, acc);
+                }
+            }
+        }
+    }
+
+    /// Output-space distance between two projected points, with the equirect metric.
+    #[inline]
+    fn gap(&self, a: DVec2, b: DVec2) -> f64 {
+        let mut dx = b.x - a.x;
+        if self.camera.wraps() {
+            let w = self.camera.width() as f64;
+            dx -= w * (dx / w).round();
+        }
+        (dx * row_scale(self.scales, a.y)).hypot(b.y - a.y)
+    }
+
+    fn continuous(&self, a: f32, b: f32) -> bool {
+        if a.is_infinite() || b.is_infinite() {
+            return a == b;
+        }
+        (a - b).abs() as f64 <= self.o.jump * a.min(b) as f64
+    }
+
+    /// Splat one pixel and its sub-samples; returns the number of samples.
+    fn splat_pixel(&self, c: &Pt, nbrs: &[&Pt; 8], acc: &mut Accum) -> u64 {
+        if !c.vis {
+            return 0;
+        }
+        let mut linked: [Option<&Pt>; 8] = [None; 8];
+        let (mut sx, mut sy) = (0.0f64, 0.0f64);
+        for k in 0..8 {
+            let nb = nbrs[k];
+            if !(nb.ok && self.continuous(c.z, nb.z)) {
+                continue;
+            }
+            linked[k] = Some(nb);
+            if nb.vis {
+                let g = self.gap(c.q, nb.q);
+                if OFFSETS[k].0 != 0 {
+                    sx = sx.max(g);
+                }
+                if OFFSETS[k].1 != 0 {
+                    sy = sy.max(g);
+                }
+            }
+        }
+        let count = |s: f64| ((s / self.o.spacing).ceil() as usize).clamp(1, self.o.max_subsamples.max(1));
+        let (nx, ny) = (count(sx), count(sy));
+        // Past the sub-sample cap, widen the filter so the sparser samples still overlap.
+        let stretch = (sx / nx as f64).max(sy / ny as f64) / self.o.spacing;
+        let radius = self.o.radius * stretch.max(1.0);
+        if !self.camera.wraps() && self.off_screen(c.q, sx.max(sy) + radius) {
+            return 0;
+        }
+        if nx == 1 && ny == 1 {
+            let one = Splat { q: c.q, dist: c.dist, rgb: c.rgb, layer: self.index };
+            splat(self.camera, self.scales, radius, &one, acc);
+            return 1;
+        }
+        let mut done = 0;
+        for b in 0..ny {
+            let oy = (b as f64 + 0.5) / ny as f64 - 0.5;
+            for a in 0..nx {
+                let ox = (a as f64 + 0.5) / nx as f64 - 0.5;
+                let (cam, rgb) = interpolate(c, &linked, ox, oy);
+                if let Some(q) = self.camera.project(cam) {
+                    let dist = if c.dist.is_infinite() { f32::INFINITY } else { cam.length() as f32 };
+                    splat(self.camera, self.scales, radius, &Splat { q, dist, rgb, layer: self.index }, acc);
+                    done += 1;
+                }
+            }
+        }
+        done
+    }
+
+    /// Whether a pixel's splat footprint (centre `q`, reach `reach` pixels) misses the output.
+    fn off_screen(&self, q: DVec2, reach: f64) -> bool {
+        let reach = reach + 1.0;
+        let (w, h) = (self.camera.width() as f64, self.camera.height() as f64);
+        q.x + reach < 0.0 || q.y + reach < 0.0 || q.x - reach > w || q.y - reach > h
+    }
+}
+
+/// The surface point and colour at offset `(ox, oy)` ∈ (-½, ½)² from the pixel centre: bilinear
+/// over the quad towards the neighbours on that side. A neighbour across a discontinuity (or
+/// outside the layer) is replaced by the mirror image of the opposite neighbour (`2c − n`), or by
+/// the pixel itself: the pixel still covers its whole footprint — so layers that abut without a
+/// depth jump (an object standing on the floor) leave no crack between them — but never reaches
+/// into the next pixel across a discontinuity. Synthesised corners take the pixel's colour.
+#[inline]
+fn interpolate(c: &Pt, linked: &[Option<&Pt>; 8], ox: f64, oy: f64) -> (DVec3, [f32; 3]) {
+    let (sx, sy) = (if ox >= 0.0 { 1 } else { -1 }, if oy >= 0.0 { 1 } else { -1 });
+    let side = |dx: i64, dy: i64| -> (DVec3, [f32; 3]) {
+        match (linked[offset_index(dx, dy)], linked[offset_index(-dx, -dy)]) {
+            (Some(n), _) => (n.cam, n.rgb),
+            (None, Some(m)) => (c.cam * 2.0 - m.cam, c.rgb),
+            (None, None) => (c.cam, c.rgb),
+        }
+    };
+    let h = side(sx, 0);
+    let v = side(0, sy);
+    let d = match linked[offset_index(sx, sy)] {
+        Some(n) => (n.cam, n.rgb),
+        None => (h.0 + v.0 - c.cam, c.rgb),
+    };
+    let (wx, wy) = (ox.abs(), oy.abs());
+    let w = [(1.0 - wx) * (1.0 - wy), wx * (1.0 - wy), (1.0 - wx) * wy, wx * wy];
+    let pts = [(c.cam, c.rgb), h, v, d];
+    let mut cam = DVec3::ZERO;
+    let mut rgb = [0.0f32; 3];
+    for (p, &wk) in pts.iter().zip(&w) {
+        cam += p.0 * wk;
+        for (out, v) in rgb.iter_mut().zip(p.1) {
+            *out += v * wk as f32;
+        }
+    }
+    (cam, rgb)
+}
+
+/// One sample ready to filter into the output.
+#[derive(Clone, Copy, Debug)]
+struct Splat {
+    /// Output pixel coordinates.
+    q: DVec2,
+    /// Camera distance.
+    dist: f32,
+    rgb: [f32; 3],
+    layer: u32,
+}
+
+/// The horizontal metric at output row coordinate `y` (clamped into the image).
+#[inline]
+fn row_scale(scales: &[f64], y: f64) -> f64 {
+    scales[(y.max(0.0) as usize).min(scales.len() - 1)]
+}
+
+/// Filter one sample into the output with a tent of radius `r` (thesis Alg. 9). Equirect outputs
+/// widen the kernel horizontally by `1 / sin θ` so it covers the same solid angle near the poles,
+/// and wrap it around the seam.
+#[inline]
+fn splat(camera: &Camera, scales: &[f64], r: f64, s: &Splat, acc: &mut Accum) {
+    let q = s.q;
+    let (w, h) = (acc.width as i64, acc.height as i64);
+    let y0 = ((q.y - r - 0.5).ceil() as i64).max(0);
+    let y1 = ((q.y + r - 0.5).floor() as i64).min(h - 1);
+    let wraps = camera.wraps();
+    for py in y0..=y1 {
+        let fy = 1.0 - (py as f64 + 0.5 - q.y).abs() / r;
+        if fy <= 0.0 {
+            continue;
+        }
+        let sc = scales[py as usize];
+        let rx = (r / sc).min(w as f64 / 2.0);
+        let mut x0 = (q.x - rx - 0.5).ceil() as i64;
+        let mut x1 = (q.x + rx - 0.5).floor() as i64;
+        if wraps {
+            x1 = x1.min(x0 + w - 1);
+        } else {
+            x0 = x0.max(0);
+            x1 = x1.min(w - 1);
+        }
+        let row = (py * w) as usize;
+        for px in x0..=x1 {
+            let fx = 1.0 - (px as f64 + 0.5 - q.x).abs() * sc / r;
+            if fx > 0.0 {
+                acc.add(row + px.rem_euclid(w) as usize, s.dist, (fx * fy) as f32, s.rgb, s.layer);
+            }
+        }
+    }
+}
+
+/// Splat every layer into one accumulation buffer of the camera's size.
+pub fn splat_layers(
+    layers: &[LayerPlanes],
+    local_to_world: DMat4,
+    camera: &Camera,
+    o: &SplatOptions,
+) -> (Accum, SplatCounts) {
+    let to_cam = camera.to_camera() * local_to_world;
+    let scales: Vec<f64> = (0..camera.height()).map(|y| camera.x_scale(y as f64 + 0.5)).collect();
+    let cull = Cull::new(camera, local_to_world);
+    let ctxs: Vec<LayerCtx> = layers
+        .iter()
+        .enumerate()
+        .map(|(index, &planes)| LayerCtx {
+            index: index as u32,
+            planes,
+            dirs: Dirs::new(planes.mapping),
+            nb: Neighbours::new(planes.mapping),
+            camera,
+            scales: &scales,
+            to_cam,
+            cull,
+            o: *o,
+        })
+        .collect();
+    let jobs: Vec<(usize, Tile)> = ctxs
+        .iter()
+        .enumerate()
+        .flat_map(|(k, c)| tiles(&c.planes.mapping).into_iter().map(move |t| (k, t)))
+        .collect();
+    let groups = rayon::current_num_threads().max(1);
+    let parts: Vec<(Accum, SplatCounts)> = (0..groups)
+        .into_par_iter()
+        .map(|g| {
+            let mut acc = Accum::new(camera.width(), camera.height(), o.tolerance);
+            let mut counts = SplatCounts::default();
+            let mut buf = Vec::with_capacity((TILE + 2) * (TILE + 2));
+            for (k, t) in jobs.iter().skip(g).step_by(groups) {
+                ctxs[*k].splat_tile(t, &mut buf, &mut acc, &mut counts);
+            }
+            (acc, counts)
+        })
+        .collect();
+    let mut parts = parts.into_iter();
+    let (mut acc, mut counts) = parts.next().expect("at least one group");
+    for (a, c) in parts {
+        acc.merge(&a);
+        counts = counts.add(c);
+    }
+    (acc, counts)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mapping::MappingKind;
+
+    #[test]
+    fn tiles_cover_the_canvas_once_and_never_straddle_a_face() {
+        for (kind, w, h) in [(MappingKind::Equirect, 200, 100), (MappingKind::Cube3x2, 3 * 45, 2 * 45)] {
+            let m = AnyMapping::new(kind, w, h).unwrap();
+            let mut seen = vec![0u8; w * h];
+            for t in tiles(&m) {
+                if kind == MappingKind::Cube3x2 {
+                    assert_eq!(t.x0 / 45, (t.x0 + t.w - 1) / 45);
+                    assert_eq!(t.y0 / 45, (t.y0 + t.h - 1) / 45);
+                }
+                for y in t.y0..t.y0 + t.h {
+                    for x in t.x0..t.x0 + t.w {
+                        seen[y * w + x] += 1;
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&s| s == 1));
+        }
+    }
+
+    #[test]
+    fn offsets_round_trip() {
+        for (k, &(dx, dy)) in OFFSETS.iter().enumerate() {
+            assert_eq!(offset_index(dx as i64, dy as i64), k);
+        }
+    }
+}

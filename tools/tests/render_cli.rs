@@ -1,0 +1,101 @@
+//! `pomc render` end to end on the room fixture: outputs written, JSON figures, typed failures.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use pomc::mapping::{AnyMapping, MappingKind};
+use pomc::panorama::{self, SaveOptions};
+use pomc_fixtures::layers::{render_on, room_manifest, to_layer};
+use pomc_fixtures::Scene;
+
+fn pomc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pomc")).args(args).output().expect("pomc runs")
+}
+
+/// The two-layer room, centre 1.2 m above the world origin, stored unpacked.
+fn room(dir: &Path) {
+    let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
+    let r = render_on(&Scene::room(), &m);
+    let layers = [to_layer(&r.background, false), to_layer(&r.objects, false)];
+    let save = SaveOptions { pack: false, ..SaveOptions::default() };
+    panorama::write_panorama(dir, &room_manifest(MappingKind::Equirect), &layers, &save).unwrap();
+}
+
+#[test]
+fn render_writes_colour_depth_and_mask_with_json_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path());
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let out = pomc(&[
+        "render",
+        dir.path().to_str().unwrap(),
+        "-o",
+        &p("view.png"),
+        "--eye",
+        "0,0.3,1.2",
+        "--look-at",
+        "2,0,0.4",
+        "--size",
+        "160x90",
+        "--depth",
+        &p("depth.exr"),
+        "--mask",
+        &p("mask.png"),
+        "--json",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((v["width"].as_u64(), v["height"].as_u64()), (Some(160), Some(90)));
+    assert!(v["hole_ratio"].as_f64().unwrap() < 0.01, "{v}");
+    assert!(v["stages"]["splat_s"].as_f64().is_some() && v["stages"]["total_s"].as_f64().is_some());
+    for f in ["view.png", "depth.exr", "mask.png"] {
+        assert!(dir.path().join(f).is_file(), "{f} missing");
+    }
+    let png = image::open(dir.path().join("view.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (160, 90));
+
+    // Equirect camera, EXR colour, default eye (the panorama centre).
+    let out = pomc(&[
+        "render",
+        dir.path().to_str().unwrap(),
+        "-o",
+        &p("eq.exr"),
+        "--camera",
+        "equirect",
+        "--size",
+        "128x64",
+        "--quiet",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(dir.path().join("eq.exr").is_file());
+}
+
+#[test]
+fn render_failures_are_typed() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path());
+    let d = dir.path().to_str().unwrap();
+    let o = dir.path().join("x.png");
+    let o = o.to_str().unwrap();
+    let code = |args: &[&str]| {
+        let out = pomc(args);
+        assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["error"]["code"].as_str().unwrap().to_string()
+    };
+    assert_eq!(code(&["render", d, "-o", o, "--fov", "200", "--json"]), "RENDER_BAD_CAMERA");
+    assert_eq!(
+        code(&["render", d, "-o", o, "--eye", "0,0,1.2", "--look-at", "0,0,1.2", "--json"]),
+        "RENDER_BAD_CAMERA"
+    );
+    assert_eq!(
+        code(&["render", d, "-o", o, "--camera", "equirect", "--size", "100x100", "--json"]),
+        "RENDER_BAD_SIZE"
+    );
+    let bmp = dir.path().join("x.bmp");
+    assert_eq!(
+        code(&["render", d, "-o", bmp.to_str().unwrap(), "--size", "8x8", "--json"]),
+        "RENDER_OUTPUT_FORMAT"
+    );
+    assert_eq!(code(&["render", "/nonexistent", "-o", o, "--json"]), "PANORAMA_NOT_FOUND");
+}
