@@ -11,8 +11,8 @@ use super::graph::Neighbours;
 pub struct EdgeOptions {
     /// Relative jump `|a−b| / min(a,b)` above which two neighbours *may* be on different surfaces.
     pub jump: f64,
-    /// A jump is confirmed only if linear extrapolation from both sides misses by more than this
-    /// fraction too: a plane seen at a grazing angle changes depth fast but smoothly.
+    /// A jump is confirmed only if extrapolation (linear in 1/depth) from both sides misses by more
+    /// than this fraction of the nearer pixel's inverse depth too: a plane seen at a grazing angle changes depth fast but smoothly.
     pub extrapolation: f64,
     /// Angle (degrees) between neighbouring normals above which the surface folds; `None` = no
     /// fold test.
@@ -129,8 +129,11 @@ fn depth_link(nb: &Neighbours, depth: &[f32], x: usize, y: usize, k: usize, o: &
     Some(Link::Smooth)
 }
 
-/// Does the depth continue smoothly from either side? Linear extrapolation along the step
-/// direction from `p` (using the pixel behind `p`) or from `q` (using the pixel beyond `q`).
+/// Does the depth continue smoothly from either side? The surface through `p` and the pixel
+/// behind it is extrapolated one step to `q` (or the other way round). Extrapolation is linear
+/// in inverse depth, which is what a plane does (`1/d = n·dir / h`), so a floor seen at a grazing
+/// angle is followed exactly, up to its last row. One side suffices: the last row of a grazing
+/// plane has the surface it occludes on its far side, and only the near side continues.
 #[allow(clippy::too_many_arguments)]
 fn smooth_by_extrapolation(
     nb: &Neighbours,
@@ -145,11 +148,13 @@ fn smooth_by_extrapolation(
     let behind_p = nb.get_at(x, y, opposite(k)).map(|i| depth[i] as f64);
     let beyond_q = nb.get2_at(x, y, k).map(|i| depth[i] as f64);
     let min = a.min(b);
-    let ok = |pred: f64, actual: f64| pred.is_finite() && (pred - actual).abs() / min <= tol;
-    let from_p = behind_p.filter(|&d| d > 0.0 && d.is_finite()).is_some_and(|d| ok(2.0 * a - d, b));
-    let from_q = beyond_q.filter(|&d| d > 0.0 && d.is_finite()).is_some_and(|d| ok(2.0 * b - d, a));
-    // Both sides must agree: at a real discontinuity neither extrapolation reaches the other side.
-    from_p && from_q
+    // Inverse depth one step on from `near`, given `far` one step back; compared in inverse
+    // depth relative to the nearer pixel, the scale at which a plane's 1/d is smooth.
+    let predict = |near: f64, far: f64| 2.0 / near - 1.0 / far;
+    let ok = |inv: f64, actual: f64| inv.is_finite() && (inv - 1.0 / actual).abs() * min <= tol;
+    let from_p = behind_p.filter(|&d| d > 0.0 && d.is_finite()).is_some_and(|d| ok(predict(a, d), b));
+    let from_q = beyond_q.filter(|&d| d > 0.0 && d.is_finite()).is_some_and(|d| ok(predict(b, d), a));
+    from_p || from_q
 }
 
 /// Index of the opposite offset in [`OFFSETS`] (pairs are adjacent: 0↔1, 2↔3, 4↔7, 5↔6).
@@ -224,7 +229,7 @@ pub fn points(dirs: &[Vec3], depth: &[f32]) -> Vec<Vec3> {
 mod tests {
     use super::super::graph::OFFSETS;
     use super::*;
-    use crate::mapping::{AnyMapping, MappingKind};
+    use crate::mapping::{AnyMapping, Mapping, MappingKind};
 
     #[test]
     fn opposite_offsets() {
@@ -249,8 +254,32 @@ mod tests {
             assert_eq!(depth_link(&nb, &depth, 7, 3, 0, &o), Some(Link::Jump), "scale {scale}");
             assert_eq!(depth_link(&nb, &depth, 7, 3, 1, &o), Some(Link::Smooth));
         }
-        // A linear ramp with a large relative step per pixel is smooth, not a discontinuity.
-        let depth: Vec<f32> = (0..128).map(|i| 1.0 + 0.5 * (i % 16) as f32).collect();
-        assert_eq!(depth_link(&nb, &depth, 2, 3, 0, &o), Some(Link::Smooth));
+        // A ramp linear in inverse depth (a plane) with a large relative step per pixel is smooth.
+        let depth: Vec<f32> = (0..128).map(|i| 1.0 / (1.0 - 0.06 * (i % 16) as f32)).collect();
+        assert_eq!(depth_link(&nb, &depth, 12, 3, 0, &o), Some(Link::Smooth));
+    }
+
+    #[test]
+    fn a_floor_at_grazing_angles_is_one_surface_up_to_its_last_row() {
+        // The floor z = -1 seen from the centre, ending at the horizon in a far wall (d = 50).
+        let m = AnyMapping::new(MappingKind::Equirect, 64, 32).unwrap();
+        let nb = Neighbours::new(m);
+        let o = EdgeOptions::default();
+        let floor = |j: usize| {
+            let z = m.pixel_dir(0, j).z;
+            (z < -0.02).then(|| (-1.0 / z) as f32)
+        };
+        let depth: Vec<f32> = (0..64 * 32).map(|p| floor(p / 64).unwrap_or(50.0)).collect();
+        let last = (0..32).find(|&j| floor(j).is_some()).unwrap();
+        // Down the floor, every vertical link is smooth, even where a row step exceeds the jump ratio.
+        let mut steep = 0;
+        for j in last..31 {
+            let (a, b) = (depth[j * 64], depth[(j + 1) * 64]);
+            steep += usize::from((a - b).abs() / a.min(b) > o.jump as f32);
+            assert_eq!(depth_link(&nb, &depth, 5, j, 2, &o), Some(Link::Smooth), "row {j}");
+        }
+        assert!(steep > 0, "the test must include grazing rows");
+        // Its last row against the wall is a jump.
+        assert_eq!(depth_link(&nb, &depth, 5, last, 3, &o), Some(Link::Jump));
     }
 }

@@ -54,6 +54,39 @@ pub fn cover(mask: &[bool], width: usize, height: usize, padding: u32) -> Vec<Re
     out
 }
 
+/// Split rectangles longer than the side of a square holding them all into pieces no longer than
+/// that side. One full-width ring (a ceiling lamp around a pole of an equirect canvas) would
+/// otherwise force the atlas to the canvas width and leave most of it empty. Pieces of one
+/// rectangle have near-equal lengths; with padding each extra piece costs its guard band.
+pub fn limit_length(rects: Vec<Rect>, padding: u32) -> Vec<Rect> {
+    let p = u64::from(2 * padding);
+    let area: u64 = rects.iter().map(|r| (u64::from(r.w) + p) * (u64::from(r.h) + p)).sum();
+    let side = ((area as f64).sqrt().ceil() as u64).max(1);
+    let mut out = Vec::with_capacity(rects.len());
+    for r in rects {
+        let (long, wide) = if r.w >= r.h { (r.w, true) } else { (r.h, false) };
+        let pieces = (u64::from(long) + p).div_ceil(side).max(1) as u32;
+        if pieces == 1 {
+            out.push(r);
+            continue;
+        }
+        let mut start = 0;
+        for k in 0..pieces {
+            let end = ((u64::from(long) * u64::from(k + 1)) / u64::from(pieces)) as u32;
+            let len = end - start;
+            if len > 0 {
+                out.push(if wide {
+                    Rect { x: r.x + start, w: len, ..r }
+                } else {
+                    Rect { y: r.y + start, h: len, ..r }
+                });
+            }
+            start = end;
+        }
+    }
+    out
+}
+
 /// Cost of storing a box: its padded area plus the per-patch overhead.
 fn cost(w: u32, h: u32, padding: u32) -> u64 {
     let p = 2 * u64::from(padding);
@@ -252,6 +285,26 @@ mod tests {
         check(&mask, w, &rects);
         let area: u64 = rects.iter().map(Rect::area).sum();
         assert!(area as f64 <= 200.0 / MIN_FILL, "area {area}");
+    }
+
+    #[test]
+    fn long_rectangles_are_split_into_pieces_covering_the_same_pixels() {
+        let rects = vec![Rect { x: 0, y: 0, w: 256, h: 9 }, Rect { x: 3, y: 20, w: 17, h: 22 }];
+        let out = limit_length(rects.clone(), 0);
+        let area = |v: &[Rect]| v.iter().map(Rect::area).sum::<u64>();
+        assert_eq!(area(&out), area(&rects));
+        let side = (area(&rects) as f64).sqrt().ceil() as u32;
+        assert!(out.iter().all(|r| r.w.max(r.h) <= side), "{out:?}");
+        // Pieces tile the original strip left to right.
+        let strip: Vec<&Rect> = out.iter().filter(|r| r.y == 0).collect();
+        assert_eq!(strip.first().unwrap().x, 0);
+        for w in strip.windows(2) {
+            assert_eq!(w[0].x + w[0].w, w[1].x);
+        }
+        assert_eq!(strip.last().map(|r| r.x + r.w), Some(256));
+        // Nothing to do for compact sets.
+        let square = vec![Rect { x: 0, y: 0, w: 10, h: 10 }];
+        assert_eq!(limit_length(square.clone(), 1), square);
     }
 
     #[test]

@@ -116,10 +116,19 @@ pub fn pack_layer(image: &LayerImage, options: &PackOptions) -> Result<PackedLay
     if options.padding > MAX_PADDING {
         return Err(PackError::PaddingTooLarge { padding: options.padding, max: MAX_PADDING });
     }
-    let rects = cut::cover(&image.domain(), image.width, image.height, options.padding);
     let pad = options.padding;
-    let sizes: Vec<(u32, u32)> = rects.iter().map(|r| (r.w + 2 * pad, r.h + 2 * pad)).collect();
-    let packing = maxrects::pack(&sizes);
+    let whole = cut::cover(&image.domain(), image.width, image.height, pad);
+    // Splitting long rectangles usually helps (a ring around a pole) but not always: keep the
+    // smaller atlas of the two.
+    let (rects, packing) = [cut::limit_length(whole.clone(), pad), whole]
+        .into_iter()
+        .map(|rects| {
+            let sizes: Vec<(u32, u32)> = rects.iter().map(|r| (r.w + 2 * pad, r.h + 2 * pad)).collect();
+            let packing = maxrects::pack(&sizes);
+            (rects, packing)
+        })
+        .min_by_key(|(_, p)| u64::from(p.width) * u64::from(p.height))
+        .expect("two candidates");
     let patches: Vec<Patch> = rects
         .iter()
         .zip(&packing.positions)
