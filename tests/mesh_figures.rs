@@ -4,6 +4,7 @@
 use std::time::Instant;
 
 use pomc::mapping::{AnyMapping, Cube3x2};
+use pomc::mesh::simplify::SimplifyParams;
 use pomc::mesh::{self, error, MeshParams};
 use pomc_fixtures::layers::{render_on, to_layer};
 use pomc_fixtures::Scene;
@@ -69,19 +70,44 @@ fn timing_cube_2048() {
     }
 }
 
-/// Sweep of `--max-error` on the room background (6×N² cube map, N from `POMC_MESH_N`, default 1024):
-/// CSV lines `pomc,E,triangles,p99_rel,max_rel,seconds` for tools/bench/mesh_vs_delatin.py.
+fn simplified(e: f64, max_angle_deg: Option<f64>) -> MeshParams {
+    MeshParams {
+        max_error: Some(e),
+        max_angle_deg,
+        simplify: Some(SimplifyParams { max_error: e, max_angle_deg }),
+        ..MeshParams::default()
+    }
+}
+
+/// Sweep of `--max-error` on the room background (6×N² cube map, N from `POMC_MESH_N`, default 1024),
+/// quadtree alone (`--no-simplify`) and simplified (the default): CSV lines
+/// `pomc|pomc-simplify,E,triangles,p99_rel,max_rel,seconds` for tools/bench/plot_mesh.py. Each timing
+/// is the best of `POMC_MESH_REPEAT` runs (default 3; the machine is shared).
 #[test]
 #[ignore]
 fn sweep_max_error() {
     let n = std::env::var("POMC_MESH_N").ok().and_then(|v| v.parse().ok()).unwrap_or(1024);
+    let repeat = std::env::var("POMC_MESH_REPEAT").ok().and_then(|v| v.parse().ok()).unwrap_or(3);
     let (m, bg) = background(n);
     for e in [0.02, 0.01, 0.005, 0.002, 0.001, 0.0005] {
-        let p = MeshParams { max_error: Some(e), max_angle_deg: None, ..MeshParams::default() };
-        let t = Instant::now();
-        let a = mesh::mesh_layer(&bg, &m, &p).unwrap();
-        let secs = t.elapsed().as_secs_f64();
-        let s = error::measure(&a.mesh.positions, &a.mesh.triangles, &bg, &m);
-        println!("CSV pomc,{e},{},{},{},{secs}", a.mesh.triangles.len(), s.p99_rel, s.max_rel);
+        let raw = MeshParams { max_error: Some(e), max_angle_deg: None, ..MeshParams::default() };
+        for (name, p) in [("pomc", raw), ("pomc-simplify", simplified(e, None))] {
+            let mut secs = f64::INFINITY;
+            let mut a = None;
+            for _ in 0..repeat {
+                let t = Instant::now();
+                a = Some(mesh::mesh_layer(&bg, &m, &p).unwrap());
+                secs = secs.min(t.elapsed().as_secs_f64());
+            }
+            let a = a.unwrap();
+            let s = error::measure(&a.mesh.positions, &a.mesh.triangles, &bg, &m);
+            println!(
+                "CSV {name},{e},{},{},{},{secs}    # {:?}",
+                a.mesh.triangles.len(),
+                s.p99_rel,
+                s.max_rel,
+                a.times
+            );
+        }
     }
 }

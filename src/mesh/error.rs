@@ -30,7 +30,7 @@ const EPS: f64 = 1e-9;
 
 /// Distance along unit ray `d` (origin at the centre) to triangle `p`, if hit.
 #[inline]
-fn ray_hit(d: DVec3, p: [DVec3; 3]) -> Option<f64> {
+pub(crate) fn ray_hit(d: DVec3, p: [DVec3; 3]) -> Option<f64> {
     let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
     let h = d.cross(e2);
     let a = e1.dot(h);
@@ -53,7 +53,7 @@ fn ray_hit(d: DVec3, p: [DVec3; 3]) -> Option<f64> {
 }
 
 /// Canvas pixel rectangles `[x0, x1] × [y0, y1]` (inclusive) that may see the triangle.
-fn candidates(mapping: &AnyMapping, p: [DVec3; 3]) -> Vec<[usize; 4]> {
+pub(crate) fn candidates(mapping: &AnyMapping, p: [DVec3; 3]) -> Vec<[usize; 4]> {
     match mapping {
         AnyMapping::Cube(c) => cube_candidates(c.face_size(), p),
         AnyMapping::Equirect(e) => equirect_candidates(e, p),
@@ -91,6 +91,25 @@ fn equirect_candidates(e: &Equirect, p: [DVec3; 3]) -> Vec<[usize; 4]> {
     let (w, h) = (e.width() as f64, e.height() as f64);
     let (mut xs, mut ys) = (Vec::new(), Vec::new());
     let (mut north, mut south) = (false, false);
+    // A great-circle edge bulges towards a pole beyond its ends: add its extreme latitudes.
+    for k in 0..3 {
+        let (a, b) = (p[k].normalize(), p[(k + 1) % 3].normalize());
+        let n = a.cross(b);
+        if !(n.length_squared() > 1e-30) {
+            continue;
+        }
+        let n = n.normalize();
+        let top = DVec3::Z - n * n.z;
+        if top.length_squared() <= 1e-30 {
+            continue;
+        }
+        let top = top.normalize();
+        for q in [top, -top] {
+            if a.cross(q).dot(n) >= 0.0 && q.cross(b).dot(n) >= 0.0 {
+                ys.push(q.z.clamp(-1.0, 1.0).acos() / std::f64::consts::PI * h - 0.5);
+            }
+        }
+    }
     for v in p {
         let Some((phi, theta)) = Equirect::angles(v) else { continue };
         ys.push(theta / std::f64::consts::PI * h - 0.5);

@@ -16,6 +16,7 @@ pub mod grid;
 pub mod normals;
 pub mod quadtree;
 pub mod sat;
+pub mod simplify;
 pub mod stitch;
 pub mod triangulate;
 
@@ -79,6 +80,9 @@ pub struct MeshParams {
     pub max_angle_deg: Option<f64>,
     /// Uniform baseline: leaves of at most `STEP` cells a side (1 = the full 4-8 mesh).
     pub uniform: Option<u32>,
+    /// Second stage: error-bounded edge collapses of the quadtree mesh ([`simplify`]). The trees
+    /// (and so the encoding) are those of the quadtree mesh either way.
+    pub simplify: Option<simplify::SimplifyParams>,
 }
 
 impl Default for MeshParams {
@@ -90,6 +94,7 @@ impl Default for MeshParams {
             normal_weighting: normals::NormalWeighting::Area,
             max_angle_deg: Some(20.0),
             uniform: None,
+            simplify: None,
         }
     }
 }
@@ -112,6 +117,14 @@ impl MeshParams {
         }
         if self.uniform == Some(0) {
             return bad("uniform step must be at least 1");
+        }
+        if let Some(s) = &self.simplify {
+            if !(s.max_error.is_finite() && s.max_error > 0.0) {
+                return bad("simplification max-error must be a positive number");
+            }
+            if s.max_angle_deg.is_some_and(|a| !(a.is_finite() && a > 0.0 && a <= 180.0)) {
+                return bad("simplification max-angle must be in (0, 180] degrees");
+            }
         }
         Ok(())
     }
@@ -142,12 +155,18 @@ pub struct StageTimes {
     pub quadtree_ms: f64,
     pub triangulate_ms: f64,
     pub assemble_ms: f64,
+    pub simplify_ms: f64,
 }
 
 /// A mesh with the quadtrees it came from.
 #[derive(Clone, Debug)]
 pub struct Meshed {
+    /// The quadtree mesh, or its simplification when [`MeshParams::simplify`] is set.
     pub mesh: LayerMesh,
+    /// Triangles of the quadtree mesh (before simplification).
+    pub quadtree_triangles: usize,
+    /// Counters of the simplification stage, when it ran.
+    pub simplify: Option<simplify::SimplifyStats>,
     /// One tree per lattice (`None` for a lattice without cells).
     pub trees: Vec<Option<Tree>>,
     pub times: StageTimes,
@@ -208,7 +227,23 @@ pub fn mesh_layer(
         .collect();
     let quadtree_ms = ms(t);
     let (mesh, triangulate_ms, assemble_ms) = mesh_from_trees(&grids, &trees, mapping);
-    Ok(Meshed { mesh, trees, times: StageTimes { sample_ms, quadtree_ms, triangulate_ms, assemble_ms } })
+    let quadtree_triangles = mesh.triangles.len();
+    let t = Instant::now();
+    let (mesh, stats) = match &params.simplify {
+        Some(sp) => {
+            let (m, s) = simplify::simplify(&mesh, &grids, mapping, sp);
+            (m, Some(s))
+        }
+        None => (mesh, None),
+    };
+    let simplify_ms = if stats.is_some() { ms(t) } else { 0.0 };
+    Ok(Meshed {
+        mesh,
+        quadtree_triangles,
+        simplify: stats,
+        trees,
+        times: StageTimes { sample_ms, quadtree_ms, triangulate_ms, assemble_ms, simplify_ms },
+    })
 }
 
 /// Triangulate, stitch and assemble; shared by [`mesh_layer`] and the decoder.

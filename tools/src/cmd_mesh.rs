@@ -47,8 +47,13 @@ pub struct Args {
     #[arg(long)]
     no_metric: bool,
     /// Store the encoded mesh next to the layer and reference it from the manifest (`<Mesh file=…/>`).
+    /// The stored encoding is always the quadtree's (spec §8), simplified or not.
     #[arg(long)]
     store: bool,
+    /// Output the raw quadtree mesh: skip the error-bounded edge-collapse stage (which runs by default
+    /// with the same --max-error and --max-angle, unless --uniform or --max-error 0).
+    #[arg(long)]
+    no_simplify: bool,
 }
 
 fn fail(code: &'static str, message: String) -> Failure {
@@ -73,6 +78,12 @@ fn params(a: &Args) -> MeshParams {
         },
         max_angle_deg: (a.max_angle > 0.0).then_some(a.max_angle),
         uniform: a.uniform,
+        simplify: (!a.no_simplify && a.uniform.is_none() && a.max_error > 0.0).then(|| {
+            mesh::simplify::SimplifyParams {
+                max_error: a.max_error,
+                max_angle_deg: (a.max_angle > 0.0).then_some(a.max_angle),
+            }
+        }),
     }
 }
 
@@ -163,22 +174,27 @@ fn report(
         "layer": args.layer,
         "width": m.width, "height": m.height,
         "triangles": tris, "vertices": m.positions.len(),
+        "quadtree_triangles": meshed.quadtree_triangles, "simplify": meshed.simplify,
         "encoded_bytes": encoded, "encoded_bytes_per_million_triangles": per_million,
         "error": stats.as_ref().map(|s| &s.0),
         "times_ms": {
             "read": read_ms, "sample": t.sample_ms, "quadtree": t.quadtree_ms,
-            "triangulate": t.triangulate_ms, "assemble": t.assemble_ms,
+            "triangulate": t.triangulate_ms, "assemble": t.assemble_ms, "simplify": t.simplify_ms,
             "encode": encode_ms, "metric": stats.as_ref().map(|s| s.1), "export": export_ms,
         },
         "output": args.output,
     }));
     out.say(format!(
-        "layer {} ({}x{}): {} triangles, {} vertices",
+        "layer {} ({}x{}): {} triangles, {} vertices{}",
         args.layer,
         m.width,
         m.height,
         tris,
-        m.positions.len()
+        m.positions.len(),
+        match &meshed.simplify {
+            Some(s) => format!(" (simplified from {} quadtree triangles, {} collapses)", meshed.quadtree_triangles, s.collapses),
+            None => String::new(),
+        }
     ));
     out.say(format!("encoded: {encoded} bytes ({per_million:.0} bytes per million triangles)"));
     if let Some((s, _)) = &stats {
@@ -188,11 +204,12 @@ fn report(
         ));
     }
     out.say(format!(
-        "times (ms): read {read_ms:.0}, sample {:.0}, quadtree {:.0}, triangulate {:.0}, assemble {:.0}, encode {encode_ms:.0}, metric {}, export {export_ms:.0}",
+        "times (ms): read {read_ms:.0}, sample {:.0}, quadtree {:.0}, triangulate {:.0}, assemble {:.0}, simplify {:.0}, encode {encode_ms:.0}, metric {}, export {export_ms:.0}",
         t.sample_ms,
         t.quadtree_ms,
         t.triangulate_ms,
         t.assemble_ms,
+        t.simplify_ms,
         stats.as_ref().map_or("-".to_string(), |s| format!("{:.0}", s.1))
     ));
 }

@@ -1,0 +1,673 @@
+//! Second stage (not part of the `.pomcmesh` encoding): greedy half-edge collapses of the stitched
+//! quadtree mesh, each accepted only when the true 3D error stays within the tolerance.
+//!
+//! A quadtree has to refine down to single cells along every crease that is not axis-aligned on the
+//! lattice; a free triangulation does not. This stage removes vertices of the quadtree mesh one at a
+//! time by collapsing an edge `v → u` onto the existing vertex `u` (*half-edge collapse*), so every
+//! surviving vertex is still a pixel centre with its own sample (texture coordinates stay exact).
+//!
+//! - **Order**: Garland–Heckbert quadrics of the planes around each vertex, in relative units (plane
+//!   offsets divided by the distance, weights the solid angle), plus a tiny term preferring short edges;
+//!   a min-heap with ties broken by `(v, u)`: the output depends only on the input mesh.
+//! - **Acceptance**: a collapse is applied only when every triangle it creates
+//!   1. keeps its orientation as seen from the centre (`det[p0, p1, p2] < 0`: no flip, no fold),
+//!   2. joins no two vertices across a depth jump, and respects the `max_angle` extent cap,
+//!   3. leaves every valid pixel whose ray it hits within relative distance `max_error` of its sample
+//!      along that ray — the error of [`super::error::measure`], checked exactly: on a cube face a
+//!      triangle of one lattice covers exactly the lattice points of its lattice triangle (central
+//!      projection keeps lines straight) and the hit is the ray/plane intersection; every other triangle
+//!      (equirect, stitching strips) is ray-cast over its canvas candidates;
+//!
+//!   and the edge passes the link condition (the mesh stays a 2-manifold, watertight where it was).
+//! - **Constraints**: poles, lattice corners and vertices whose star is not a single fan never move; a
+//!   vertex on a lattice side (cube face edge, equirect seam column or pole row) only collapses onto a
+//!   vertex of the same side, so stitching strips stay pixel-free strips; a vertex on the mesh boundary
+//!   (domain border, depth jump) only collapses along the boundary onto a neighbour in a straight lattice
+//!   line with it (a meridian on the equirect), so the covered region never changes.
+//!
+//! Cube faces are simplified in parallel first (face-interior vertices only; a face's collapses never
+//! touch another face's triangles), then the whole mesh once more from the side vertices.
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::error::{candidates, ray_hit};
+use super::grid::{is_jump, Grid, PlaneDot};
+use super::{is_pole, LayerMesh};
+use crate::mapping::{AnyMapping, Mapping};
+
+/// Tolerances of the simplification stage.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimplifyParams {
+    /// Maximum relative distance along each pixel's ray between the simplified mesh and the sample.
+    pub max_error: f64,
+    /// Cap on the angle between the rays of two vertices of a triangle (texture distortion), degrees.
+    pub max_angle_deg: Option<f64>,
+}
+
+/// Counters of one run.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SimplifyStats {
+    pub collapses: usize,
+    /// Collapses that reached the pixel test.
+    pub tested: usize,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Loc {
+    Pole,
+    Lattice { g: u8, x: u32, y: u32 },
+}
+
+#[derive(Clone, Copy, Default)]
+struct Quadric([f64; 10]);
+
+impl Quadric {
+    fn plane(n: DVec3, d: f64, w: f64) -> Quadric {
+        let (a, b, c) = (n.x, n.y, n.z);
+        Quadric([a * a, a * b, a * c, a * d, b * b, b * c, b * d, c * c, c * d, d * d].map(|v| v * w))
+    }
+    fn add(&mut self, o: &Quadric) {
+        for k in 0..10 {
+            self.0[k] += o.0[k];
+        }
+    }
+    /// `Σ w (n·p − d)²` with the planes stored as `(n, −d)`.
+    fn eval(&self, p: DVec3) -> f64 {
+        let q = &self.0;
+        let (x, y, z) = (p.x, p.y, p.z);
+        q[0] * x * x
+            + 2.0 * q[1] * x * y
+            + 2.0 * q[2] * x * z
+            + 2.0 * q[3] * x
+            + q[4] * y * y
+            + 2.0 * q[5] * y * z
+            + 2.0 * q[6] * y
+            + q[7] * z * z
+            + 2.0 * q[8] * z
+            + q[9]
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Cand {
+    cost: f64,
+    v: u32,
+    u: u32,
+    stamp: u32,
+}
+
+impl PartialEq for Cand {
+    fn eq(&self, o: &Self) -> bool {
+        self.cmp(o) == Ordering::Equal
+    }
+}
+impl Eq for Cand {}
+impl PartialOrd for Cand {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Cand {
+    /// Reversed: `BinaryHeap` pops the cheapest, then the lowest `(v, u)`.
+    fn cmp(&self, o: &Self) -> Ordering {
+        o.cost.total_cmp(&self.cost).then(o.v.cmp(&self.v)).then(o.u.cmp(&self.u)).then(o.stamp.cmp(&self.stamp))
+    }
+}
+
+/// Read-only description of the vertices shared by all runs.
+struct Shared<'a> {
+    grids: &'a [Grid],
+    mapping: &'a AnyMapping,
+    cube: bool,
+    e: f64,
+    cos_cap: Option<f64>,
+    pos: Vec<DVec3>,
+    dist: Vec<f64>,
+    loc: Vec<Loc>,
+    /// Lattice sides the vertex lies on (bit k: side k; 0 top, 1 right, 2 bottom, 3 left).
+    sides: Vec<u8>,
+}
+
+impl Shared<'_> {
+    /// Lattice point of canvas pixel `(x, y)`.
+    fn grid_of(&self, x: usize, y: usize) -> Option<(usize, usize, usize)> {
+        self.grids.iter().enumerate().find_map(|(k, g)| {
+            (x >= g.ox && x < g.ox + g.w && y >= g.oy && y < g.oy + g.h).then(|| (k, x - g.ox, y - g.oy))
+        })
+    }
+
+    fn lattice(&self, v: u32) -> Option<(usize, i64, i64)> {
+        match self.loc[v as usize] {
+            Loc::Lattice { g, x, y } => Some((g as usize, x as i64, y as i64)),
+            Loc::Pole => None,
+        }
+    }
+
+    /// Largest relative error over the pixels triangle `t` covers (`∞` when it covers an invalid
+    /// pixel); the scan stops as soon as it exceeds `limit`.
+    fn max_error(&self, t: [u32; 3], limit: f64) -> f64 {
+        let l = t.map(|v| self.lattice(v));
+        if let (true, [Some(a), Some(b), Some(c)]) = (self.cube, l) {
+            if a.0 == b.0 && b.0 == c.0 {
+                return self.lattice_max(&self.grids[a.0], (a.1, a.2), (b.1, b.2), (c.1, c.2), limit);
+            }
+        }
+        self.raycast_max(t.map(|v| self.pos[v as usize]), limit)
+    }
+
+    /// Exact scan of a triangle of one cube-face lattice: its lattice points, against its plane.
+    fn lattice_max(&self, g: &Grid, a: (i64, i64), b: (i64, i64), c: (i64, i64), limit: f64) -> f64 {
+        let pt = |p: (i64, i64)| g.point(p.0 as usize, p.1 as usize);
+        let (pa, pb, pc) = (pt(a), pt(b), pt(c));
+        let n = (pb - pa).cross(pc - pa);
+        let k = n.dot(pa);
+        if !(n.length_squared() > 0.0 && k.is_finite() && k != 0.0) {
+            return f64::INFINITY;
+        }
+        let area = (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
+        if area == 0 {
+            return f64::INFINITY;
+        }
+        let (b, c) = if area > 0 { (b, c) } else { (c, b) };
+        let dot = g.rays.plane_dot(n);
+        // A sparse pass first: a failing triangle usually fails somewhere on a coarse sub-lattice.
+        if area.abs() > 512 {
+            let m = self.raster(g, &dot, k, [a, b, c], 4, limit);
+            if m > limit {
+                return m;
+            }
+        }
+        self.raster(g, &dot, k, [a, b, c], 1, limit)
+    }
+
+    /// Largest error over the lattice points of the counter-clockwise (in lattice coordinates)
+    /// triangle `p` on every `stride`-th row and column; stops above `limit`.
+    fn raster(&self, g: &Grid, dot: &PlaneDot, k: f64, p: [(i64, i64); 3], stride: i64, limit: f64) -> f64 {
+        let y0 = p.iter().map(|q| q.1).min().unwrap_or(0);
+        let y1 = p.iter().map(|q| q.1).max().unwrap_or(0);
+        let x0 = p.iter().map(|q| q.0).min().unwrap_or(0);
+        let x1 = p.iter().map(|q| q.0).max().unwrap_or(0);
+        let mut worst = 0.0f64;
+        let mut y = y0;
+        while y <= y1 {
+            let (mut lo, mut hi) = (x0, x1);
+            for i in 0..3 {
+                let (a, b) = (p[i], p[(i + 1) % 3]);
+                // (b − a) × (q − a) ≥ 0  ⇔  A·x + B ≥ 0.
+                let aa = a.1 - b.1;
+                let bb = (b.0 - a.0) * (y - a.1) + (b.1 - a.1) * a.0;
+                if aa > 0 {
+                    // x ≥ ⌈−B/A⌉ = −⌊B/A⌋
+                    lo = lo.max(-(bb.div_euclid(aa)));
+                } else if aa < 0 {
+                    hi = hi.min(bb.div_euclid(-aa));
+                } else if bb < 0 {
+                    lo = hi + 1;
+                }
+            }
+            if stride > 1 {
+                lo += (stride - lo.rem_euclid(stride)) % stride;
+            }
+            let row = y as usize * g.w;
+            let mut x = lo;
+            while x <= hi {
+                let lam = g.lambda[row + x as usize] as f64;
+                let lp = k / dot.at(x as usize, y as usize);
+                let e = if lp > 0.0 { (lp - lam).abs() / lam } else { f64::INFINITY };
+                // NaN (an invalid pixel) fails too.
+                if !(e <= limit) {
+                    return f64::INFINITY.min(if e.is_nan() { f64::INFINITY } else { e });
+                }
+                worst = worst.max(e);
+                x += stride;
+            }
+            y += stride;
+        }
+        worst
+    }
+
+    /// Ray-cast scan over the canvas candidates of a triangle (any mapping); stops above `limit`.
+    fn raycast_max(&self, p: [DVec3; 3], limit: f64) -> f64 {
+        let mut worst = 0.0f64;
+        for [x0, y0, x1, y1] in candidates(self.mapping, p) {
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let Some(t) = ray_hit(self.mapping.pixel_dir(x, y), p) else { continue };
+                    let Some((k, lx, ly)) = self.grid_of(x, y) else { return f64::INFINITY };
+                    let d = self.grids[k].depth_at(lx, ly);
+                    let e = (t - d).abs() / d;
+                    if !(e <= limit) {
+                        return if e.is_nan() { f64::INFINITY } else { e };
+                    }
+                    worst = worst.max(e);
+                }
+            }
+        }
+        worst
+    }
+}
+
+/// Mutable state of one greedy run over a set of triangles.
+struct Run<'a, 'b> {
+    s: &'b Shared<'a>,
+    movable: Vec<bool>,
+    tris: Vec<[u32; 3]>,
+    /// Upper bound of each triangle's relative error (exact after a scan).
+    terr: Vec<f64>,
+    alive: Vec<bool>,
+    vtris: Vec<Vec<u32>>,
+    quad: Vec<Quadric>,
+    stamp: Vec<u32>,
+    heap: BinaryHeap<Cand>,
+    stats: SimplifyStats,
+}
+
+/// The fan around a vertex: `None` when its star is not one fan (non-manifold or empty).
+struct Star {
+    /// Neighbours (sorted, unique).
+    nbrs: Vec<u32>,
+    /// The two boundary neighbours when the vertex is on the mesh boundary.
+    border: Option<[u32; 2]>,
+}
+
+impl<'a, 'b> Run<'a, 'b> {
+    fn new(s: &'b Shared<'a>, tris: Vec<[u32; 3]>, terr: Option<Vec<f64>>, movable: Vec<bool>) -> Self {
+        let terr = terr.unwrap_or_else(|| tris.iter().map(|&t| s.max_error(t, f64::INFINITY)).collect());
+        let n = s.pos.len();
+        let mut vtris = vec![Vec::new(); n];
+        let mut quad = vec![Quadric::default(); n];
+        for (i, t) in tris.iter().enumerate() {
+            for &v in t {
+                vtris[v as usize].push(i as u32);
+            }
+            let p = t.map(|v| s.pos[v as usize]);
+            let nrm = (p[1] - p[0]).cross(p[2] - p[0]);
+            let c = (p[0] + p[1] + p[2]) / 3.0;
+            let (len, cl) = (nrm.length(), c.length());
+            if len > 0.0 && cl > 0.0 && len.is_finite() {
+                let nh = nrm / len;
+                // Relative units: distances over the distance of the triangle; weight its solid angle.
+                let q = Quadric::plane(nh / cl, -nh.dot(p[0]) / cl, 0.5 * len / (cl * cl));
+                for &v in t {
+                    quad[v as usize].add(&q);
+                }
+            }
+        }
+        let alive = vec![true; tris.len()];
+        Run {
+            s,
+            movable,
+            tris,
+            terr,
+            alive,
+            vtris,
+            quad,
+            stamp: vec![0; n],
+            heap: BinaryHeap::new(),
+            stats: SimplifyStats::default(),
+        }
+    }
+
+    fn star(&self, v: u32) -> Option<Star> {
+        let ts = &self.vtris[v as usize];
+        if ts.is_empty() {
+            return None;
+        }
+        // (a, b): the triangle's next two vertices after v, counter-clockwise.
+        let pairs: Vec<(u32, u32)> = ts
+            .iter()
+            .map(|&t| {
+                let t = self.tris[t as usize];
+                let k = t.iter().position(|&w| w == v).unwrap_or(0);
+                (t[(k + 1) % 3], t[(k + 2) % 3])
+            })
+            .collect();
+        let mut a_s: Vec<u32> = pairs.iter().map(|p| p.0).collect();
+        let mut b_s: Vec<u32> = pairs.iter().map(|p| p.1).collect();
+        a_s.sort_unstable();
+        b_s.sort_unstable();
+        if a_s.windows(2).any(|w| w[0] == w[1]) || b_s.windows(2).any(|w| w[0] == w[1]) {
+            return None;
+        }
+        let starts: Vec<u32> = a_s.iter().copied().filter(|a| b_s.binary_search(a).is_err()).collect();
+        let ends: Vec<u32> = b_s.iter().copied().filter(|b| a_s.binary_search(b).is_err()).collect();
+        let first = match (starts.as_slice(), ends.as_slice()) {
+            ([], []) => pairs[0].0,
+            ([s], [_]) => *s,
+            _ => return None,
+        };
+        // Walk the fan: it must visit every triangle once.
+        let mut at = first;
+        for step in 0..pairs.len() {
+            let Some(p) = pairs.iter().find(|p| p.0 == at) else { return None };
+            at = p.1;
+            if at == first && step + 1 < pairs.len() {
+                return None;
+            }
+        }
+        let mut nbrs = a_s;
+        nbrs.extend(b_s);
+        nbrs.sort_unstable();
+        nbrs.dedup();
+        let border = (!starts.is_empty()).then(|| [starts[0], ends[0]]);
+        Some(Star { nbrs, border })
+    }
+
+    fn neighbours(&self, v: u32) -> Vec<u32> {
+        let mut n: Vec<u32> = self.vtris[v as usize]
+            .iter()
+            .flat_map(|&t| self.tris[t as usize])
+            .filter(|&w| w != v)
+            .collect();
+        n.sort_unstable();
+        n.dedup();
+        n
+    }
+
+    /// Static constraints: may `v` ever collapse onto `u`?
+    fn allowed(&self, v: u32, u: u32) -> bool {
+        let s = self.s;
+        let sv = s.sides[v as usize];
+        if sv == 0 {
+            return true;
+        }
+        match (s.loc[v as usize], s.loc[u as usize]) {
+            (Loc::Lattice { g, .. }, Loc::Lattice { g: gu, .. }) => g == gu && s.sides[u as usize] & sv == sv,
+            _ => false,
+        }
+    }
+
+    fn cost(&self, v: u32, u: u32) -> f64 {
+        let (pv, pu) = (self.s.pos[v as usize], self.s.pos[u as usize]);
+        let d = self.s.dist[v as usize];
+        self.quad[v as usize].eval(pu).max(0.0) + 1e-9 * (pu - pv).length_squared() / (d * d)
+    }
+
+    fn push(&mut self, v: u32) {
+        let vi = v as usize;
+        self.stamp[vi] = self.stamp[vi].wrapping_add(1);
+        if !self.movable[vi] {
+            return;
+        }
+        for u in self.neighbours(v) {
+            if self.allowed(v, u) {
+                let cost = self.cost(v, u);
+                self.heap.push(Cand { cost, v, u, stamp: self.stamp[vi] });
+            }
+        }
+    }
+
+    /// All checks of the collapse `v → u`; when acceptable, the error bounds of the triangles it
+    /// changes (in the order of `v`'s star, removed triangles skipped).
+    fn check(&mut self, v: u32, u: u32) -> Option<Vec<f64>> {
+        let s = self.s;
+        let sv = self.star(v)?;
+        let su = self.star(u)?;
+        if !sv.nbrs.contains(&u) {
+            return None;
+        }
+        // Boundary vertices move only along a straight boundary.
+        if let Some([p, q]) = sv.border {
+            let w = if p == u {
+                q
+            } else if q == u {
+                p
+            } else {
+                return None;
+            };
+            let (lv, lu, lw) = (s.lattice(v)?, s.lattice(u)?, s.lattice(w)?);
+            if lv.0 != lu.0 || lv.0 != lw.0 {
+                return None;
+            }
+            let (du, dw) = ((lu.1 - lv.1, lu.2 - lv.2), (lw.1 - lv.1, lw.2 - lv.2));
+            let straight = if s.cube { du.0 * dw.1 - du.1 * dw.0 == 0 } else { du.0 == 0 && dw.0 == 0 };
+            if !straight || du.0 * dw.0 + du.1 * dw.1 >= 0 {
+                return None;
+            }
+        }
+        // Link condition.
+        let star = &self.vtris[v as usize];
+        let opposite = star.iter().filter(|&&t| self.tris[t as usize].contains(&u)).count();
+        let common = sv.nbrs.iter().filter(|w| su.nbrs.binary_search(w).is_ok()).count();
+        if common != opposite || opposite == 0 {
+            return None;
+        }
+        // Geometry of the new triangles.
+        let new: Vec<[u32; 3]> = star
+            .iter()
+            .map(|&t| self.tris[t as usize])
+            .filter(|t| !t.contains(&u))
+            .map(|t| t.map(|w| if w == v { u } else { w }))
+            .collect();
+        let du = s.dist[u as usize];
+        let mut plane = (DVec3::ZERO, 0.0);
+        for t in &new {
+            let p = t.map(|w| s.pos[w as usize]);
+            if !(p[0].dot(p[1].cross(p[2])) < 0.0) {
+                return None;
+            }
+            if t.iter().any(|&w| w != u && is_jump(du, s.dist[w as usize])) {
+                return None;
+            }
+            if let Some(c) = s.cos_cap {
+                let d = p.map(|q| q.normalize());
+                if d[0].dot(d[1]) < c || d[1].dot(d[2]) < c || d[2].dot(d[0]) < c {
+                    return None;
+                }
+            }
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            if n.length_squared() > plane.0.length_squared() {
+                plane = (n, n.dot(p[0]));
+            }
+        }
+        // Planar shortcut: when the whole star lies within relative δ of one plane `n·x = k` (along
+        // the rays), the old and the new triangles are both within δ of it over the same region (the
+        // inverse hit distance is a positive combination of the vertices'), so every pixel's error
+        // grows by at most the factor (1+δ)/(1−δ) over the star's known bound.
+        let (n, k) = plane;
+        if k.is_finite() && k != 0.0 {
+            let delta = sv.nbrs.iter().chain([&v]).map(|&w| (n.dot(s.pos[w as usize]) / k - 1.0).abs()).fold(0.0, f64::max);
+            if delta <= 1e-3 * s.e {
+                let m = star.iter().map(|&t| self.terr[t as usize]).fold(0.0, f64::max);
+                let bound = (1.0 + m) * (1.0 + delta) / (1.0 - delta) - 1.0;
+                if bound <= s.e {
+                    return Some(vec![bound; new.len()]);
+                }
+            }
+        }
+        self.stats.tested += 1;
+        let mut errs = Vec::with_capacity(new.len());
+        for &t in &new {
+            let e = s.max_error(t, s.e);
+            if !(e <= s.e) {
+                return None;
+            }
+            errs.push(e);
+        }
+        Some(errs)
+    }
+
+    fn collapse(&mut self, v: u32, u: u32, errs: &[f64]) {
+        let star = std::mem::take(&mut self.vtris[v as usize]);
+        let mut touched = vec![u];
+        let mut errs = errs.iter();
+        for t in star {
+            let tri = self.tris[t as usize];
+            touched.extend(tri.iter().copied().filter(|&w| w != v));
+            if tri.contains(&u) {
+                self.alive[t as usize] = false;
+                for w in tri.into_iter().filter(|&w| w != v) {
+                    let list = &mut self.vtris[w as usize];
+                    if let Some(k) = list.iter().position(|&x| x == t) {
+                        list.remove(k);
+                    }
+                }
+            } else {
+                self.tris[t as usize] = tri.map(|w| if w == v { u } else { w });
+                self.terr[t as usize] = errs.next().copied().unwrap_or(f64::INFINITY);
+                self.vtris[u as usize].push(t);
+            }
+        }
+        let qv = self.quad[v as usize];
+        self.quad[u as usize].add(&qv);
+        self.movable[v as usize] = false;
+        self.stats.collapses += 1;
+        touched.sort_unstable();
+        touched.dedup();
+        for w in touched {
+            self.push(w);
+        }
+    }
+
+    fn run(&mut self, seeds: impl Iterator<Item = u32>) {
+        for v in seeds {
+            self.push(v);
+        }
+        while let Some(c) = self.heap.pop() {
+            if !self.movable[c.v as usize] || self.stamp[c.v as usize] != c.stamp {
+                continue;
+            }
+            if let Some(errs) = self.check(c.v, c.u) {
+                self.collapse(c.v, c.u, &errs);
+            }
+        }
+    }
+
+    fn alive_triangles(&self) -> impl Iterator<Item = [u32; 3]> + '_ {
+        self.tris.iter().zip(&self.alive).filter(|(_, &a)| a).map(|(t, _)| *t)
+    }
+}
+
+/// Simplify a mesh made by [`super::mesh_layer`] from `grids` (its lattices) on `mapping`.
+pub fn simplify(
+    mesh: &LayerMesh,
+    grids: &[Grid],
+    mapping: &AnyMapping,
+    params: &SimplifyParams,
+) -> (LayerMesh, SimplifyStats) {
+    let (w, h) = (mesh.width, mesh.height);
+    let cube = matches!(mapping, AnyMapping::Cube(_));
+    let mut shared = Shared {
+        grids,
+        mapping,
+        cube,
+        e: params.max_error,
+        cos_cap: params.max_angle_deg.map(|d| d.to_radians().cos()),
+        pos: mesh.positions.clone(),
+        dist: mesh.positions.iter().map(|p| p.length()).collect(),
+        loc: Vec::with_capacity(mesh.sources.len()),
+        sides: Vec::with_capacity(mesh.sources.len()),
+    };
+    for &id in &mesh.sources {
+        if is_pole(id, w, h) {
+            shared.loc.push(Loc::Pole);
+            shared.sides.push(0);
+            continue;
+        }
+        let (x, y) = (id as usize % w, id as usize / w);
+        match shared.grid_of(x, y) {
+            Some((g, lx, ly)) => {
+                let gr = &grids[g];
+                let sides = (ly == 0) as u8
+                    | ((lx == gr.w - 1) as u8) << 1
+                    | ((ly == gr.h - 1) as u8) << 2
+                    | ((lx == 0) as u8) << 3;
+                shared.loc.push(Loc::Lattice { g: g as u8, x: lx as u32, y: ly as u32 });
+                shared.sides.push(sides);
+            }
+            None => {
+                shared.loc.push(Loc::Pole);
+                shared.sides.push(0);
+            }
+        }
+    }
+    let n = mesh.positions.len();
+    // Poles, lattice corners and anything not on a lattice never move.
+    let fixed: Vec<bool> = (0..n)
+        .map(|v| shared.loc[v] == Loc::Pole || shared.sides[v].count_ones() >= 2 || !shared.pos[v].is_finite())
+        .collect();
+    let mut stats = SimplifyStats::default();
+
+    // Phase 1: each lattice's interior vertices, lattices in parallel. A lattice's run holds every
+    // triangle touching the lattice; only its own interior stars ever change.
+    let grid_of_tri = |t: &[u32; 3]| -> Option<u8> {
+        let g = t.map(|v| match shared.loc[v as usize] {
+            Loc::Lattice { g, .. } => Some(g),
+            Loc::Pole => None,
+        });
+        match g {
+            [Some(a), Some(b), Some(c)] if a == b && b == c => Some(a),
+            _ => None,
+        }
+    };
+    let touches = |t: &[u32; 3], g: u8| {
+        t.iter().any(|&v| matches!(shared.loc[v as usize], Loc::Lattice { g: k, .. } if k == g))
+    };
+    let shared_ref = &shared;
+    type Part = (Vec<[u32; 3]>, Vec<f64>, SimplifyStats);
+    let results: Vec<Part> = (0..grids.len() as u8)
+        .into_par_iter()
+        .map(|g| {
+            let tris: Vec<[u32; 3]> =
+                mesh.triangles.iter().filter(|t| grid_of_tri(t) == Some(g)).copied().collect();
+            let own = tris.len();
+            let mut all = tris;
+            all.extend(mesh.triangles.iter().filter(|t| grid_of_tri(t).is_none() && touches(t, g)));
+            let movable: Vec<bool> = (0..n)
+                .map(|v| {
+                    !fixed[v]
+                        && shared_ref.sides[v] == 0
+                        && matches!(shared_ref.loc[v], Loc::Lattice { g: k, .. } if k == g)
+                })
+                .collect();
+            let seeds: Vec<u32> = (0..n as u32).filter(|&v| movable[v as usize]).collect();
+            let mut run = Run::new(shared_ref, all, None, movable);
+            run.run(seeds.into_iter());
+            let keep: Vec<usize> = (0..own).filter(|&i| run.alive[i]).collect();
+            (keep.iter().map(|&i| run.tris[i]).collect(), keep.iter().map(|&i| run.terr[i]).collect(), run.stats)
+        })
+        .collect();
+    let (mut tris, mut terr) = (Vec::new(), Vec::new());
+    for (t, e, s) in results {
+        tris.extend(t);
+        terr.extend(e);
+        stats.collapses += s.collapses;
+        stats.tested += s.tested;
+    }
+    for t in mesh.triangles.iter().filter(|t| grid_of_tri(t).is_none()) {
+        tris.push(*t);
+        terr.push(shared.max_error(*t, f64::INFINITY));
+    }
+
+    // Phase 2: the whole mesh, from the side vertices (their stars span lattices).
+    let movable: Vec<bool> = (0..n).map(|v| !fixed[v]).collect();
+    let mut run = Run::new(&shared, tris, Some(terr), movable);
+    let seeds: Vec<u32> = (0..n as u32).filter(|&v| shared.sides[v as usize] != 0).collect();
+    run.run(seeds.into_iter());
+    stats.collapses += run.stats.collapses;
+    stats.tested += run.stats.tested;
+
+    // Compact the surviving vertices (sources stay sorted).
+    let tris: Vec<[u32; 3]> = run.alive_triangles().collect();
+    let mut used = vec![false; n];
+    for t in &tris {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    let mut remap = vec![u32::MAX; n];
+    let (mut sources, mut positions) = (Vec::new(), Vec::new());
+    for v in 0..n {
+        if used[v] {
+            remap[v] = sources.len() as u32;
+            sources.push(mesh.sources[v]);
+            positions.push(mesh.positions[v]);
+        }
+    }
+    let triangles = tris.iter().map(|t| t.map(|v| remap[v as usize])).collect();
+    (LayerMesh { width: w, height: h, sources, positions, triangles }, stats)
+}
