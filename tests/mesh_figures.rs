@@ -89,9 +89,16 @@ fn sweep_max_error() {
     let n = std::env::var("POMC_MESH_N").ok().and_then(|v| v.parse().ok()).unwrap_or(1024);
     let repeat = std::env::var("POMC_MESH_REPEAT").ok().and_then(|v| v.parse().ok()).unwrap_or(3);
     let (m, bg) = background(n);
-    for e in [0.02, 0.01, 0.005, 0.002, 0.001, 0.0005] {
+    let only = std::env::var("POMC_MESH_ONLY").unwrap_or_default();
+    let es: Vec<f64> = std::env::var("POMC_MESH_E")
+        .map(|v| v.split(',').filter_map(|e| e.parse().ok()).collect())
+        .unwrap_or_else(|_| vec![0.02, 0.01, 0.005, 0.002, 0.001, 0.0005]);
+    for e in es {
         let raw = MeshParams { max_error: Some(e), max_angle_deg: None, ..MeshParams::default() };
         for (name, p) in [("pomc", raw), ("pomc-simplify", simplified(e, None))] {
+            if !only.is_empty() && only != name {
+                continue;
+            }
             let mut secs = f64::INFINITY;
             let mut a = None;
             for _ in 0..repeat {
@@ -101,13 +108,8 @@ fn sweep_max_error() {
             }
             let a = a.unwrap();
             let s = error::measure(&a.mesh.positions, &a.mesh.triangles, &bg, &m);
-            println!(
-                "CSV {name},{e},{},{},{},{secs}    # {:?}",
-                a.mesh.triangles.len(),
-                s.p99_rel,
-                s.max_rel,
-                a.times
-            );
+            println!("CSV {name},{e},{},{},{},{secs}", a.mesh.triangles.len(), s.p99_rel, s.max_rel);
+            println!("  {:?} {:?}", a.times, a.simplify);
         }
     }
 }

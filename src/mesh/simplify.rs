@@ -54,6 +54,11 @@ pub struct SimplifyStats {
     pub collapses: usize,
     /// Collapses that reached the pixel test.
     pub tested: usize,
+    /// Collapses accepted by the planar shortcut (no pixel scan).
+    pub planar: usize,
+    /// Wall-clock milliseconds of the per-lattice phase and of the whole-mesh phase.
+    pub lattice_ms: f64,
+    pub stitch_ms: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -387,17 +392,27 @@ impl<'a, 'b> Run<'a, 'b> {
         self.quad[v as usize].eval(pu).max(0.0) + 1e-9 * (pu - pv).length_squared() / (d * d)
     }
 
+    /// Allowed targets of `v`, cheapest first (ties by index).
+    fn targets(&self, v: u32) -> Vec<(f64, u32)> {
+        let mut t: Vec<(f64, u32)> = self
+            .neighbours(v)
+            .into_iter()
+            .filter(|&u| self.allowed(v, u))
+            .map(|u| (self.cost(v, u), u))
+            .collect();
+        t.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        t
+    }
+
+    /// (Re)queue `v` under its cheapest target; older entries of `v` become stale.
     fn push(&mut self, v: u32) {
         let vi = v as usize;
         self.stamp[vi] = self.stamp[vi].wrapping_add(1);
         if !self.movable[vi] {
             return;
         }
-        for u in self.neighbours(v) {
-            if self.allowed(v, u) {
-                let cost = self.cost(v, u);
-                self.heap.push(Cand { cost, v, u, stamp: self.stamp[vi] });
-            }
+        if let Some(&(cost, u)) = self.targets(v).first() {
+            self.heap.push(Cand { cost, v, u, stamp: self.stamp[vi] });
         }
     }
 
@@ -475,6 +490,7 @@ impl<'a, 'b> Run<'a, 'b> {
                 let m = star.iter().map(|&t| self.terr[t as usize]).fold(0.0, f64::max);
                 let bound = (1.0 + m) * (1.0 + delta) / (1.0 - delta) - 1.0;
                 if bound <= s.e {
+                    self.stats.planar += 1;
                     return Some(vec![bound; new.len()]);
                 }
             }
@@ -531,8 +547,12 @@ impl<'a, 'b> Run<'a, 'b> {
             if !self.movable[c.v as usize] || self.stamp[c.v as usize] != c.stamp {
                 continue;
             }
-            if let Some(errs) = self.check(c.v, c.u) {
-                self.collapse(c.v, c.u, &errs);
+            // The cheapest acceptable target; none: `v` waits until its star changes.
+            for (_, u) in self.targets(c.v) {
+                if let Some(errs) = self.check(c.v, u) {
+                    self.collapse(c.v, u, &errs);
+                    break;
+                }
             }
         }
     }
@@ -591,6 +611,7 @@ pub fn simplify(
         .map(|v| shared.loc[v] == Loc::Pole || shared.sides[v].count_ones() >= 2 || !shared.pos[v].is_finite())
         .collect();
     let mut stats = SimplifyStats::default();
+    let clock = std::time::Instant::now();
 
     // Phase 1: each lattice's interior vertices, lattices in parallel. A lattice's run holds every
     // triangle touching the lattice; only its own interior stars ever change.
@@ -637,12 +658,15 @@ pub fn simplify(
         terr.extend(e);
         stats.collapses += s.collapses;
         stats.tested += s.tested;
+        stats.planar += s.planar;
     }
     for t in mesh.triangles.iter().filter(|t| grid_of_tri(t).is_none()) {
         tris.push(*t);
         terr.push(shared.max_error(*t, f64::INFINITY));
     }
 
+    stats.lattice_ms = clock.elapsed().as_secs_f64() * 1e3;
+    let clock = std::time::Instant::now();
     // Phase 2: the whole mesh, from the side vertices (their stars span lattices).
     let movable: Vec<bool> = (0..n).map(|v| !fixed[v]).collect();
     let mut run = Run::new(&shared, tris, Some(terr), movable);
@@ -650,6 +674,8 @@ pub fn simplify(
     run.run(seeds.into_iter());
     stats.collapses += run.stats.collapses;
     stats.tested += run.stats.tested;
+    stats.planar += run.stats.planar;
+    stats.stitch_ms = clock.elapsed().as_secs_f64() * 1e3;
 
     // Compact the surviving vertices (sources stay sorted).
     let tris: Vec<[u32; 3]> = run.alive_triangles().collect();
