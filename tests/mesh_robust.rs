@@ -2,6 +2,7 @@
 
 use pomc::layer::{LayerImage, SampleType};
 use pomc::mapping::{AnyMapping, Cube3x2, Equirect};
+use pomc::mesh::simplify::SimplifyParams;
 use pomc::mesh::{self, encode, error, export, MeshParams};
 use proptest::prelude::*;
 
@@ -13,6 +14,7 @@ fn image(w: usize, h: usize, z: Vec<f32>) -> LayerImage {
 
 fn check(m: AnyMapping, z: Vec<f32>, p: &MeshParams) {
     let img = image(m_w(&m), m_h(&m), z);
+    simplified_is_sound(&m, &img, p);
     let out = mesh::mesh_layer(&img, &m, p).unwrap();
     assert!(out.mesh.positions.iter().all(|v| v.is_finite()));
     let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &img, &m);
@@ -21,6 +23,34 @@ fn check(m: AnyMapping, z: Vec<f32>, p: &MeshParams) {
     assert!(encode::decode(&bytes, &img, &m).unwrap() == out.mesh);
     let r = export::to_bytes(&out.mesh, &img, None, export::Format::Glb);
     assert_eq!(r.is_err(), out.mesh.triangles.is_empty());
+}
+
+/// The simplified mesh of a hostile layer: finite, every edge in at most two triangles, no flipped
+/// or edge-on triangle, within the bound wherever the quadtree mesh was, covering the same pixels.
+fn simplified_is_sound(m: &AnyMapping, img: &LayerImage, p: &MeshParams) {
+    let e = p.max_error.unwrap_or(0.005);
+    let raw = mesh::mesh_layer(img, m, &MeshParams { simplify: None, ..p.clone() }).unwrap();
+    let sp = SimplifyParams { max_error: e, max_angle_deg: None };
+    let out = mesh::mesh_layer(img, m, &MeshParams { simplify: Some(sp), ..p.clone() }).unwrap().mesh;
+    assert!(out.positions.iter().all(|v| v.is_finite()));
+    assert!(out.triangles.len() <= raw.mesh.triangles.len());
+    let mut edges = std::collections::BTreeMap::new();
+    for t in &out.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+        let d = t.map(|v| out.positions[v as usize].normalize());
+        assert!(d[0].dot(d[1].cross(d[2])) < 0.0, "flipped triangle");
+    }
+    assert!(edges.values().all(|&c| c <= 2), "non-manifold edge");
+    let covered = |mm: &mesh::LayerMesh| {
+        error::hit_distances(&mm.positions, &mm.triangles, m).iter().map(|t| t.is_finite()).collect::<Vec<_>>()
+    };
+    assert!(covered(&out) == covered(&raw.mesh));
+    let before = error::measure(&raw.mesh.positions, &raw.mesh.triangles, img, m);
+    let after = error::measure(&out.positions, &out.triangles, img, m);
+    assert!(after.max_rel <= before.max_rel.max(e) * (1.0 + 1e-6), "{before:?} -> {after:?}");
 }
 
 fn m_w(m: &AnyMapping) -> usize {

@@ -61,6 +61,10 @@ pub struct SimplifyStats {
     pub stitch_ms: f64,
 }
 
+/// Smallest `|det[d0, d1, d2]|` (unit rays) of a created triangle: twice its solid angle, about. A
+/// half-pixel stitching strip one pixel long on a 6×16384² cube is ~5e-9; an edge-on triangle is ~1e-16.
+const MIN_DET: f64 = 1e-12;
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Loc {
     Pole,
@@ -462,14 +466,16 @@ impl<'a, 'b> Run<'a, 'b> {
         let mut plane = (DVec3::ZERO, 0.0);
         for t in &new {
             let p = t.map(|w| s.pos[w as usize]);
-            if !(p[0].dot(p[1].cross(p[2])) < 0.0) {
+            // Counter-clockwise from the centre, and not edge-on (three rays nearly in one plane
+            // through the centre: the hit distance would be ill-conditioned).
+            let d = t.map(|w| s.pos[w as usize] / s.dist[w as usize]);
+            if !(d[0].dot(d[1].cross(d[2])) < -MIN_DET) {
                 return None;
             }
             if t.iter().any(|&w| w != u && is_jump(du, s.dist[w as usize])) {
                 return None;
             }
             if let Some(c) = s.cos_cap {
-                let d = p.map(|q| q.normalize());
                 if d[0].dot(d[1]) < c || d[1].dot(d[2]) < c || d[2].dot(d[0]) < c {
                     return None;
                 }
