@@ -58,15 +58,21 @@ fn thesis_reproduction_cube_1024() {
 #[ignore]
 fn timing_cube_2048() {
     let (m, bg) = background(2048);
-    for _ in 0..2 {
-        let t = Instant::now();
-        let a = mesh::mesh_layer(&bg, &m, &MeshParams::default()).unwrap();
-        println!(
-            "6x2048^2: {} triangles in {:.3} s ({:?})",
-            a.mesh.triangles.len(),
-            t.elapsed().as_secs_f64(),
-            a.times
-        );
+    // `pomc mesh` defaults: --max-error 0.005 --max-angle 20, simplified; then --no-simplify.
+    let cli = simplified(0.005, Some(20.0));
+    let raw = MeshParams::default();
+    for (name, p) in [("default (simplified)", &cli), ("--no-simplify", &raw)] {
+        for _ in 0..3 {
+            let t = Instant::now();
+            let a = mesh::mesh_layer(&bg, &m, p).unwrap();
+            println!(
+                "6x2048^2 {name}: {} triangles in {:.3} s ({:?}, {:?})",
+                a.mesh.triangles.len(),
+                t.elapsed().as_secs_f64(),
+                a.times,
+                a.simplify
+            );
+        }
     }
 }
 

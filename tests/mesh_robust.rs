@@ -45,7 +45,10 @@ fn simplified_is_sound(m: &AnyMapping, img: &LayerImage, p: &MeshParams) {
     }
     assert!(edges.values().all(|&c| c <= 2), "non-manifold edge");
     let covered = |mm: &mesh::LayerMesh| {
-        error::hit_distances(&mm.positions, &mm.triangles, m).iter().map(|t| t.is_finite()).collect::<Vec<_>>()
+        error::hit_distances(&mm.positions, &mm.triangles, m)
+            .iter()
+            .map(|t| t.is_finite())
+            .collect::<Vec<_>>()
     };
     assert!(covered(&out) == covered(&raw.mesh));
     let before = error::measure(&raw.mesh.positions, &raw.mesh.triangles, img, m);

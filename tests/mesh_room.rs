@@ -273,7 +273,12 @@ fn simplified_equirect_background_is_closed_across_seam_and_poles() {
     eprintln!("equirect 128x64: {} -> {} triangles; {s:?}", out.quadtree_triangles, out.mesh.triangles.len());
     assert_eq!(unhit, 0);
     assert!(p99 <= e, "{p99:e}");
-    assert!(out.mesh.triangles.len() * 4 <= out.quadtree_triangles, "{} of {}", out.mesh.triangles.len(), out.quadtree_triangles);
+    assert!(
+        out.mesh.triangles.len() * 4 <= out.quadtree_triangles,
+        "{} of {}",
+        out.mesh.triangles.len(),
+        out.quadtree_triangles
+    );
 }
 
 #[test]
@@ -290,7 +295,10 @@ fn simplified_objects_keep_their_border_and_never_bridge_jumps() {
         let border = |m: &LayerMesh| edge_counts(m).values().filter(|&&c| c == 1).count();
         assert!(border(&out.mesh) <= border(&raw.mesh));
         let covered = |mm: &LayerMesh| {
-            error::hit_distances(&mm.positions, &mm.triangles, &m).iter().map(|t| t.is_finite()).collect::<Vec<_>>()
+            error::hit_distances(&mm.positions, &mm.triangles, &m)
+                .iter()
+                .map(|t| t.is_finite())
+                .collect::<Vec<_>>()
         };
         assert!(covered(&out.mesh) == covered(&raw.mesh), "the simplified mesh covers other pixels");
         assert_no_flips(&out.mesh);
@@ -314,7 +322,8 @@ fn simplification_is_deterministic_and_keeps_the_quadtree_encoding() {
             let a = mesh::mesh_layer(layer, &m, &simplified(0.002)).unwrap();
             let b = mesh::mesh_layer(layer, &m, &simplified(0.002)).unwrap();
             assert!(a.mesh == b.mesh, "two runs differ");
-            let raw = mesh::mesh_layer(layer, &m, &MeshParams { simplify: None, ..simplified(0.002) }).unwrap();
+            let raw =
+                mesh::mesh_layer(layer, &m, &MeshParams { simplify: None, ..simplified(0.002) }).unwrap();
             let bytes = encode::encode(&a.trees, &m).unwrap();
             assert_eq!(bytes, encode::encode(&raw.trees, &m).unwrap());
             assert!(encode::decode(&bytes, layer, &m).unwrap() == raw.mesh);

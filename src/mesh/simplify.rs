@@ -65,6 +65,10 @@ pub struct SimplifyStats {
 /// half-pixel stitching strip one pixel long on a 6×16384² cube is ~5e-9; an edge-on triangle is ~1e-16.
 const MIN_DET: f64 = 1e-12;
 
+/// A pair (new, old) of triangles is bounded without a scan when their hit distances differ by at
+/// most this fraction of the tolerance over their intersection.
+const PAIR_SKIP: f64 = 0.05;
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Loc {
     Pole,
@@ -123,7 +127,11 @@ impl PartialOrd for Cand {
 impl Ord for Cand {
     /// Reversed: `BinaryHeap` pops the cheapest, then the lowest `(v, u)`.
     fn cmp(&self, o: &Self) -> Ordering {
-        o.cost.total_cmp(&self.cost).then(o.v.cmp(&self.v)).then(o.u.cmp(&self.u)).then(o.stamp.cmp(&self.stamp))
+        o.cost
+            .total_cmp(&self.cost)
+            .then(o.v.cmp(&self.v))
+            .then(o.u.cmp(&self.u))
+            .then(o.stamp.cmp(&self.stamp))
     }
 }
 
@@ -170,66 +178,85 @@ impl Shared<'_> {
 
     /// Exact scan of a triangle of one cube-face lattice: its lattice points, against its plane.
     fn lattice_max(&self, g: &Grid, a: (i64, i64), b: (i64, i64), c: (i64, i64), limit: f64) -> f64 {
-        let pt = |p: (i64, i64)| g.point(p.0 as usize, p.1 as usize);
-        let (pa, pb, pc) = (pt(a), pt(b), pt(c));
-        let n = (pb - pa).cross(pc - pa);
-        let k = n.dot(pa);
-        if !(n.length_squared() > 0.0 && k.is_finite() && k != 0.0) {
-            return f64::INFINITY;
-        }
-        let area = (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
-        if area == 0 {
-            return f64::INFINITY;
-        }
-        let (b, c) = if area > 0 { (b, c) } else { (c, b) };
-        let dot = g.rays.plane_dot(n);
+        let Some(lt) = LatticeTri::new(g, [a, b, c]) else { return f64::INFINITY };
         // A sparse pass first: a failing triangle usually fails somewhere on a coarse sub-lattice.
-        if area.abs() > 512 {
-            let m = self.raster(g, &dot, k, [a, b, c], 4, limit);
+        if lt.area > 512 {
+            let m = self.raster(g, &lt, &[], 4, limit);
             if m > limit {
                 return m;
             }
         }
-        self.raster(g, &dot, k, [a, b, c], 1, limit)
+        self.raster(g, &lt, &[], 1, limit)
     }
 
-    /// Largest error over the lattice points of the counter-clockwise (in lattice coordinates)
-    /// triangle `p` on every `stride`-th row and column; stops above `limit`.
-    fn raster(&self, g: &Grid, dot: &PlaneDot, k: f64, p: [(i64, i64); 3], stride: i64, limit: f64) -> f64 {
-        let y0 = p.iter().map(|q| q.1).min().unwrap_or(0);
-        let y1 = p.iter().map(|q| q.1).max().unwrap_or(0);
-        let x0 = p.iter().map(|q| q.0).min().unwrap_or(0);
-        let x1 = p.iter().map(|q| q.0).max().unwrap_or(0);
+    /// Largest error, against the plane of `t`, over the lattice points inside `t` and inside every
+    /// triangle of `clip` (all counter-clockwise in lattice coordinates), on every `stride`-th row and
+    /// column; stops above `limit` (an invalid pixel counts as `∞`).
+    fn raster(&self, g: &Grid, t: &LatticeTri, clip: &[&LatticeTri], stride: i64, limit: f64) -> f64 {
+        let (mut x0, mut y0, mut x1, mut y1) = t.bbox();
+        for c in clip {
+            let b = c.bbox();
+            (x0, y0, x1, y1) = (x0.max(b.0), y0.max(b.1), x1.min(b.2), y1.min(b.3));
+        }
+        let PlaneDot::Affine { a: da, bx, by } = t.dot else { return f64::INFINITY };
+        let k = t.k;
+        // Each edge as A·x + B(y) ≥ 0 with B(y) = B0 + C·y; row intervals by a float estimate
+        // corrected with exact integer arithmetic.
+        let mut edges: Vec<(i64, i64, i64, f64)> = Vec::with_capacity(3 + 3 * clip.len());
+        for p in std::iter::once(&t.p).chain(clip.iter().map(|c| &c.p)) {
+            for i in 0..3 {
+                let (a, b) = (p[i], p[(i + 1) % 3]);
+                // (b − a) × (q − a) = (b.0 − a.0)(y − a.1) − (b.1 − a.1)(x − a.0).
+                let aa = a.1 - b.1;
+                let c = b.0 - a.0;
+                let b0 = -c * a.1 + (b.1 - a.1) * a.0;
+                edges.push((aa, b0, c, if aa != 0 { 1.0 / aa as f64 } else { 0.0 }));
+            }
+        }
         let mut worst = 0.0f64;
         let mut y = y0;
         while y <= y1 {
             let (mut lo, mut hi) = (x0, x1);
-            for i in 0..3 {
-                let (a, b) = (p[i], p[(i + 1) % 3]);
-                // (b − a) × (q − a) ≥ 0  ⇔  A·x + B ≥ 0.
-                let aa = a.1 - b.1;
-                let bb = (b.0 - a.0) * (y - a.1) + (b.1 - a.1) * a.0;
+            for &(aa, b0, c, inv) in &edges {
+                let bb = b0 + c * y;
                 if aa > 0 {
-                    // x ≥ ⌈−B/A⌉ = −⌊B/A⌋
-                    lo = lo.max(-(bb.div_euclid(aa)));
+                    let mut x = (-(bb as f64) * inv).ceil() as i64;
+                    while aa * x + bb < 0 {
+                        x += 1;
+                    }
+                    while aa * (x - 1) + bb >= 0 {
+                        x -= 1;
+                    }
+                    lo = lo.max(x);
                 } else if aa < 0 {
-                    hi = hi.min(bb.div_euclid(-aa));
+                    let mut x = (-(bb as f64) * inv).floor() as i64;
+                    while aa * x + bb < 0 {
+                        x -= 1;
+                    }
+                    while aa * (x + 1) + bb >= 0 {
+                        x += 1;
+                    }
+                    hi = hi.min(x);
                 } else if bb < 0 {
                     lo = hi + 1;
+                }
+                if lo > hi {
+                    break;
                 }
             }
             if stride > 1 {
                 lo += (stride - lo.rem_euclid(stride)) % stride;
             }
             let row = y as usize * g.w;
+            let dy = da + by * y as f64;
             let mut x = lo;
             while x <= hi {
                 let lam = g.lambda[row + x as usize] as f64;
-                let lp = k / dot.at(x as usize, y as usize);
+                let lp = k / (dy + bx * x as f64);
                 let e = if lp > 0.0 { (lp - lam).abs() / lam } else { f64::INFINITY };
                 // NaN (an invalid pixel) fails too.
                 if !(e <= limit) {
-                    return f64::INFINITY.min(if e.is_nan() { f64::INFINITY } else { e });
+                    return if e.is_nan() { f64::INFINITY } else { e };
                 }
                 worst = worst.max(e);
                 x += stride;
@@ -237,6 +264,48 @@ impl Shared<'_> {
             y += stride;
         }
         worst
+    }
+
+    /// Error bound of the new lattice triangles `new` replacing `old` (same lattice, same region), or
+    /// `None` when some pixel exceeds the tolerance. Each pair (new `T`, old `O`) is bounded without
+    /// scanning when `O`'s bound `M` and the ratio `q = t_T/t_O` of hit distances over `T ∩ O` (a
+    /// linear-fractional function of the lattice position: extreme at the polygon's vertices) give
+    /// `(1+M)·q − 1 ≤ E` and `1 − (1−M)·q ≥ −E` with `q` within 1e-3·E of 1; otherwise `T ∩ O` is scanned.
+    fn pairwise_bound(&self, g: &Grid, new: &[LatticeTri], old: &[(LatticeTri, f64)]) -> Option<Vec<f64>> {
+        let e = self.e;
+        let mut out = Vec::with_capacity(new.len());
+        for t in new {
+            let mut bound = 0.0f64;
+            for (o, m) in old {
+                // Interiors disjoint: every pixel of `T` on `O` is also on an old triangle that
+                // overlaps `T` with positive area, and is checked there.
+                if disjoint(t, o) {
+                    continue;
+                }
+                let poly = clip(t, o);
+                if poly.len() >= 3 {
+                    let (mut qmin, mut qmax) = (f64::INFINITY, f64::NEG_INFINITY);
+                    for &(x, y) in &poly {
+                        // t_T / t_O = (k_T / dot_T) / (k_O / dot_O).
+                        let q = (t.k * o.dot_at(x, y)) / (o.k * t.dot_at(x, y));
+                        qmin = qmin.min(q);
+                        qmax = qmax.max(q);
+                    }
+                    let b = ((1.0 + m) * qmax - 1.0).max(1.0 - (1.0 - m) * qmin);
+                    if b <= e && (qmax - 1.0).max(1.0 - qmin) <= PAIR_SKIP * e {
+                        bound = bound.max(b);
+                        continue;
+                    }
+                }
+                let s = self.raster(g, t, &[o], 1, e);
+                if !(s <= e) {
+                    return None;
+                }
+                bound = bound.max(s);
+            }
+            out.push(bound);
+        }
+        Some(out)
     }
 
     /// Ray-cast scan over the canvas candidates of a triangle (any mapping); stops above `limit`.
@@ -260,6 +329,93 @@ impl Shared<'_> {
     }
 }
 
+/// A triangle of one lattice, counter-clockwise in lattice coordinates, with its plane.
+struct LatticeTri {
+    p: [(i64, i64); 3],
+    area: i64,
+    dot: PlaneDot<'static>,
+    k: f64,
+}
+
+impl LatticeTri {
+    fn new(g: &Grid, p: [(i64, i64); 3]) -> Option<LatticeTri> {
+        let [a, b, c] = p;
+        let area = (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
+        if area == 0 {
+            return None;
+        }
+        let p = if area > 0 { [a, b, c] } else { [a, c, b] };
+        let pt = |q: (i64, i64)| g.point(q.0 as usize, q.1 as usize);
+        let (pa, pb, pc) = (pt(p[0]), pt(p[1]), pt(p[2]));
+        let n = (pb - pa).cross(pc - pa);
+        let k = n.dot(pa);
+        if !(n.length_squared() > 0.0 && k.is_finite() && k != 0.0) {
+            return None;
+        }
+        let dot = match g.rays.plane_dot(n) {
+            PlaneDot::Affine { a, bx, by } => PlaneDot::Affine { a, bx, by },
+            PlaneDot::Rays { .. } => return None,
+        };
+        Some(LatticeTri { p, area: area.abs(), dot, k })
+    }
+
+    fn bbox(&self) -> (i64, i64, i64, i64) {
+        let p = &self.p;
+        (
+            p[0].0.min(p[1].0).min(p[2].0),
+            p[0].1.min(p[1].1).min(p[2].1),
+            p[0].0.max(p[1].0).max(p[2].0),
+            p[0].1.max(p[1].1).max(p[2].1),
+        )
+    }
+
+    /// `n·r` at a continuous lattice position.
+    fn dot_at(&self, x: f64, y: f64) -> f64 {
+        match self.dot {
+            PlaneDot::Affine { a, bx, by } => a + bx * x + by * y,
+            PlaneDot::Rays { .. } => f64::NAN,
+        }
+    }
+}
+
+/// Exact: do the interiors of two counter-clockwise lattice triangles not overlap (a separating edge)?
+fn disjoint(a: &LatticeTri, b: &LatticeTri) -> bool {
+    let sep = |p: &[(i64, i64); 3], q: &[(i64, i64); 3]| {
+        (0..3).any(|i| {
+            let (u, v) = (p[i], p[(i + 1) % 3]);
+            q.iter().all(|w| (v.0 - u.0) * (w.1 - u.1) - (v.1 - u.1) * (w.0 - u.0) <= 0)
+        })
+    };
+    sep(&a.p, &b.p) || sep(&b.p, &a.p)
+}
+
+/// `a ∩ b` as a convex polygon in lattice coordinates (Sutherland–Hodgman).
+fn clip(a: &LatticeTri, b: &LatticeTri) -> Vec<(f64, f64)> {
+    let mut poly: Vec<(f64, f64)> = a.p.iter().map(|&(x, y)| (x as f64, y as f64)).collect();
+    for i in 0..3 {
+        let (p, q) = (b.p[i], b.p[(i + 1) % 3]);
+        let (px, py, qx, qy) = (p.0 as f64, p.1 as f64, q.0 as f64, q.1 as f64);
+        let side = |v: (f64, f64)| (qx - px) * (v.1 - py) - (qy - py) * (v.0 - px);
+        let mut out = Vec::with_capacity(poly.len() + 1);
+        for j in 0..poly.len() {
+            let (c, d) = (poly[j], poly[(j + 1) % poly.len()]);
+            let (sc, sd) = (side(c), side(d));
+            if sc >= 0.0 {
+                out.push(c);
+            }
+            if (sc >= 0.0) != (sd >= 0.0) {
+                let t = sc / (sc - sd);
+                out.push((c.0 + t * (d.0 - c.0), c.1 + t * (d.1 - c.1)));
+            }
+        }
+        poly = out;
+        if poly.is_empty() {
+            break;
+        }
+    }
+    poly
+}
+
 /// Mutable state of one greedy run over a set of triangles.
 struct Run<'a, 'b> {
     s: &'b Shared<'a>,
@@ -273,6 +429,8 @@ struct Run<'a, 'b> {
     stamp: Vec<u32>,
     heap: BinaryHeap<Cand>,
     stats: SimplifyStats,
+    /// Vertices whose star was not one fan at the start (collapses keep the others manifold).
+    singular: Vec<bool>,
 }
 
 /// The fan around a vertex: `None` when its star is not one fan (non-manifold or empty).
@@ -307,7 +465,7 @@ impl<'a, 'b> Run<'a, 'b> {
             }
         }
         let alive = vec![true; tris.len()];
-        Run {
+        let mut run = Run {
             s,
             movable,
             tris,
@@ -318,7 +476,10 @@ impl<'a, 'b> Run<'a, 'b> {
             stamp: vec![0; n],
             heap: BinaryHeap::new(),
             stats: SimplifyStats::default(),
-        }
+            singular: Vec::new(),
+        };
+        run.singular = (0..n as u32).map(|v| run.star(v).is_none()).collect();
+        run
     }
 
     fn star(&self, v: u32) -> Option<Star> {
@@ -326,8 +487,8 @@ impl<'a, 'b> Run<'a, 'b> {
         if ts.is_empty() {
             return None;
         }
-        // (a, b): the triangle's next two vertices after v, counter-clockwise.
-        let pairs: Vec<(u32, u32)> = ts
+        // (a, b): the triangle's next two vertices after v, counter-clockwise; sorted by a.
+        let mut pairs: Vec<(u32, u32)> = ts
             .iter()
             .map(|&t| {
                 let t = self.tris[t as usize];
@@ -335,15 +496,15 @@ impl<'a, 'b> Run<'a, 'b> {
                 (t[(k + 1) % 3], t[(k + 2) % 3])
             })
             .collect();
-        let mut a_s: Vec<u32> = pairs.iter().map(|p| p.0).collect();
+        pairs.sort_unstable();
         let mut b_s: Vec<u32> = pairs.iter().map(|p| p.1).collect();
-        a_s.sort_unstable();
         b_s.sort_unstable();
-        if a_s.windows(2).any(|w| w[0] == w[1]) || b_s.windows(2).any(|w| w[0] == w[1]) {
+        if pairs.windows(2).any(|w| w[0].0 == w[1].0) || b_s.windows(2).any(|w| w[0] == w[1]) {
             return None;
         }
-        let starts: Vec<u32> = a_s.iter().copied().filter(|a| b_s.binary_search(a).is_err()).collect();
-        let ends: Vec<u32> = b_s.iter().copied().filter(|b| a_s.binary_search(b).is_err()).collect();
+        let has_a = |x: u32| pairs.binary_search_by_key(&x, |p| p.0).ok();
+        let starts: Vec<u32> = pairs.iter().map(|p| p.0).filter(|a| b_s.binary_search(a).is_err()).collect();
+        let ends: Vec<u32> = b_s.iter().copied().filter(|&b| has_a(b).is_none()).collect();
         let first = match (starts.as_slice(), ends.as_slice()) {
             ([], []) => pairs[0].0,
             ([s], [_]) => *s,
@@ -352,13 +513,13 @@ impl<'a, 'b> Run<'a, 'b> {
         // Walk the fan: it must visit every triangle once.
         let mut at = first;
         for step in 0..pairs.len() {
-            let Some(p) = pairs.iter().find(|p| p.0 == at) else { return None };
-            at = p.1;
+            let Some(k) = has_a(at) else { return None };
+            at = pairs[k].1;
             if at == first && step + 1 < pairs.len() {
                 return None;
             }
         }
-        let mut nbrs = a_s;
+        let mut nbrs: Vec<u32> = pairs.iter().map(|p| p.0).collect();
         nbrs.extend(b_s);
         nbrs.sort_unstable();
         nbrs.dedup();
@@ -367,11 +528,8 @@ impl<'a, 'b> Run<'a, 'b> {
     }
 
     fn neighbours(&self, v: u32) -> Vec<u32> {
-        let mut n: Vec<u32> = self.vtris[v as usize]
-            .iter()
-            .flat_map(|&t| self.tris[t as usize])
-            .filter(|&w| w != v)
-            .collect();
+        let mut n: Vec<u32> =
+            self.vtris[v as usize].iter().flat_map(|&t| self.tris[t as usize]).filter(|&w| w != v).collect();
         n.sort_unstable();
         n.dedup();
         n
@@ -425,7 +583,10 @@ impl<'a, 'b> Run<'a, 'b> {
     fn check(&mut self, v: u32, u: u32) -> Option<Vec<f64>> {
         let s = self.s;
         let sv = self.star(v)?;
-        let su = self.star(u)?;
+        if self.singular[u as usize] {
+            return None;
+        }
+        let su_nbrs = self.neighbours(u);
         if !sv.nbrs.contains(&u) {
             return None;
         }
@@ -451,7 +612,7 @@ impl<'a, 'b> Run<'a, 'b> {
         // Link condition.
         let star = &self.vtris[v as usize];
         let opposite = star.iter().filter(|&&t| self.tris[t as usize].contains(&u)).count();
-        let common = sv.nbrs.iter().filter(|w| su.nbrs.binary_search(w).is_ok()).count();
+        let common = sv.nbrs.iter().filter(|w| su_nbrs.binary_search(w).is_ok()).count();
         if common != opposite || opposite == 0 {
             return None;
         }
@@ -491,7 +652,12 @@ impl<'a, 'b> Run<'a, 'b> {
         // grows by at most the factor (1+δ)/(1−δ) over the star's known bound.
         let (n, k) = plane;
         if k.is_finite() && k != 0.0 {
-            let delta = sv.nbrs.iter().chain([&v]).map(|&w| (n.dot(s.pos[w as usize]) / k - 1.0).abs()).fold(0.0, f64::max);
+            let delta = sv
+                .nbrs
+                .iter()
+                .chain([&v])
+                .map(|&w| (n.dot(s.pos[w as usize]) / k - 1.0).abs())
+                .fold(0.0, f64::max);
             if delta <= 1e-3 * s.e {
                 let m = star.iter().map(|&t| self.terr[t as usize]).fold(0.0, f64::max);
                 let bound = (1.0 + m) * (1.0 + delta) / (1.0 - delta) - 1.0;
@@ -502,8 +668,41 @@ impl<'a, 'b> Run<'a, 'b> {
             }
         }
         self.stats.tested += 1;
+        self.check_pixels(v, &new)
+    }
+
+    /// The pixel test of the triangles `new` that replace the star of `v`.
+    fn check_pixels(&self, v: u32, new: &[[u32; 3]]) -> Option<Vec<f64>> {
+        let s = self.s;
+        let star = &self.vtris[v as usize];
+        // One cube face throughout: bound pairs of new and old triangles, scan only where needed.
+        let same_face = |t: &[u32; 3]| -> Option<(usize, [(i64, i64); 3])> {
+            let l = t.map(|w| s.lattice(w));
+            match l {
+                [Some(a), Some(b), Some(c)] if a.0 == b.0 && b.0 == c.0 => {
+                    Some((a.0, [(a.1, a.2), (b.1, b.2), (c.1, c.2)]))
+                }
+                _ => None,
+            }
+        };
+        if s.cube {
+            let olds: Option<Vec<(usize, [(i64, i64); 3], f64)>> = star
+                .iter()
+                .map(|&t| same_face(&self.tris[t as usize]).map(|(g, p)| (g, p, self.terr[t as usize])))
+                .collect();
+            if let Some(olds) = olds.filter(|o| o.iter().all(|x| x.0 == o[0].0)) {
+                let g = &s.grids[olds[0].0];
+                let old: Option<Vec<(LatticeTri, f64)>> =
+                    olds.iter().map(|(_, p, m)| LatticeTri::new(g, *p).map(|t| (t, *m))).collect();
+                let newt: Option<Vec<LatticeTri>> =
+                    new.iter().map(|t| same_face(t).and_then(|(_, p)| LatticeTri::new(g, p))).collect();
+                if let (Some(old), Some(newt)) = (old, newt) {
+                    return s.pairwise_bound(g, &newt, &old);
+                }
+            }
+        }
         let mut errs = Vec::with_capacity(new.len());
-        for &t in &new {
+        for &t in new {
             let e = s.max_error(t, s.e);
             if !(e <= s.e) {
                 return None;
@@ -614,7 +813,9 @@ pub fn simplify(
     let n = mesh.positions.len();
     // Poles, lattice corners and anything not on a lattice never move.
     let fixed: Vec<bool> = (0..n)
-        .map(|v| shared.loc[v] == Loc::Pole || shared.sides[v].count_ones() >= 2 || !shared.pos[v].is_finite())
+        .map(|v| {
+            shared.loc[v] == Loc::Pole || shared.sides[v].count_ones() >= 2 || !shared.pos[v].is_finite()
+        })
         .collect();
     let mut stats = SimplifyStats::default();
     let clock = std::time::Instant::now();
@@ -655,7 +856,11 @@ pub fn simplify(
             let mut run = Run::new(shared_ref, all, None, movable);
             run.run(seeds.into_iter());
             let keep: Vec<usize> = (0..own).filter(|&i| run.alive[i]).collect();
-            (keep.iter().map(|&i| run.tris[i]).collect(), keep.iter().map(|&i| run.terr[i]).collect(), run.stats)
+            (
+                keep.iter().map(|&i| run.tris[i]).collect(),
+                keep.iter().map(|&i| run.terr[i]).collect(),
+                run.stats,
+            )
         })
         .collect();
     let (mut tris, mut terr) = (Vec::new(), Vec::new());

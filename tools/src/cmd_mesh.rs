@@ -192,7 +192,10 @@ fn report(
         tris,
         m.positions.len(),
         match &meshed.simplify {
-            Some(s) => format!(" (simplified from {} quadtree triangles, {} collapses)", meshed.quadtree_triangles, s.collapses),
+            Some(s) => format!(
+                " (simplified from {} quadtree triangles, {} collapses)",
+                meshed.quadtree_triangles, s.collapses
+            ),
             None => String::new(),
         }
     ));
