@@ -249,17 +249,23 @@ impl Shared<'_> {
             }
             let row = y as usize * g.w;
             let dy = da + by * y as f64;
-            let mut x = lo;
-            while x <= hi {
-                let lam = g.lambda[row + x as usize] as f64;
-                let lp = k / (dy + bx * x as f64);
-                let e = if lp > 0.0 { (lp - lam).abs() / lam } else { f64::INFINITY };
-                // NaN (an invalid pixel) fails too.
-                if !(e <= limit) {
-                    return if e.is_nan() { f64::INFINITY } else { e };
+            if lo <= hi {
+                // Branch-free over the row (vectorises): with `dot = n·r`, the plane's λ is `k/dot`
+                // and the relative error `|k − λ·dot| / (λ·dot)` (the plane must be in front: k/dot > 0).
+                let lams = &g.lambda[row + lo as usize..=row + hi as usize];
+                let (mut rmax, mut bad) = (0.0f64, false);
+                for (i, &l) in lams.iter().enumerate().step_by(stride as usize) {
+                    let lam = l as f64;
+                    let dot = dy + bx * (lo + i as i64) as f64;
+                    let e = (k - lam * dot).abs() / (lam * dot.abs());
+                    // NaN (an invalid pixel) fails too.
+                    bad |= !(e <= limit) | !(k * dot > 0.0);
+                    rmax = rmax.max(e);
                 }
-                worst = worst.max(e);
-                x += stride;
+                if bad {
+                    return f64::INFINITY;
+                }
+                worst = worst.max(rmax);
             }
             y += stride;
         }

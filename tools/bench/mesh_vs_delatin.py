@@ -21,6 +21,8 @@ LO = np.array([-3.0, -2.5, -1.2])
 HI = np.array([4.0, 3.0, 1.6])
 # (centre, right, down) per face, digest section 6 / pomc::mapping::CubeFace::frame.
 X, Y, Z = np.eye(3)
+# Each face's time is the best of REPEAT runs (the machine is shared), like pomc's.
+REPEAT = 3
 FRAMES = [(X, -Y, -Z), (Y, X, -Z), (Z, -X, -Y), (-X, Y, -Z), (-Y, -X, -Z), (-Z, X, -Y)]
 
 
@@ -63,9 +65,13 @@ def main():
     for max_error in [2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5]:
         tris, rel, secs = 0, [], 0.0
         for w in faces:
-            t = time.perf_counter()
-            tin = Delatin(w.astype(np.float32), width=n, height=n, max_error=max_error)
-            secs += time.perf_counter() - t
+            wf = w.astype(np.float32)
+            best = float("inf")
+            for _ in range(REPEAT):
+                t = time.perf_counter()
+                tin = Delatin(wf, width=n, height=n, max_error=max_error)
+                best = min(best, time.perf_counter() - t)
+            secs += best
             v, tr = tin.vertices[:, :2], tin.triangles
             tris += len(tr)
             # pydelatin's y axis points up: its vertex (x, y) is row n-1-y of the input array.

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # pomc mesh vs Delatin on the room background (6×N² cube map): triangles and time at equal 3D p99 error.
 # Usage: tools/bench/mesh_vs_delatin.sh [N]   (default 1024). Needs: pip install pydelatin numpy matplotlib
+# pomc rows: "pomc" (quadtree, --no-simplify) and "pomc-simplify" (the default); times are the best of
+# POMC_MESH_REPEAT runs (default 3) of the whole mesh_layer, Delatin's the sum of its six faces.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 N="${1:-1024}"

@@ -1,5 +1,9 @@
 #!/usr/bin/env python3
-"""Plot triangles against 3D p99 relative error for the CSVs of mesh_vs_delatin.sh."""
+"""Plot triangles against 3D p99 relative error for the CSVs of mesh_vs_delatin.sh.
+
+Rows are `name,max_error,triangles,p99_rel,max_rel,seconds`; one series per name.
+Usage: plot_mesh.py A.csv [B.csv ...] OUT.png
+"""
 import csv
 import sys
 
@@ -8,19 +12,25 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-
-def load(path):
-    with open(path) as f:
-        rows = [r for r in csv.reader(f) if r]
-    return [(float(r[3]), int(r[2])) for r in rows]
+LABELS = {
+    "pomc": "pomc quadtree (--no-simplify)",
+    "pomc-simplify": "pomc quadtree + simplify (default)",
+    "delatin": "Delatin (per face, unstitched)",
+}
 
 
 def main():
-    pomc, delatin, out = sys.argv[1:4]
+    *paths, out = sys.argv[1:]
+    series = {}
+    for path in paths:
+        with open(path) as f:
+            for r in csv.reader(f):
+                if r:
+                    series.setdefault(r[0], []).append((float(r[3]), int(r[2])))
     plt.figure(figsize=(6, 4))
-    for path, label in [(pomc, "pomc quadtree (--max-error)"), (delatin, "Delatin (per face)")]:
-        pts = sorted(load(path))
-        plt.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=label)
+    for name, pts in series.items():
+        pts = sorted(pts)
+        plt.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=LABELS.get(name, name))
     plt.xlabel("3D p99 relative depth error")
     plt.ylabel("triangles")
     plt.title("Room background, 6x1024² cube map")
