@@ -55,3 +55,30 @@ fn mesh_errors_are_coded() {
     let out = pomc(&["mesh", dir.path().to_str().unwrap(), "--max-error", "NaN"]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+#[test]
+fn simplification_is_the_default_and_never_changes_the_stored_encoding() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path(), MappingKind::Cube3x2, 192, 128);
+    let d = dir.path().to_str().unwrap();
+    let run = |extra: &[&str]| -> serde_json::Value {
+        let mut args = vec!["mesh", d, "--json", "--store"];
+        args.extend_from_slice(extra);
+        let out = pomc(&args);
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let simplified = run(&[]);
+    let stored_simplified = std::fs::read(dir.path().join("room.pomcmesh")).unwrap();
+    let raw = run(&["--no-simplify"]);
+    let stored_raw = std::fs::read(dir.path().join("room.pomcmesh")).unwrap();
+    assert_eq!(stored_simplified, stored_raw, "--store writes the quadtree encoding either way");
+    let (ns, nq) = (simplified["triangles"].as_u64().unwrap(), simplified["quadtree_triangles"].as_u64().unwrap());
+    assert_eq!(raw["triangles"].as_u64().unwrap(), nq);
+    assert!(raw["simplify"].is_null() && simplified["simplify"]["collapses"].as_u64().unwrap() > 0);
+    assert!(ns * 4 < nq, "{ns} of {nq}");
+    for v in [&simplified, &raw] {
+        assert_eq!(v["error"]["unhit"].as_u64().unwrap(), 0);
+        assert!(v["error"]["max_rel"].as_f64().unwrap() <= 0.005 * (1.0 + 1e-6), "{v}");
+    }
+}
