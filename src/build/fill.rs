@@ -81,63 +81,74 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
             seeds.push(p);
         }
     }
-    // (1) The band: nearest seed within the parallax a camera in the freedom radius can open.
-    let mut src = vec![NONE; n];
-    let mut angle_of = vec![0f64; n];
-    let mut order = Vec::new();
-    let mut queue: VecDeque<usize> = seeds.iter().copied().collect();
-    for &p in &seeds {
-        src[p] = p as u32;
-    }
-    while let Some(p) = queue.pop_front() {
-        let s = src[p] as usize;
-        for j in 0..8 {
-            let Some(q) = cx.nb.get(p, j) else { continue };
-            if src[q] != NONE || !hidden(q) {
-                continue;
+    // The band search and the rival search are independent.
+    let ((src, angle_of, order), (slot_of, rivals)) = rayon::join(
+        || {
+            // (1) The band: nearest seed within the parallax a camera in the freedom radius can open.
+            let mut src = vec![NONE; n];
+            let mut angle_of = vec![0f64; n];
+            let mut order = Vec::new();
+            let mut queue: VecDeque<usize> = seeds.iter().copied().collect();
+            for &p in &seeds {
+                src[p] = p as u32;
             }
-            let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
-            if angle > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64) + cx.margin {
-                continue;
+            while let Some(p) = queue.pop_front() {
+                let s = src[p] as usize;
+                for j in 0..8 {
+                    let Some(q) = cx.nb.get(p, j) else { continue };
+                    if src[q] != NONE || !hidden(q) {
+                        continue;
+                    }
+                    let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
+                    if angle
+                        > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64) + cx.margin
+                    {
+                        continue;
+                    }
+                    src[q] = s as u32;
+                    angle_of[q] = angle;
+                    order.push(q);
+                    queue.push_back(q);
+                }
             }
-            src[q] = s as u32;
-            angle_of[q] = angle;
-            order.push(q);
-            queue.push_back(q);
-        }
-    }
-    // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder. Slots are
-    // kept for hidden pixels only (compact index), the seeds being their own first rival.
-    let mut slot_of = vec![NONE; n];
-    let mut rivals: Vec<[u32; RIVALS]> = Vec::new();
-    let mut queue: VecDeque<(u32, u8)> = VecDeque::new();
-    for &p in &seeds {
-        slot_of[p] = rivals.len() as u32;
-        let mut r = [NONE; RIVALS];
-        r[0] = p as u32;
-        rivals.push(r);
-        queue.push_back((p as u32, 0));
-    }
-    while let Some((p, slot)) = queue.pop_front() {
-        let s = rivals[slot_of[p as usize] as usize][slot as usize];
-        for j in 0..8 {
-            let Some(q) = cx.nb.get(p as usize, j) else { continue };
-            if !hidden(q) {
-                continue;
+            (src, angle_of, order)
+        },
+        || {
+            // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder. Slots are
+            // kept for hidden pixels only (compact index), the seeds being their own first rival.
+            let mut slot_of = vec![NONE; n];
+            let mut rivals: Vec<[u32; RIVALS]> = Vec::new();
+            let mut queue: VecDeque<(u32, u8)> = VecDeque::new();
+            for &p in &seeds {
+                slot_of[p] = rivals.len() as u32;
+                let mut r = [NONE; RIVALS];
+                r[0] = p as u32;
+                rivals.push(r);
+                queue.push_back((p as u32, 0));
             }
-            if slot_of[q] == NONE {
-                slot_of[q] = rivals.len() as u32;
-                rivals.push([NONE; RIVALS]);
+            while let Some((p, slot)) = queue.pop_front() {
+                let s = rivals[slot_of[p as usize] as usize][slot as usize];
+                for j in 0..8 {
+                    let Some(q) = cx.nb.get(p as usize, j) else { continue };
+                    if !hidden(q) {
+                        continue;
+                    }
+                    if slot_of[q] == NONE {
+                        slot_of[q] = rivals.len() as u32;
+                        rivals.push([NONE; RIVALS]);
+                    }
+                    let r = &mut rivals[slot_of[q] as usize];
+                    if r.iter().any(|&t| t != NONE && same_surface(cx, t as usize, s as usize)) {
+                        continue;
+                    }
+                    let Some(free) = r.iter().position(|&t| t == NONE) else { continue };
+                    r[free] = s;
+                    queue.push_back((q as u32, free as u8));
+                }
             }
-            let r = &mut rivals[slot_of[q] as usize];
-            if r.iter().any(|&t| t != NONE && same_surface(cx, t as usize, s as usize)) {
-                continue;
-            }
-            let Some(free) = r.iter().position(|&t| t == NONE) else { continue };
-            r[free] = s;
-            queue.push_back((q as u32, free as u8));
-        }
-    }
+            (slot_of, rivals)
+        },
+    );
     // Centroid of each surface of this layer (finite depths only).
     let surfaces =
         (0..n).filter(|&p| cx.layer_of[p] == k).map(|p| cx.surface[p]).filter(|&s| s != NONE).max();
