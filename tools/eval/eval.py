@@ -37,9 +37,9 @@ MODES = {
     ),
     "default": dict(
         width=2048, scenes=["room-equirect", "room-cube", "near-far", "sky"], rings=(0.0, 0.25, 0.5),
-        diagonals=False, persp=(0, 2), eq_width=1024, jump=[0.02, 0.04, 0.08, 0.16, 0.32],
+        diagonals=False, persp=(0, 2), eq_width=1024, jump=[0.04, 0.08, 0.16, 0.32],
         radius=[0.25, 0.5, 0.75, 1.0], margin=[0.0, 2.0, 6.0], max_error=[0.001, 0.002, 0.005, 0.01, 0.02, 0.05],
-        sweep_persp=(0, 2), convert_width=4096, convert_runs=3, mesh_face=1024, ss=2,
+        sweep_persp=(0,), convert_width=4096, convert_runs=3, mesh_face=1024, ss=2,
     ),
     "full": dict(
         width=2048, scenes=["room-equirect", "room-cube", "near-far", "sky"], rings=(0.0, 0.25, 0.5),
