@@ -54,9 +54,9 @@ pub fn parallax_band(r: f64, near: f64, far: f64) -> f64 {
     (shift(near) - shift(far)).max(0.0)
 }
 
-/// Surfaces a hidden pixel weighs besides its own: enough for the corner of a room (two walls
-/// and the floor).
-const RIVALS: usize = 3;
+/// Surfaces a hidden pixel weighs besides its own: the corner of a room (two walls and the
+/// floor), with room to spare for the faces a rounded-off crease adds.
+const RIVALS: usize = 5;
 
 /// Fill layer `k` behind its occluders.
 ///
@@ -75,7 +75,9 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
         if cx.layer_of[p] != k || cx.depth[p].is_nan() || cx.depth[p] <= 0.0 {
             continue;
         }
-        if (0..8).any(|j| cx.nb.get(p, j).is_some_and(|q| hidden(q) && cx.links.is_jump(p, j))) {
+        if (0..8).any(|j| cx.nb.get(p, j).is_some_and(|q| hidden(q) && cx.links.is_jump(p, j)))
+            && trusted_plane(cx, p)
+        {
             seeds.push(p);
         }
     }
@@ -104,49 +106,57 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
             queue.push_back(q);
         }
     }
-    // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder.
-    let mut rivals = vec![[NONE; RIVALS]; n];
-    let mut queue: VecDeque<(usize, usize)> = VecDeque::new();
+    // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder. Slots are
+    // kept for hidden pixels only (compact index), the seeds being their own first rival.
+    let mut slot_of = vec![NONE; n];
+    let mut rivals: Vec<[u32; RIVALS]> = Vec::new();
+    let mut queue: VecDeque<(u32, u8)> = VecDeque::new();
     for &p in &seeds {
-        rivals[p][0] = p as u32;
-        queue.push_back((p, 0));
+        slot_of[p] = rivals.len() as u32;
+        let mut r = [NONE; RIVALS];
+        r[0] = p as u32;
+        rivals.push(r);
+        queue.push_back((p as u32, 0));
     }
     while let Some((p, slot)) = queue.pop_front() {
-        let s = rivals[p][slot];
+        let s = rivals[slot_of[p as usize] as usize][slot as usize];
         for j in 0..8 {
-            let Some(q) = cx.nb.get(p, j) else { continue };
+            let Some(q) = cx.nb.get(p as usize, j) else { continue };
             if !hidden(q) {
                 continue;
             }
-            let r = &mut rivals[q];
-            if r.iter().any(|&t| t != NONE && cx.surface[t as usize] == cx.surface[s as usize]) {
+            if slot_of[q] == NONE {
+                slot_of[q] = rivals.len() as u32;
+                rivals.push([NONE; RIVALS]);
+            }
+            let r = &mut rivals[slot_of[q] as usize];
+            if r.iter().any(|&t| t != NONE && same_surface(cx, t as usize, s as usize)) {
                 continue;
             }
             let Some(free) = r.iter().position(|&t| t == NONE) else { continue };
             r[free] = s;
-            queue.push_back((q, free));
+            queue.push_back((q as u32, free as u8));
         }
     }
     // Centroid of each surface of this layer (finite depths only).
-    let mut sums: HashMap<u32, (Vec3, u32)> = HashMap::new();
+    let surfaces =
+        (0..n).filter(|&p| cx.layer_of[p] == k).map(|p| cx.surface[p]).filter(|&s| s != NONE).max();
+    let mut sums = vec![(Vec3::ZERO, 0u32); surfaces.map_or(0, |m| m as usize + 1)];
     for p in 0..n {
         let d = cx.depth[p];
         if cx.layer_of[p] == k && d.is_finite() && d > 0.0 && cx.surface[p] != NONE {
-            let e = sums.entry(cx.surface[p]).or_insert((Vec3::ZERO, 0));
+            let e = &mut sums[cx.surface[p] as usize];
             e.0 += cx.dirs[p] * d;
             e.1 += 1;
         }
     }
-    let slots = sums.keys().max().map_or(0, |&m| m as usize + 1);
-    let mut centroid = vec![Vec3::NAN; slots];
-    for (s, (sum, c)) in sums {
-        centroid[s as usize] = sum / c as f32;
-    }
+    let centroid: Vec<Vec3> =
+        sums.iter().map(|&(sum, c)| if c > 0 { sum / c as f32 } else { Vec3::NAN }).collect();
     let mut fill = Fill::default();
     let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
     for q in order {
         let own = src[q] as usize;
-        let (s, d) = pick_surface(cx, &centroid, own, &rivals[q], q);
+        let (s, d) = pick_surface(cx, &centroid, own, &rivals[slot_of[q] as usize], q);
         let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
         fill.pixels.push((q, d, c));
         fill.max_angle = fill.max_angle.max(angle_of[q]);
@@ -164,13 +174,19 @@ fn pick_surface(cx: &FillContext, centroid: &[Vec3], own: usize, rivals: &[u32],
     let mut best = (own, continue_surface(cx, own, q));
     for &r in rivals {
         let b = r as usize;
-        if r == u32::MAX || cx.surface[b] == cx.surface[best.0] {
+        if r == u32::MAX || same_surface(cx, b, best.0) {
             continue;
         }
         let a = best.0;
         let (na, nb) = (cx.normals[a], cx.normals[b]);
         let (pa, pb) = (cx.dirs[a] * cx.depth[a], cx.dirs[b] * cx.depth[b]);
-        let (ca, cb) = (centroid[cx.surface[a] as usize], centroid[cx.surface[b] as usize]);
+        // One segment's two faces (a segment can leak round a crease) share one centroid,
+        // which tells nothing: their seeds stand in.
+        let (ca, cb) = if cx.surface[a] == cx.surface[b] {
+            (pa, pb)
+        } else {
+            (centroid[cx.surface[a] as usize], centroid[cx.surface[b] as usize])
+        };
         if na == Vec3::ZERO || nb == Vec3::ZERO || !(pa + pb + ca + cb).is_finite() {
             continue;
         }
@@ -186,6 +202,33 @@ fn pick_surface(cx: &FillContext, centroid: &[Vec3], own: usize, rivals: &[u32],
         }
     }
     best
+}
+
+/// Cosine of the angle under which two seeds' normals are taken for one plane.
+const SAME_PLANE_COS: f32 = 0.94; // 20°
+
+/// Seeds `a` and `b` continue the same surface: one segment, and normals that agree (a segment
+/// can run round a rounded-off crease; its faces still compete).
+fn same_surface(cx: &FillContext, a: usize, b: usize) -> bool {
+    cx.surface[a] == cx.surface[b] && cx.normals[a].dot(cx.normals[b]) >= SAME_PLANE_COS
+}
+
+/// Is the tangent plane at `p` worth continuing? Its normal must agree with those of its
+/// continuous neighbours on the same surface: a pixel on a crease, or at the corner of three
+/// planes, has a normal blended between them that belongs to none.
+fn trusted_plane(cx: &FillContext, p: usize) -> bool {
+    let n = cx.normals[p];
+    if n == Vec3::ZERO {
+        return true; // no plane: the seed's depth is kept, which needs no normal
+    }
+    (0..8).all(|j| {
+        cx.nb.get(p, j).map_or(true, |q| {
+            !cx.links.continuous(p, j)
+                || cx.surface[q] != cx.surface[p]
+                || cx.normals[q] == Vec3::ZERO
+                || cx.normals[q].dot(n) >= SAME_PLANE_COS
+        })
+    })
 }
 
 /// Depth at pixel `q` of the surface of source pixel `s` continued behind the occluder: the ray
