@@ -95,7 +95,8 @@ fn equirect_candidates(e: &Equirect, p: [DVec3; 3]) -> Vec<[usize; 4]> {
     for k in 0..3 {
         let (a, b) = (p[k].normalize(), p[(k + 1) % 3].normalize());
         let n = a.cross(b);
-        if !(n.length_squared() > 1e-30) {
+        let l2 = n.length_squared();
+        if l2.is_nan() || l2 <= 1e-30 {
             continue;
         }
         let n = n.normalize();

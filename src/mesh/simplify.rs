@@ -28,6 +28,9 @@
 //! Cube faces are simplified in parallel first (face-interior vertices only; a face's collapses never
 //! touch another face's triangles), then the whole mesh once more from the side vertices.
 
+// `!(x <= limit)` is deliberate throughout: a NaN (an invalid pixel, a degenerate plane) must fail.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -335,6 +338,9 @@ impl Shared<'_> {
     }
 }
 
+/// Three lattice points.
+type LatticePts = [(i64, i64); 3];
+
 /// A triangle of one lattice, counter-clockwise in lattice coordinates, with its plane.
 struct LatticeTri {
     p: [(i64, i64); 3],
@@ -519,7 +525,7 @@ impl<'a, 'b> Run<'a, 'b> {
         // Walk the fan: it must visit every triangle once.
         let mut at = first;
         for step in 0..pairs.len() {
-            let Some(k) = has_a(at) else { return None };
+            let k = has_a(at)?;
             at = pairs[k].1;
             if at == first && step + 1 < pairs.len() {
                 return None;
@@ -692,7 +698,7 @@ impl<'a, 'b> Run<'a, 'b> {
             }
         };
         if s.cube {
-            let olds: Option<Vec<(usize, [(i64, i64); 3], f64)>> = star
+            let olds: Option<Vec<(usize, LatticePts, f64)>> = star
                 .iter()
                 .map(|&t| same_face(&self.tris[t as usize]).map(|(g, p)| (g, p, self.terr[t as usize])))
                 .collect();

@@ -185,7 +185,7 @@ def mesh_layers(pano, max_error, store=False, metric=True):
         t = r["times_ms"]
         out.append({
             "layer": k, "triangles": r["triangles"], "encoded_bytes": r["encoded_bytes"], "wall_s": wall,
-            "mesh_s": (t["sample"] + t["quadtree"] + t["triangulate"] + t["assemble"]) / 1e3,
+            "mesh_s": (t["sample"] + t["quadtree"] + t["triangulate"] + t["assemble"] + t.get("simplify", 0)) / 1e3,
             "p99_rel": (r.get("error") or {}).get("p99_rel"), "max_rel": (r.get("error") or {}).get("max_rel"),
             "rms_abs": (r.get("error") or {}).get("rms_abs"),
         })

@@ -73,7 +73,8 @@ fn simplification_is_the_default_and_never_changes_the_stored_encoding() {
     let raw = run(&["--no-simplify"]);
     let stored_raw = std::fs::read(dir.path().join("room.pomcmesh")).unwrap();
     assert_eq!(stored_simplified, stored_raw, "--store writes the quadtree encoding either way");
-    let (ns, nq) = (simplified["triangles"].as_u64().unwrap(), simplified["quadtree_triangles"].as_u64().unwrap());
+    let (ns, nq) =
+        (simplified["triangles"].as_u64().unwrap(), simplified["quadtree_triangles"].as_u64().unwrap());
     assert_eq!(raw["triangles"].as_u64().unwrap(), nq);
     assert!(raw["simplify"].is_null() && simplified["simplify"]["collapses"].as_u64().unwrap() > 0);
     assert!(ns * 4 < nq, "{ns} of {nq}");
