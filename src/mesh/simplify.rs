@@ -585,7 +585,24 @@ impl<'a, 'b> Run<'a, 'b> {
         if !self.movable[vi] {
             return;
         }
-        if let Some(&(cost, u)) = self.targets(v).first() {
+        // The cheapest allowed neighbour (ties by index), without building the sorted list.
+        let mut best: Option<(f64, u32)> = None;
+        for &t in &self.vtris[vi] {
+            for u in self.tris[t as usize] {
+                if u == v || !self.allowed(v, u) {
+                    continue;
+                }
+                let c = (self.cost(v, u), u);
+                let better = match best {
+                    None => true,
+                    Some(b) => c.0.total_cmp(&b.0).then(c.1.cmp(&b.1)).is_lt(),
+                };
+                if better {
+                    best = Some(c);
+                }
+            }
+        }
+        if let Some((cost, u)) = best {
             self.heap.push(Cand { cost, v, u, stamp: self.stamp[vi] });
         }
     }
