@@ -16,6 +16,7 @@ pub mod accum;
 pub mod camera;
 pub mod image;
 pub mod metrics;
+pub mod rasterize;
 pub mod splat;
 
 use std::path::PathBuf;
@@ -26,6 +27,7 @@ use serde::Serialize;
 
 pub use camera::{Camera, EquirectCamera, Perspective};
 pub use image::Frame;
+pub use rasterize::{MeshOptions, MeshRenderStats, MeshRendered, RasterCounts};
 pub use splat::{SplatCounts, SplatOptions};
 
 use crate::layer::LayerImage;
@@ -49,6 +51,8 @@ pub enum RenderError {
     LayerChannel { index: usize, channel: &'static str },
     #[error("layer {index} is {width}x{height}, not a valid {kind:?} canvas")]
     LayerSize { index: usize, width: usize, height: usize, kind: MappingKind },
+    #[error("mesh of layer {index}: {message}")]
+    Mesh { index: usize, message: String },
     #[error("{path}: unsupported output file type; use {expected}")]
     OutputFormat { path: PathBuf, expected: &'static str },
 }
@@ -63,6 +67,7 @@ impl RenderError {
             RenderError::NoLayers => "RENDER_NO_LAYERS",
             RenderError::LayerChannel { .. } => "RENDER_LAYER_CHANNEL",
             RenderError::LayerSize { .. } => "RENDER_LAYER_SIZE",
+            RenderError::Mesh { .. } => "RENDER_MESH",
             RenderError::OutputFormat { .. } => "RENDER_OUTPUT_FORMAT",
         }
     }
