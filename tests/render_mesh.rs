@@ -7,8 +7,8 @@ use glam::{DMat4, DVec3, Vec3};
 use pomc::build::{self, BuildOptions, RgbdInput};
 use pomc::layer::{LayerImage, SampleType};
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
-use pomc::mesh::{self, LayerMesh, MeshParams};
-use pomc::render::rasterize::{self, MeshOptions};
+use pomc::mesh::MeshParams;
+use pomc::render::rasterize::{self, LayerGeometry, MeshOptions};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
 use pomc_fixtures::layers::render_on;
 use pomc_fixtures::{Aabb, Rendered, Scene, Shape};
@@ -28,7 +28,7 @@ fn rgbd(r: &Rendered, m: AnyMapping) -> RgbdInput {
 struct Pano {
     mapping: AnyMapping,
     layers: Vec<LayerImage>,
-    meshes: Vec<LayerMesh>,
+    meshes: Vec<LayerGeometry>,
 }
 
 impl Pano {
@@ -38,7 +38,7 @@ impl Pano {
         let built = build::build(&rgbd(&r, mapping), &BuildOptions::default(), &|_| {}).unwrap();
         let layers: Vec<LayerImage> = built.layers.into_iter().map(|l| l.image).collect();
         let refs: Vec<RenderLayer> = layers.iter().map(|image| RenderLayer { image, mapping }).collect();
-        let meshes = rasterize::mesh_layers(&refs, &MeshParams::default()).unwrap();
+        let meshes = rasterize::mesh_layers(&refs, &MeshParams::default(), &MeshOptions::default()).unwrap();
         Pano { mapping, layers, meshes }
     }
 
@@ -118,8 +118,9 @@ fn mesh_views_inside_the_freedom_radius_have_no_holes_and_match_the_splat() {
         let (m, s) = (p.mesh(&cam), p.splat(&cam));
         let (pm, ps) = (metrics::psnr(&m, &t), metrics::psnr(&s, &t));
         let dm = metrics::depth_error(&m, &t).unwrap();
+        let ds = metrics::depth_error(&s, &t).unwrap();
         eprintln!(
-            "eye {}: mesh holes {:.6} PSNR {pm:.2} dB depth err {dm:.4}; splat holes {:.6} PSNR {ps:.2} dB",
+            "eye {}: mesh holes {:.6} PSNR {pm:.2} dB depth err {dm:.4}; splat holes {:.6} PSNR {ps:.2} dB depth err {ds:.4}",
             cam.eye(),
             m.hole_ratio(),
             s.hole_ratio()
@@ -133,7 +134,14 @@ fn centre_views_match_the_truth() {
     let p = Pano::new(&scene, MappingKind::Equirect, 1024, 512);
     let cam = persp(DVec3::ZERO, DVec3::new(2.0, 0.0, -0.8));
     let f = p.mesh(&cam);
-    eprintln!("centre persp holes {} psnr {}", f.holes(), metrics::psnr(&f, &truth(&scene, &cam)));
+    let t = truth(&scene, &cam);
+    let s = p.splat(&cam);
+    eprintln!("centre persp holes {} psnr {} derr {:?} splat derr {:?}", f.holes(), metrics::psnr(&f, &t), metrics::depth_error(&f, &t), metrics::depth_error(&s, &t));
+    let mut errs: Vec<(f32, usize)> = (0..t.depth.len()).filter(|&i| t.covered[i]).map(|i| ((f.depth[i] - t.depth[i]).abs(), i)).collect();
+    errs.sort_by(|a, b| b.0.total_cmp(&a.0));
+    eprintln!("worst {:?}", &errs[..10].iter().map(|&(e, i)| (e, i % 320, i / 320, f.depth[i], t.depth[i])).collect::<Vec<_>>());
+    let big = errs.iter().filter(|e| e.0 > 0.05).count();
+    eprintln!("pixels with error > 5 cm: {big}");
     let eq = Camera::Equirect(EquirectCamera::new(DVec3::ZERO, 512, 256).unwrap());
     let f = p.mesh(&eq);
     let s = p.splat(&eq);
@@ -144,4 +152,30 @@ fn centre_views_match_the_truth() {
         metrics::ws_psnr(&f, &t),
         metrics::ws_psnr(&s, &t)
     );
+}
+
+#[test]
+#[ignore]
+fn debug_dump() {
+    let scene = Scene::room();
+    let p = Pano::new(&scene, MappingKind::Equirect, 1024, 512);
+    for (name, cam) in [
+        ("centre", persp(DVec3::ZERO, DVec3::new(2.0, 0.0, -0.8))),
+        ("edge", persp(DVec3::new(0.0, 0.5, 0.0), DVec3::new(2.0, 0.0, -0.8))),
+        ("eq", Camera::Equirect(EquirectCamera::new(DVec3::ZERO, 512, 256).unwrap())),
+    ] {
+        let f = p.mesh(&cam);
+        render::image::save_colour(&f, std::path::Path::new(&format!("/tmp/rm-{name}.png"))).unwrap();
+        render::image::save_mask(&f, std::path::Path::new(&format!("/tmp/rm-{name}-mask.png"))).unwrap();
+        let holes: Vec<(usize, usize)> =
+            (0..f.covered.len()).filter(|&i| !f.covered[i]).map(|i| (i % f.width, i / f.width)).take(20).collect();
+        eprintln!("{name}: {holes:?}");
+    }
+    for (k, l) in p.layers.iter().enumerate() {
+        let z = l.depth().unwrap();
+        let inf = z.iter().filter(|v| v.is_infinite()).count();
+        let out = z.iter().filter(|v| **v < 0.0).count();
+        let g = &p.meshes[k];
+        eprintln!("layer {k}: {} mesh tris, {} jump, {} border, {inf} inf, {out} outside", g.mesh_triangles, g.jump_triangles, g.border_pixels);
+    }
 }

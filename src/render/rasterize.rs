@@ -34,6 +34,7 @@ use serde::Serialize;
 use super::camera::Camera;
 use super::image::Frame;
 use super::{RenderError, RenderLayer, Stage};
+use crate::build::graph::Neighbours;
 use crate::layer::{classify, LayerImage, Sample, OUTSIDE_DEPTH};
 use crate::mapping::{AnyMapping, Mapping};
 use crate::mesh::{self, LayerMesh, MeshParams};
@@ -62,9 +63,9 @@ const BAND: usize = 8;
 /// Work counters of one mesh render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct RasterCounts {
-    /// Triangles of all meshes.
+    /// Triangles considered for drawing (kept mesh triangles and footprint quads' triangles).
     pub triangles: u64,
-    /// Not drawn: an edge crosses a depth discontinuity (see [`MeshOptions::jump`]).
+    /// Mesh triangles not drawn: an edge crosses a depth discontinuity (see [`MeshOptions::jump`]).
     pub triangles_jump: u64,
     /// Not drawn: outside the view (perspective frustum), behind the near plane, edge-on or
     /// non-finite.
@@ -152,15 +153,22 @@ fn mesh_error(index: usize, e: mesh::MeshError) -> RenderError {
     }
 }
 
-/// Mesh every layer with `params` (layers in parallel; [`mesh::mesh_layer`]).
-pub fn mesh_layers(layers: &[RenderLayer], params: &MeshParams) -> Result<Vec<LayerMesh>, RenderError> {
+/// Mesh every layer with `params` (layers in parallel; [`mesh::mesh_layer`]) and set up what the
+/// rasteriser draws of it ([`LayerGeometry`], with `o.jump`).
+pub fn mesh_layers(
+    layers: &[RenderLayer],
+    params: &MeshParams,
+    o: &MeshOptions,
+) -> Result<Vec<LayerGeometry>, RenderError> {
+    check_options(o)?;
     check_layers(layers)?;
     params.check().map_err(|e| mesh_error(0, e))?;
     layers
         .par_iter()
         .enumerate()
         .map(|(index, l)| {
-            mesh::mesh_layer(l.image, &l.mapping, params).map(|m| m.mesh).map_err(|e| mesh_error(index, e))
+            let m = mesh::mesh_layer(l.image, &l.mapping, params).map_err(|e| mesh_error(index, e))?;
+            LayerGeometry::new(index, m.mesh, l, o.jump)
         })
         .collect()
 }
@@ -196,22 +204,24 @@ pub fn panorama_meshes(
     pano: &Panorama,
     layers: &[RenderLayer],
     params: &MeshParams,
-) -> Result<(Vec<LayerMesh>, Vec<MeshSource>, Vec<String>), RenderError> {
+    o: &MeshOptions,
+) -> Result<(Vec<LayerGeometry>, Vec<MeshSource>, Vec<String>), RenderError> {
+    check_options(o)?;
     check_layers(layers)?;
     params.check().map_err(|e| mesh_error(0, e))?;
-    let results: Vec<Result<(LayerMesh, MeshSource, Option<String>), RenderError>> = layers
+    let results: Vec<Result<(LayerGeometry, MeshSource, Option<String>), RenderError>> = layers
         .par_iter()
         .enumerate()
         .map(|(index, l)| {
             let mut warning = None;
             if let Some(file) = stored_mesh_file(pano, index) {
                 match decode_stored(pano, &file, l) {
-                    Ok(m) => return Ok((m, MeshSource::Stored, None)),
+                    Ok(m) => return Ok((LayerGeometry::new(index, m, l, o.jump)?, MeshSource::Stored, None)),
                     Err(e) => warning = Some(format!("layer {index}: stored mesh {file} ignored: {e}")),
                 }
             }
             let m = mesh::mesh_layer(l.image, &l.mapping, params).map_err(|e| mesh_error(index, e))?;
-            Ok((m.mesh, MeshSource::Built, warning))
+            Ok((LayerGeometry::new(index, m.mesh, l, o.jump)?, MeshSource::Built, warning))
         })
         .collect();
     let (mut meshes, mut sources, mut warnings) = (Vec::new(), Vec::new(), Vec::new());
@@ -230,6 +240,171 @@ fn decode_stored(pano: &Panorama, file: &str, l: &RenderLayer) -> Result<LayerMe
     let limit = 1024 + (l.mapping.width() * l.mapping.height()) as u64 / 4;
     let bytes = crate::fsutil::read_limited(&path, limit).map_err(|e| e.to_string())?;
     mesh::encode::decode(&bytes, l.image, &l.mapping).map_err(|e| e.to_string())
+}
+
+/// Half-size of the footprint quads of border pixels, layer pixels: a little over ½ so that the
+/// quads of neighbouring border pixels (whose extrapolated corners need not coincide) overlap.
+const FOOTPRINT: f64 = 0.55;
+
+/// What the rasteriser draws of one layer, in the panorama's local frame: the layer's mesh minus
+/// the triangles that cross a depth discontinuity, plus a **footprint quad** for every border
+/// pixel. A mesh joins pixel centres, so on its own it stops half a pixel short of the layer's
+/// border; the splat method lets each pixel cover its footprint `[−½, ½]²` instead, so that layers
+/// that abut without a jump (an object standing on the floor, build's fill meeting the object)
+/// leave no crack. The footprint quad of a valid pixel with a neighbour that is outside the layer or
+/// across a jump reproduces that: corners at `±FOOTPRINT` pixel around its centre, on the corner
+/// rays, at the pixel's depth extrapolated along the depth gradient of its continuous neighbours
+/// (clamped within the jump), never reaching past a discontinuity by more than the footprint.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LayerGeometry {
+    pub width: usize,
+    pub height: usize,
+    /// Mesh vertices, then four corners per border pixel.
+    pub positions: Vec<DVec3>,
+    /// Canvas pixel of each vertex (`≥ W·H` for the equirect poles).
+    pub sources: Vec<u32>,
+    /// Triangles to draw: the mesh's kept triangles, then two per border pixel.
+    pub triangles: Vec<[u32; 3]>,
+    /// Triangles of the mesh.
+    pub mesh_triangles: usize,
+    /// Mesh triangles not drawn: an edge crosses a depth discontinuity.
+    pub jump_triangles: usize,
+    /// Border pixels given a footprint quad.
+    pub border_pixels: usize,
+}
+
+/// Angle between neighbouring pixel centres (along a row at the equator, or at a face centre).
+fn pixel_angle(m: &AnyMapping) -> f64 {
+    match m {
+        AnyMapping::Equirect(_) => PI / m.height() as f64,
+        AnyMapping::Cube(c) => PI / 2.0 / c.face_size() as f64,
+    }
+}
+
+/// Whether the edge between two vertices (depth, unit direction) crosses a depth discontinuity:
+/// the splat method's test `max/min > 1 + jump` between neighbours, `(1 + jump)^k` over `k` pixels.
+#[inline]
+fn crosses_jump((da, ua): (f64, DVec3), (db, ub): (f64, DVec3), jump: f64, pixel_angle: f64) -> bool {
+    let (lo, hi) = (da.min(db), da.max(db));
+    if hi <= (1.0 + jump) * lo {
+        return false;
+    }
+    if !(lo > 0.0) {
+        return true;
+    }
+    let angle = ua.dot(ub).clamp(-1.0, 1.0).acos();
+    let k = (angle / (std::f64::consts::SQRT_2 * pixel_angle)).max(1.0);
+    hi > (1.0 + jump).powf(k) * lo
+}
+
+/// Direction of the continuous canvas point `(i + ½ + ox, j + ½ + oy)`, continued past the
+/// equirect's edges and past a cube face's edges on the face's plane.
+fn corner_dir(m: &AnyMapping, i: usize, j: usize, ox: f64, oy: f64) -> DVec3 {
+    match m {
+        AnyMapping::Equirect(_) => {
+            let phi = TAU * (i as f64 + 0.5 + ox) / m.width() as f64;
+            let theta = PI * (j as f64 + 0.5 + oy) / m.height() as f64;
+            let (st, ct) = theta.sin_cos();
+            let (sp, cp) = phi.sin_cos();
+            DVec3::new(st * cp, st * sp, ct)
+        }
+        AnyMapping::Cube(c) => {
+            let n = c.face_size();
+            let (fx, fy) = (i / n, j / n);
+            let face = crate::mapping::CubeFace::from_index(3 * fy + fx).unwrap_or(crate::mapping::CubeFace::PosZ);
+            let s = 2.0 * ((i - fx * n) as f64 + 0.5 + ox) / n as f64 - 1.0;
+            let t = 2.0 * ((j - fy * n) as f64 + 0.5 + oy) / n as f64 - 1.0;
+            face.cube_point(s, t).normalize()
+        }
+    }
+}
+
+impl LayerGeometry {
+    /// The geometry of layer `index` from its `mesh`, with the continuity threshold `jump`.
+    pub fn new(index: usize, mesh: LayerMesh, layer: &RenderLayer, jump: f64) -> Result<LayerGeometry, RenderError> {
+        let m = layer.mapping;
+        let (w, h) = (m.width(), m.height());
+        let bad_vertex = mesh.triangles.iter().flatten().any(|&v| v as usize >= mesh.positions.len());
+        if (mesh.width, mesh.height) != (w, h)
+            || (layer.image.width, layer.image.height) != (w, h)
+            || mesh.sources.len() != mesh.positions.len()
+            || bad_vertex
+        {
+            return Err(RenderError::Mesh { index, message: "the mesh does not belong to this layer".into() });
+        }
+        if !(jump > 0.0 && jump.is_finite()) {
+            return Err(RenderError::BadOptions("jump must be a positive relative depth".into()));
+        }
+        let planes = Planes::new(layer.image, layer.mapping);
+        let pa = pixel_angle(&m);
+        let LayerMesh { positions, sources, triangles, .. } = mesh;
+        let vd: Vec<(f64, DVec3)> = positions.iter().map(|p| (p.length(), p.normalize_or_zero())).collect();
+        let mesh_triangles = triangles.len();
+        let mut kept: Vec<[u32; 3]> = triangles
+            .into_par_iter()
+            .filter(|t| {
+                let v = t.map(|i| vd[i as usize]);
+                !(0..3).any(|k| crosses_jump(v[k], v[(k + 1) % 3], jump, pa))
+            })
+            .collect();
+        let jump_triangles = mesh_triangles - kept.len();
+        let nb = Neighbours::new(m);
+        let depth = |p: usize| match planes.sample(p) {
+            Sample::Surface(d) if d > 0.0 && d.is_finite() => Some(d as f64),
+            _ => None,
+        };
+        let joined = |a: f64, b: f64| (a - b).abs() <= jump * a.min(b);
+        let corners: Vec<(u32, [DVec3; 4])> = (0..h)
+            .into_par_iter()
+            .flat_map_iter(|y| {
+                let (depth, nb) = (&depth, &nb);
+                (0..w).filter_map(move |x| {
+                    let p = y * w + x;
+                    let d = depth(p)?;
+                    let nd: [Option<f64>; 8] = std::array::from_fn(|k| {
+                        nb.get_at(x, y, k).and_then(depth).filter(|&e| joined(d, e))
+                    });
+                    if nd.iter().all(Option::is_some) {
+                        return None;
+                    }
+                    // Depth gradient along canvas x and y from the continuous 4-neighbours.
+                    let grad = |plus: usize, minus: usize| match (nd[plus], nd[minus]) {
+                        (Some(a), Some(b)) => (a - b) / 2.0,
+                        (Some(a), None) => a - d,
+                        (None, Some(b)) => d - b,
+                        (None, None) => 0.0,
+                    };
+                    let (gx, gy) = (grad(0, 1), grad(2, 3));
+                    let f = FOOTPRINT;
+                    let corner = |sx: f64, sy: f64| {
+                        let z = (d + f * (sx * gx + sy * gy)).clamp(d / (1.0 + jump), d * (1.0 + jump));
+                        corner_dir(&m, x, y, sx * f, sy * f) * z
+                    };
+                    Some((p as u32, [corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)]))
+                })
+            })
+            .collect();
+        let mut positions = positions;
+        let mut sources = sources;
+        positions.reserve(4 * corners.len());
+        for (p, c) in &corners {
+            let base = positions.len() as u32;
+            positions.extend_from_slice(c);
+            sources.extend([*p; 4]);
+            kept.push([base, base + 1, base + 2]);
+            kept.push([base, base + 2, base + 3]);
+        }
+        Ok(LayerGeometry {
+            width: w,
+            height: h,
+            positions,
+            sources,
+            triangles: kept,
+            mesh_triangles,
+            jump_triangles,
+            border_pixels: corners.len(),
+        })
+    }
 }
 
 /// One layer's planes used for colour lookups.
@@ -425,15 +600,6 @@ impl Cam {
     }
 }
 
-/// Per-vertex data of one layer in camera space.
-struct LayerVerts {
-    cam: Vec<DVec3>,
-    /// Distance from the panorama centre (the layer's depth).
-    depth: Vec<f64>,
-    /// Unit local direction.
-    dir: Vec<DVec3>,
-}
-
 /// Canonical edge plane: `a × b` with the vertices ordered by id, and whether that order was swapped.
 #[inline]
 fn edge_plane(ia: u32, a: DVec3, ib: u32, b: DVec3) -> (DVec3, bool) {
@@ -461,35 +627,10 @@ struct Setup<'a> {
 }
 
 impl Setup<'_> {
-    /// Whether the edge between two vertices crosses a depth discontinuity.
-    #[inline]
-    fn jump(&self, (da, ua): (f64, DVec3), (db, ub): (f64, DVec3), pixel_angle: f64) -> bool {
-        let (lo, hi) = (da.min(db), da.max(db));
-        if hi <= (1.0 + self.o.jump) * lo {
-            return false;
-        }
-        let angle = ua.dot(ub).clamp(-1.0, 1.0).acos();
-        let k = (angle / (std::f64::consts::SQRT_2 * pixel_angle)).max(1.0);
-        hi > (1.0 + self.o.jump).powf(k) * lo
-    }
-
     /// Set up triangle `tri` of `layer`; `None` when it is not drawn (counted in `n`).
-    fn prep(
-        &self,
-        layer: u32,
-        tri: u32,
-        v: [u32; 3],
-        lv: &LayerVerts,
-        pixel_angle: f64,
-        n: &mut RasterCounts,
-    ) -> Option<Prep> {
+    fn prep(&self, layer: u32, tri: u32, v: [u32; 3], cam: &[DVec3], n: &mut RasterCounts) -> Option<Prep> {
         n.triangles += 1;
-        let c = v.map(|i| lv.cam[i as usize]);
-        let vd = v.map(|i| (lv.depth[i as usize], lv.dir[i as usize]));
-        if (0..3).any(|k| self.jump(vd[k], vd[(k + 1) % 3], pixel_angle)) {
-            n.triangles_jump += 1;
-            return None;
-        }
+        let c = v.map(|i| cam[i as usize]);
         if !c.iter().all(|p| p.is_finite()) {
             n.triangles_culled += 1;
             return None;
@@ -711,10 +852,10 @@ fn raster_band(
 }
 
 /// Render `layers` (placed in the world by `local_to_world`) into `camera` by rasterising their
-/// meshes (`meshes[k]` is layer `k`'s, in its local frame, e.g. from [`mesh_layers`]).
+/// geometry (`meshes[k]` is layer `k`'s, in its local frame, e.g. from [`mesh_layers`]).
 pub fn render_mesh(
     layers: &[RenderLayer],
-    meshes: &[LayerMesh],
+    meshes: &[LayerGeometry],
     local_to_world: DMat4,
     camera: &Camera,
     o: &MeshOptions,
@@ -752,22 +893,12 @@ pub fn render_mesh(
         Cam::Equi { .. } => None,
     };
     let setup = Setup { cam: &cam, o: *o, frustum };
-    let verts: Vec<LayerVerts> = meshes
-        .iter()
-        .map(|m| LayerVerts {
-            cam: m.positions.par_iter().map(|&p| to_cam.transform_point3(p)).collect(),
-            depth: m.positions.iter().map(|p| p.length()).collect(),
-            dir: m.positions.iter().map(|p| p.normalize_or_zero()).collect(),
-        })
-        .collect();
     let mut counts = RasterCounts::default();
     let mut preps: Vec<Prep> = Vec::new();
-    for (k, (m, l)) in meshes.iter().zip(layers).enumerate() {
-        let pixel_angle = match l.mapping {
-            AnyMapping::Equirect(_) => PI / l.mapping.height() as f64,
-            AnyMapping::Cube(c) => PI / 2.0 / c.face_size() as f64,
-        };
-        let lv = &verts[k];
+    for (k, m) in meshes.iter().enumerate() {
+        counts.triangles_jump += m.jump_triangles as u64;
+        let lv: Vec<DVec3> = m.positions.par_iter().map(|&p| to_cam.transform_point3(p)).collect();
+        let lv = &lv;
         let parts: Vec<(Vec<Prep>, RasterCounts)> = m
             .triangles
             .par_chunks(4096)
@@ -778,7 +909,7 @@ pub fn render_mesh(
                     .iter()
                     .enumerate()
                     .filter_map(|(i, &v)| {
-                        setup.prep(k as u32, (chunk * 4096 + i) as u32, v, lv, pixel_angle, &mut n)
+                        setup.prep(k as u32, (chunk * 4096 + i) as u32, v, lv, &mut n)
                     })
                     .collect();
                 (out, n)
@@ -893,7 +1024,7 @@ pub fn render_mesh(
 
 /// Fallback colour of a fragment whose bilinear taps are all of another surface: the colour of the
 /// triangle's vertex nearest in direction (pole vertices have no pixel).
-fn nearest_vertex_colour(p: &Planes, m: &LayerMesh, tri: u32, local: DVec3) -> [f32; 3] {
+fn nearest_vertex_colour(p: &Planes, m: &LayerGeometry, tri: u32, local: DVec3) -> [f32; 3] {
     let Some(t) = m.triangles.get(tri as usize) else { return [0.0; 3] };
     let d = local.normalize_or_zero();
     let mut best: Option<(f64, usize)> = None;
@@ -920,7 +1051,7 @@ pub fn render_mesh_auto(
     o: &MeshOptions,
 ) -> Result<MeshRendered, RenderError> {
     let t = Instant::now();
-    let meshes = mesh_layers(layers, params)?;
+    let meshes = mesh_layers(layers, params, o)?;
     let mesh_s = t.elapsed().as_secs_f64();
     let mut r = render_mesh(layers, &meshes, local_to_world, camera, o)?;
     r.stats.stages.insert(0, Stage { name: "mesh", seconds: mesh_s });

@@ -131,14 +131,15 @@ fn render_mesh(
 ) -> Result<Outcome, Failure> {
     let t = Instant::now();
     let (meshes, sources, warnings) =
-        rasterize::panorama_meshes(pano, layers, &MeshParams::default()).map_err(pomc::Error::from)?;
+        rasterize::panorama_meshes(pano, layers, &MeshParams::default(), &MeshOptions::default()).map_err(pomc::Error::from)?;
     let mesh_s = t.elapsed().as_secs_f64();
     if !out.quiet && !out.json {
         for w in &warnings {
             eprintln!("warning: {w}");
         }
     }
-    let triangles: usize = meshes.iter().map(|m| m.triangles.len()).sum();
+    let triangles: usize = meshes.iter().map(|m| m.mesh_triangles).sum();
+    let border: usize = meshes.iter().map(|m| m.border_pixels).sum();
     let r = rasterize::render_mesh(layers, &meshes, to_world, cam, &MeshOptions::default())
         .map_err(pomc::Error::from)?;
     let s = r.stats;
@@ -154,7 +155,7 @@ fn render_mesh(
         counts: serde_json::json!(s.counts),
         stages,
         extra: serde_json::json!({
-            "mesh": {"sources": sources, "triangles": triangles, "warnings": warnings},
+            "mesh": {"sources": sources, "triangles": triangles, "border_pixels": border, "warnings": warnings},
         }),
     })
 }
