@@ -271,6 +271,8 @@ pub struct LayerGeometry {
     pub jump_triangles: usize,
     /// Border pixels given a footprint quad.
     pub border_pixels: usize,
+    /// The layer has infinity samples (looked up by direction behind everything).
+    pub has_infinity: bool,
 }
 
 /// Angle between neighbouring pixel centres (along a row at the equator, or at a face centre).
@@ -335,7 +337,16 @@ impl LayerGeometry {
         if !(jump > 0.0 && jump.is_finite()) {
             return Err(RenderError::BadOptions("jump must be a positive relative depth".into()));
         }
-        let planes = Planes::new(layer.image, layer.mapping);
+        let planes = Planes::new(layer.image, layer.mapping, false);
+        // Finite depth or NaN, per pixel; and whether the layer has infinity samples.
+        let dz: Vec<f32> = (0..w * h)
+            .into_par_iter()
+            .map(|p| match planes.sample(p) {
+                Sample::Surface(d) if d > 0.0 && d.is_finite() => d,
+                _ => f32::NAN,
+            })
+            .collect();
+        let has_infinity = (0..w * h).into_par_iter().any(|p| matches!(planes.sample(p), Sample::Infinite));
         let pa = pixel_angle(&m);
         let LayerMesh { positions, sources, triangles, .. } = mesh;
         let vd: Vec<(f64, DVec3)> = positions.iter().map(|p| (p.length(), p.normalize_or_zero())).collect();
@@ -349,9 +360,9 @@ impl LayerGeometry {
             .collect();
         let jump_triangles = mesh_triangles - kept.len();
         let nb = Neighbours::new(m);
-        let depth = |p: usize| match planes.sample(p) {
-            Sample::Surface(d) if d > 0.0 && d.is_finite() => Some(d as f64),
-            _ => None,
+        let depth = |p: usize| {
+            let d = dz[p];
+            (!d.is_nan()).then_some(d as f64)
         };
         let joined = |a: f64, b: f64| (a - b).abs() <= jump * a.min(b);
         let corners: Vec<(u32, [DVec3; 4])> = (0..h)
@@ -395,6 +406,7 @@ impl LayerGeometry {
             kept.push([base, base + 2, base + 3]);
         }
         Ok(LayerGeometry {
+            has_infinity,
             width: w,
             height: h,
             positions,
@@ -418,12 +430,10 @@ struct Planes<'a> {
 }
 
 impl<'a> Planes<'a> {
-    fn new(image: &'a LayerImage, mapping: AnyMapping) -> Planes<'a> {
+    fn new(image: &'a LayerImage, mapping: AnyMapping, has_infinity: bool) -> Planes<'a> {
         let get = |name: &str| image.channel(name).map(|c| c.data.as_slice()).unwrap_or(&[]);
         let z = get("Z");
         let coverage = image.coverage();
-        let has_infinity =
-            (0..z.len()).any(|p| matches!(classify(z[p], coverage.map(|a| a[p])), Sample::Infinite));
         Planes { mapping, z, coverage, rgb: [get("R"), get("G"), get("B")], has_infinity }
     }
 
@@ -942,7 +952,8 @@ pub fn render_mesh(
     let raster_s = t_raster.elapsed().as_secs_f64();
 
     let t_compose = Instant::now();
-    let planes: Vec<Planes> = layers.iter().map(|l| Planes::new(l.image, l.mapping)).collect();
+    let planes: Vec<Planes> =
+        layers.iter().zip(meshes).map(|(l, g)| Planes::new(l.image, l.mapping, g.has_infinity)).collect();
     let cam_to_local = to_cam.inverse();
     let n = w * h;
     let mut frame = Frame {

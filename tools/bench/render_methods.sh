@@ -17,7 +17,9 @@ trap 'rm -rf "$work"' EXIT
 cargo build --release -q -p pomc-cli -p pomc-fixtures
 pomc=$target/release/pomc
 "$target/release/pomc-fixtures" rgbd "$work/in" "$width" >/dev/null
-"$pomc" build --colour "$work/in/colour.png" --depth "$work/in/depth.exr" -o "$work/pano" --no-pack --quiet
+# The fixtures put the room's panorama centre 1.2 m above the world origin.
+"$pomc" build --colour "$work/in/colour.png" --depth "$work/in/depth.exr" -o "$work/pano" --no-pack --quiet \
+  --center 0,0,1.2
 cp -r "$work/pano" "$work/stored"
 layers=$("$pomc" info "$work/stored" --json | python3 -c 'import json,sys; print(len(json.load(sys.stdin)["layers"]))')
 for k in $(seq 0 $((layers - 1))); do
