@@ -6,8 +6,8 @@
 use glam::{DMat4, DVec3, Vec3};
 use pomc::build::{self, BuildOptions, RgbdInput};
 use pomc::layer::{LayerImage, SampleType};
-use pomc::mesh::LayerMesh;
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
+use pomc::mesh::LayerMesh;
 use pomc::mesh::MeshParams;
 use pomc::render::rasterize::{self, LayerGeometry, MeshOptions, MeshRendered};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
@@ -48,8 +48,9 @@ impl Pano {
     }
 
     fn mesh(&self, cam: &Camera) -> Frame {
-        let r = rasterize::render_mesh(&self.refs(), &self.meshes, DMat4::IDENTITY, cam, &MeshOptions::default())
-            .unwrap();
+        let r =
+            rasterize::render_mesh(&self.refs(), &self.meshes, DMat4::IDENTITY, cam, &MeshOptions::default())
+                .unwrap();
         no_nan(&r.frame);
         r.frame
     }
@@ -109,7 +110,6 @@ fn views() -> Vec<Camera> {
         persp(DVec3::new(-0.2, 0.1, 0.1), DVec3::new(-1.4, 1.5, -0.55)),
     ]
 }
-
 
 /// Holes tolerated at the freedom radius (measured with 1024×512 layers: 0–0.113 %; the splat
 /// method: 0–0.061 %): slivers where build's fill guessed the hidden floor–wall corner behind the
@@ -308,7 +308,9 @@ fn triangles_across_depth_jumps_are_not_drawn() {
     // Looking at the step at azimuth 0 from an eye moved towards −Y: between the far half's
     // (y < 0) edge and the near half (y ≥ 0) rays meet no surface.
     let eye = DVec3::new(0.0, -0.8, 0.0);
-    let cam = Camera::Perspective(Perspective::new(eye, DVec3::new(2.2, 0.0, 0.0), DVec3::Z, 40.0, 160, 90).unwrap());
+    let cam = Camera::Perspective(
+        Perspective::new(eye, DVec3::new(2.2, 0.0, 0.0), DVec3::Z, 40.0, 160, 90).unwrap(),
+    );
     // Truth: the first hit of the two half-spheres.
     let hit = |d: DVec3| -> bool {
         [(2.0f64, true), (2.5, false)].iter().any(|&(r, near_half)| {
@@ -425,10 +427,16 @@ fn rasterisation_is_watertight_and_clipped_at_the_near_plane() {
     let eye = DVec3::new(0.3, -0.2, 0.0);
     let cams = [
         // Horizontal: the floor runs under and behind the camera (triangles cross the eye plane).
-        Camera::Perspective(Perspective::new(eye, eye + DVec3::new(1.0, 0.2, 0.0), DVec3::Z, 100.0, 120, 80).unwrap()),
+        Camera::Perspective(
+            Perspective::new(eye, eye + DVec3::new(1.0, 0.2, 0.0), DVec3::Z, 100.0, 120, 80).unwrap(),
+        ),
         // Looking down steeply and up (the floor only at the bottom edge).
-        Camera::Perspective(Perspective::new(eye, eye + DVec3::new(0.1, 0.0, -1.0), DVec3::Z, 90.0, 96, 64).unwrap()),
-        Camera::Perspective(Perspective::new(eye, eye + DVec3::new(1.0, 0.0, 0.9), DVec3::Z, 120.0, 96, 64).unwrap()),
+        Camera::Perspective(
+            Perspective::new(eye, eye + DVec3::new(0.1, 0.0, -1.0), DVec3::Z, 90.0, 96, 64).unwrap(),
+        ),
+        Camera::Perspective(
+            Perspective::new(eye, eye + DVec3::new(1.0, 0.0, 0.9), DVec3::Z, 120.0, 96, 64).unwrap(),
+        ),
         Camera::Equirect(EquirectCamera::new(eye, 160, 80).unwrap()),
     ];
     for cam in cams {
@@ -501,22 +509,40 @@ fn bad_input_is_a_typed_error() {
     let e = rasterize::mesh_layers(&layers, &MeshParams::default(), &o).unwrap_err();
     assert_eq!(e.code(), "RENDER_LAYER_CHANNEL");
     let bad = MeshOptions { jump: f64::NAN, ..o };
-    assert_eq!(rasterize::render_mesh(&[], &[], DMat4::IDENTITY, &cam, &bad).unwrap_err().code(), "RENDER_BAD_OPTIONS");
+    assert_eq!(
+        rasterize::render_mesh(&[], &[], DMat4::IDENTITY, &cam, &bad).unwrap_err().code(),
+        "RENDER_BAD_OPTIONS"
+    );
     let bad = MeshParams { max_error: Some(-1.0), ..MeshParams::default() };
     let good = sphere_layer(&m, 1.0);
     let layers = [RenderLayer { image: &good, mapping: m }];
     assert_eq!(rasterize::mesh_layers(&layers, &bad, &o).unwrap_err().code(), "RENDER_BAD_OPTIONS");
     // Meshes that do not belong to the layers.
     let g = rasterize::mesh_layers(&layers, &MeshParams::default(), &o).unwrap();
-    assert_eq!(rasterize::render_mesh(&layers, &[], DMat4::IDENTITY, &cam, &o).unwrap_err().code(), "RENDER_BAD_OPTIONS");
+    assert_eq!(
+        rasterize::render_mesh(&layers, &[], DMat4::IDENTITY, &cam, &o).unwrap_err().code(),
+        "RENDER_BAD_OPTIONS"
+    );
     let other = AnyMapping::new(MappingKind::Equirect, 16, 8).unwrap();
     let big = sphere_layer(&other, 1.0);
     let wrong = [RenderLayer { image: &big, mapping: other }];
-    assert_eq!(rasterize::render_mesh(&wrong, &g, DMat4::IDENTITY, &cam, &o).unwrap_err().code(), "RENDER_MESH");
-    let broken = LayerMesh { width: 8, height: 4, sources: vec![0], positions: vec![DVec3::X], triangles: vec![[0, 0, 7]] };
+    assert_eq!(
+        rasterize::render_mesh(&wrong, &g, DMat4::IDENTITY, &cam, &o).unwrap_err().code(),
+        "RENDER_MESH"
+    );
+    let broken = LayerMesh {
+        width: 8,
+        height: 4,
+        sources: vec![0],
+        positions: vec![DVec3::X],
+        triangles: vec![[0, 0, 7]],
+    };
     assert_eq!(LayerGeometry::new(0, broken, &layers[0], 0.1).unwrap_err().code(), "RENDER_MESH");
     let singular = DMat4::from_scale(DVec3::new(1.0, 0.0, 1.0));
-    assert_eq!(rasterize::render_mesh(&layers, &g, singular, &cam, &o).unwrap_err().code(), "RENDER_BAD_CAMERA");
+    assert_eq!(
+        rasterize::render_mesh(&layers, &g, singular, &cam, &o).unwrap_err().code(),
+        "RENDER_BAD_CAMERA"
+    );
 }
 
 #[test]

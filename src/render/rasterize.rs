@@ -313,7 +313,8 @@ fn corner_dir(m: &AnyMapping, i: usize, j: usize, ox: f64, oy: f64) -> DVec3 {
         AnyMapping::Cube(c) => {
             let n = c.face_size();
             let (fx, fy) = (i / n, j / n);
-            let face = crate::mapping::CubeFace::from_index(3 * fy + fx).unwrap_or(crate::mapping::CubeFace::PosZ);
+            let face =
+                crate::mapping::CubeFace::from_index(3 * fy + fx).unwrap_or(crate::mapping::CubeFace::PosZ);
             let s = 2.0 * ((i - fx * n) as f64 + 0.5 + ox) / n as f64 - 1.0;
             let t = 2.0 * ((j - fy * n) as f64 + 0.5 + oy) / n as f64 - 1.0;
             face.cube_point(s, t).normalize()
@@ -323,7 +324,12 @@ fn corner_dir(m: &AnyMapping, i: usize, j: usize, ox: f64, oy: f64) -> DVec3 {
 
 impl LayerGeometry {
     /// The geometry of layer `index` from its `mesh`, with the continuity threshold `jump`.
-    pub fn new(index: usize, mesh: LayerMesh, layer: &RenderLayer, jump: f64) -> Result<LayerGeometry, RenderError> {
+    pub fn new(
+        index: usize,
+        mesh: LayerMesh,
+        layer: &RenderLayer,
+        jump: f64,
+    ) -> Result<LayerGeometry, RenderError> {
         let m = layer.mapping;
         let (w, h) = (m.width(), m.height());
         let bad_vertex = mesh.triangles.iter().flatten().any(|&v| v as usize >= mesh.positions.len());
@@ -332,7 +338,10 @@ impl LayerGeometry {
             || mesh.sources.len() != mesh.positions.len()
             || bad_vertex
         {
-            return Err(RenderError::Mesh { index, message: "the mesh does not belong to this layer".into() });
+            return Err(RenderError::Mesh {
+                index,
+                message: "the mesh does not belong to this layer".into(),
+            });
         }
         if !(jump > 0.0 && jump.is_finite()) {
             return Err(RenderError::BadOptions("jump must be a positive relative depth".into()));
@@ -372,9 +381,8 @@ impl LayerGeometry {
                 (0..w).filter_map(move |x| {
                     let p = y * w + x;
                     let d = depth(p)?;
-                    let nd: [Option<f64>; 8] = std::array::from_fn(|k| {
-                        nb.get_at(x, y, k).and_then(depth).filter(|&e| joined(d, e))
-                    });
+                    let nd: [Option<f64>; 8] =
+                        std::array::from_fn(|k| nb.get_at(x, y, k).and_then(depth).filter(|&e| joined(d, e)));
                     if nd.iter().all(Option::is_some) {
                         return None;
                     }
@@ -391,7 +399,10 @@ impl LayerGeometry {
                         let z = (d + f * (sx * gx + sy * gy)).clamp(d / (1.0 + jump), d * (1.0 + jump));
                         corner_dir(&m, x, y, sx * f, sy * f) * z
                     };
-                    Some((p as u32, [corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)]))
+                    Some((
+                        p as u32,
+                        [corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)],
+                    ))
                 })
             })
             .collect();
@@ -558,9 +569,20 @@ struct Prep {
 
 /// The output camera, reduced to what the rasteriser needs.
 enum Cam {
-    Persp { w: usize, h: usize, f: f64, cx: f64, cy: f64 },
+    Persp {
+        w: usize,
+        h: usize,
+        f: f64,
+        cx: f64,
+        cy: f64,
+    },
     /// Per-row `(sin θ, cos θ)`, per-column `(cos φ, sin φ)` of pixel centres.
-    Equi { w: usize, h: usize, rows: Vec<(f64, f64)>, cols: Vec<(f64, f64)> },
+    Equi {
+        w: usize,
+        h: usize,
+        rows: Vec<(f64, f64)>,
+        cols: Vec<(f64, f64)>,
+    },
 }
 
 impl Cam {
@@ -886,7 +908,10 @@ pub fn render_mesh(
         let (w, h) = (l.mapping.width(), l.mapping.height());
         let bad_vertex = m.triangles.iter().flatten().any(|&v| v as usize >= m.positions.len());
         if (m.width, m.height) != (w, h) || m.sources.len() != m.positions.len() || bad_vertex {
-            return Err(RenderError::Mesh { index, message: "the mesh does not belong to this layer".into() });
+            return Err(RenderError::Mesh {
+                index,
+                message: "the mesh does not belong to this layer".into(),
+            });
         }
     }
     let t_raster = Instant::now();
@@ -918,9 +943,7 @@ pub fn render_mesh(
                 let out = tris
                     .iter()
                     .enumerate()
-                    .filter_map(|(i, &v)| {
-                        setup.prep(k as u32, (chunk * 4096 + i) as u32, v, lv, &mut n)
-                    })
+                    .filter_map(|(i, &v)| setup.prep(k as u32, (chunk * 4096 + i) as u32, v, lv, &mut n))
                     .collect();
                 (out, n)
             })

@@ -5,9 +5,12 @@ use std::time::Instant;
 
 use glam::DVec3;
 use pomc::layer_io::ReadLimits;
-use pomc::panorama::Panorama;
 use pomc::mesh::MeshParams;
-use pomc::render::{self, image, rasterize, Camera, EquirectCamera, Frame, MeshOptions, Perspective, RenderLayer, SplatOptions};
+use pomc::panorama::Panorama;
+use pomc::render::{
+    self, image, rasterize, Camera, EquirectCamera, Frame, MeshOptions, Perspective, RenderLayer,
+    SplatOptions,
+};
 
 use crate::output::Output;
 use crate::Failure;
@@ -131,7 +134,8 @@ fn render_mesh(
 ) -> Result<Outcome, Failure> {
     let t = Instant::now();
     let (meshes, sources, warnings) =
-        rasterize::panorama_meshes(pano, layers, &MeshParams::default(), &MeshOptions::default()).map_err(pomc::Error::from)?;
+        rasterize::panorama_meshes(pano, layers, &MeshParams::default(), &MeshOptions::default())
+            .map_err(pomc::Error::from)?;
     let mesh_s = t.elapsed().as_secs_f64();
     if !out.quiet && !out.json {
         for w in &warnings {
