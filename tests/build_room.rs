@@ -68,7 +68,13 @@ fn check_room(m: AnyMapping, normals: bool) {
     assert!(errors.len() > 100, "too little fill: {} pixels", errors.len());
     errors.sort_by(f64::total_cmp);
     let median = errors[errors.len() / 2];
-    assert!(median <= 0.01, "{:?} normals={normals}: median fill error {median}", m.kind());
+    assert!(median <= 1e-4, "{:?} normals={normals}: median fill error {median}", m.kind());
+    // The tail too: where two room planes meet behind an object (floor and wall, two walls),
+    // the fill follows the crease instead of running one plane on past it.
+    let p99 = errors[errors.len() * 99 / 100];
+    let over = errors.iter().filter(|&&e| e > 0.01).count() as f64 / errors.len() as f64;
+    assert!(p99 <= 1e-3, "{:?} normals={normals}: p99 fill error {p99}", m.kind());
+    assert!(over <= 0.005, "{:?} normals={normals}: {over} of filled pixels over 1 %", m.kind());
 
     // The output is a valid POMC.
     let dir = tempfile::tempdir().unwrap();

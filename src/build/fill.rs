@@ -38,6 +38,8 @@ pub struct FillContext<'a> {
     /// Extra band, radians (a couple of pixels: reconstruction filters reach that far).
     pub margin: f64,
     pub links: &'a Links,
+    /// Surface (segment) id per pixel: seeds on different surfaces compete behind an occluder.
+    pub surface: &'a [u32],
 }
 
 /// Largest angle (radians) a camera within `r` of the centre can open between an occluding
@@ -52,54 +54,173 @@ pub fn parallax_band(r: f64, near: f64, far: f64) -> f64 {
     (shift(near) - shift(far)).max(0.0)
 }
 
+/// Surfaces a hidden pixel weighs besides its own: the corner of a room (two walls and the
+/// floor), with room to spare for the faces a rounded-off crease adds.
+const RIVALS: usize = 5;
+
 /// Fill layer `k` behind its occluders.
+///
+/// Every hidden pixel within the parallax band takes the nearest seed (breadth-first). A second
+/// search, not limited to the band, finds for every hidden pixel the nearest seeds of up to
+/// [`RIVALS`] other surfaces around the same occluder: where a floor meets a wall, or two walls
+/// meet, behind a box, the pixel takes the plane the crease puts it on ([`pick_surface`]) even
+/// when that plane shows only far away (above the box).
 pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
+    const NONE: u32 = u32::MAX;
     let n = cx.nb.len();
-    let mut src = vec![u32::MAX; n];
-    let mut queue = VecDeque::new();
-    for (p, seed) in src.iter_mut().enumerate() {
+    let hidden = |q: usize| cx.layer_of[q] != NONE && cx.layer_of[q] > k && cx.depth[q] > 0.0;
+    let mut seeds = Vec::new();
+    for p in 0..n {
         // NaN (unknown) depth never seeds a fill.
         if cx.layer_of[p] != k || cx.depth[p].is_nan() || cx.depth[p] <= 0.0 {
             continue;
         }
-        let borders = (0..8).any(|j| {
-            cx.nb
-                .get(p, j)
-                .is_some_and(|q| cx.layer_of[q] != u32::MAX && cx.layer_of[q] > k && cx.links.is_jump(p, j))
-        });
-        if borders {
-            *seed = p as u32;
-            queue.push_back(p);
+        if (0..8).any(|j| cx.nb.get(p, j).is_some_and(|q| hidden(q) && cx.links.is_jump(p, j)))
+            && trusted_plane(cx, p)
+        {
+            seeds.push(p);
         }
     }
-    let mut fill = Fill::default();
-    let colour_src = |s: usize| interior_neighbour(cx, s, k);
-    let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
+    // (1) The band: nearest seed within the parallax a camera in the freedom radius can open.
+    let mut src = vec![NONE; n];
+    let mut angle_of = vec![0f64; n];
+    let mut order = Vec::new();
+    let mut queue: VecDeque<usize> = seeds.iter().copied().collect();
+    for &p in &seeds {
+        src[p] = p as u32;
+    }
     while let Some(p) = queue.pop_front() {
         let s = src[p] as usize;
         for j in 0..8 {
             let Some(q) = cx.nb.get(p, j) else { continue };
-            if src[q] != u32::MAX || cx.layer_of[q] == u32::MAX || cx.layer_of[q] <= k {
+            if src[q] != NONE || !hidden(q) {
                 continue;
             }
-            let near = cx.depth[q] as f64;
-            if near.is_nan() || near <= 0.0 {
-                continue;
-            }
-            let far = cx.depth[s] as f64;
             let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
-            if angle > parallax_band(cx.freedom_radius, near, far) + cx.margin {
+            if angle > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64) + cx.margin {
                 continue;
             }
             src[q] = s as u32;
-            let d = continue_surface(cx, s, q);
-            let c = *colour_of_seed.entry(s).or_insert_with(|| colour_src(s));
-            fill.pixels.push((q, d, c));
-            fill.max_angle = fill.max_angle.max(angle);
+            angle_of[q] = angle;
+            order.push(q);
             queue.push_back(q);
         }
     }
+    // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder.
+    let mut rivals = vec![[NONE; RIVALS]; n];
+    let mut queue: VecDeque<(usize, usize)> = VecDeque::new();
+    for &p in &seeds {
+        rivals[p][0] = p as u32;
+        queue.push_back((p, 0));
+    }
+    while let Some((p, slot)) = queue.pop_front() {
+        let s = rivals[p][slot];
+        for j in 0..8 {
+            let Some(q) = cx.nb.get(p, j) else { continue };
+            if !hidden(q) {
+                continue;
+            }
+            let r = &mut rivals[q];
+            if r.iter().any(|&t| t != NONE && same_surface(cx, t as usize, s as usize)) {
+                continue;
+            }
+            let Some(free) = r.iter().position(|&t| t == NONE) else { continue };
+            r[free] = s;
+            queue.push_back((q, free));
+        }
+    }
+    // Centroid of each surface of this layer (finite depths only).
+    let mut sums: HashMap<u32, (Vec3, u32)> = HashMap::new();
+    for p in 0..n {
+        let d = cx.depth[p];
+        if cx.layer_of[p] == k && d.is_finite() && d > 0.0 && cx.surface[p] != NONE {
+            let e = sums.entry(cx.surface[p]).or_insert((Vec3::ZERO, 0));
+            e.0 += cx.dirs[p] * d;
+            e.1 += 1;
+        }
+    }
+    let slots = sums.keys().max().map_or(0, |&m| m as usize + 1);
+    let mut centroid = vec![Vec3::NAN; slots];
+    for (s, (sum, c)) in sums {
+        centroid[s as usize] = sum / c as f32;
+    }
+    let mut fill = Fill::default();
+    let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
+    for q in order {
+        let own = src[q] as usize;
+        let (s, d) = pick_surface(cx, &centroid, own, &rivals[q], q);
+        let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
+        fill.pixels.push((q, d, c));
+        fill.max_angle = fill.max_angle.max(angle_of[q]);
+    }
     fill
+}
+
+/// The surface the ray through `q` meets, starting from the nearest seed `own` and weighing each
+/// rival seed's plane in turn. Where two planes meet in a crease, a concave crease (a room's
+/// floor and wall: each surface in front of the other's plane) hides the farther plane, so the
+/// nearer hit is the surface; a convex one (a pillar's corner: each surface behind the other's
+/// plane) shows the farther hit. Planes the seeds do not relate (they disagree, or a seed lies
+/// on the other's plane) leave the current choice.
+fn pick_surface(cx: &FillContext, centroid: &[Vec3], own: usize, rivals: &[u32], q: usize) -> (usize, f32) {
+    let mut best = (own, continue_surface(cx, own, q));
+    for &r in rivals {
+        let b = r as usize;
+        if r == u32::MAX || same_surface(cx, b, best.0) {
+            continue;
+        }
+        let a = best.0;
+        let (na, nb) = (cx.normals[a], cx.normals[b]);
+        let (pa, pb) = (cx.dirs[a] * cx.depth[a], cx.dirs[b] * cx.depth[b]);
+        // One segment's two faces (a segment can leak round a crease) share one centroid,
+        // which tells nothing: their seeds stand in.
+        let (ca, cb) = if cx.surface[a] == cx.surface[b] {
+            (pa, pb)
+        } else {
+            (centroid[cx.surface[a] as usize], centroid[cx.surface[b] as usize])
+        };
+        if na == Vec3::ZERO || nb == Vec3::ZERO || !(pa + pb + ca + cb).is_finite() {
+            continue;
+        }
+        // Signed distances of each surface's centroid to the other's plane (seeds often lie
+        // on the crease itself), against a tolerance that scales with the depths.
+        let (sa, sb) = (nb.dot(ca - pb), na.dot(cb - pa));
+        let tol = 1e-3 * cx.depth[a].min(cx.depth[b]);
+        let Some(db) = plane_hit(cx, b, q) else { continue };
+        let concave = sa > tol && sb > tol;
+        let convex = sa < -tol && sb < -tol;
+        if (concave && db < best.1) || (convex && db > best.1) {
+            best = (b, db);
+        }
+    }
+    best
+}
+
+/// Cosine of the angle under which two seeds' normals are taken for one plane.
+const SAME_PLANE_COS: f32 = 0.94; // 20°
+
+/// Seeds `a` and `b` continue the same surface: one segment, and normals that agree (a segment
+/// can run round a rounded-off crease; its faces still compete).
+fn same_surface(cx: &FillContext, a: usize, b: usize) -> bool {
+    cx.surface[a] == cx.surface[b] && cx.normals[a].dot(cx.normals[b]) >= SAME_PLANE_COS
+}
+
+/// Is the tangent plane at `p` worth continuing? Its normal must agree with those of its
+/// continuous neighbours on the same surface: a pixel on a crease, or at the corner of three
+/// planes, has a normal blended between them that belongs to none.
+fn trusted_plane(cx: &FillContext, p: usize) -> bool {
+    let n = cx.normals[p];
+    if n == Vec3::ZERO {
+        return true; // no plane: the seed's depth is kept, which needs no normal
+    }
+    (0..8).all(|j| {
+        cx.nb.get(p, j).map_or(true, |q| {
+            !cx.links.continuous(p, j)
+                || cx.surface[q] != cx.surface[p]
+                || cx.normals[q] == Vec3::ZERO
+                || cx.normals[q].dot(n) >= SAME_PLANE_COS
+        })
+    })
 }
 
 /// Depth at pixel `q` of the surface of source pixel `s` continued behind the occluder: the ray
@@ -107,26 +228,25 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
 /// centre), or the hit is implausible, the source's depth is kept.
 fn continue_surface(cx: &FillContext, s: usize, q: usize) -> f32 {
     let ds = cx.depth[s];
-    let occluder = cx.depth[q];
     if ds.is_infinite() {
         return f32::INFINITY;
     }
-    let behind = |d: f32| d.max(occluder * 1.0001);
-    let nrm = cx.normals[s];
-    if nrm == Vec3::ZERO {
-        return behind(ds);
+    plane_hit(cx, s, q).unwrap_or_else(|| ds.max(cx.depth[q] * 1.0001))
+}
+
+/// Where the ray through `q` meets the tangent plane at `s`, if it does so plausibly: behind
+/// the occluder at `q`, and not much farther than `s` (a plane seen nearly edge-on).
+fn plane_hit(cx: &FillContext, s: usize, q: usize) -> Option<f32> {
+    let (ds, nrm) = (cx.depth[s], cx.normals[s]);
+    if !ds.is_finite() || nrm == Vec3::ZERO {
+        return None;
     }
-    let ps = cx.dirs[s] * ds;
     let denom = nrm.dot(cx.dirs[q]);
     if denom > -1e-3 {
-        return behind(ds);
+        return None;
     }
-    let t = nrm.dot(ps) / denom;
-    if t.is_finite() && t > occluder && t < 8.0 * ds {
-        t
-    } else {
-        behind(ds)
-    }
+    let t = nrm.dot(cx.dirs[s] * ds) / denom;
+    (t.is_finite() && t > cx.depth[q] && t < 8.0 * ds).then_some(t)
 }
 
 /// The neighbour of a border pixel `s` that is deepest inside its layer (most neighbours in the

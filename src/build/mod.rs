@@ -353,6 +353,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         freedom_radius: o.freedom_radius,
         margin: o.margin_px * alpha,
         links: &links,
+        surface: &seg.id,
     };
     let fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(&cx, k)).collect();
     lap("fill", &mut stages);

@@ -31,7 +31,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
             out.json(&serde_json::Value::Array(rows));
         } else {
             for (c, s, d) in codes {
-                println!("{c:32} {:8} {d}", s.as_str());
+                crate::output::line(format!("{c:32} {:8} {d}", s.as_str()));
             }
         }
         return Ok(0);
@@ -43,17 +43,23 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         out.json(&serde_json::to_value(&report).expect("report serialises"));
     } else if !out.quiet {
         for i in &report.issues {
-            println!("{}[{}]: {}\n  --> {}", i.severity.as_str(), i.code, i.message, i.location);
+            crate::output::line(format!(
+                "{}[{}]: {}\n  --> {}",
+                i.severity.as_str(),
+                i.code,
+                i.message,
+                i.location
+            ));
         }
         let infos = report.issues.iter().filter(|i| i.severity == Severity::Info).count();
-        println!(
+        crate::output::line(format!(
             "{}: {} ({} error(s), {} warning(s), {} note(s))",
             path.display(),
             if report.valid { "valid" } else { "INVALID" },
             report.errors,
             report.warnings,
             infos
-        );
+        ));
     }
     Ok(if report.valid { 0 } else { 1 })
 }

@@ -1,7 +1,22 @@
 //! Shared output plumbing for the subcommands: progress bars (hidden with `--quiet`, `--json` or when
 //! stderr is not a terminal) and JSON printing.
 
+use std::io::Write;
+
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+/// Write a line to stdout. A closed pipe (`pomc validate --list-codes | head`) ends the process
+/// quietly with success, as for other Unix tools, instead of panicking like `println!`.
+pub fn line(text: impl AsRef<str>) {
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = writeln!(out, "{}", text.as_ref()).and_then(|_| out.flush()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("error[IO_ERROR]: cannot write to standard output: {e}");
+        std::process::exit(2);
+    }
+}
 
 /// Global output options shared by every subcommand.
 #[derive(Clone, Copy, Debug)]
@@ -45,14 +60,14 @@ impl Output {
     /// Print a human line to stdout unless quiet or JSON.
     pub fn say(&self, line: impl AsRef<str>) {
         if !self.quiet && !self.json {
-            println!("{}", line.as_ref());
+            self::line(line);
         }
     }
 
     /// Print a JSON value (pretty) to stdout when `--json` is set.
     pub fn json(&self, value: &serde_json::Value) {
         if self.json {
-            println!("{}", serde_json::to_string_pretty(value).expect("JSON values always serialise"));
+            line(serde_json::to_string_pretty(value).expect("JSON values always serialise"));
         }
     }
 }

@@ -167,3 +167,23 @@ fn build_from_the_bundled_rgbd_fixture_is_valid() {
     assert_eq!(bad.status.code(), Some(2));
     assert_eq!(json(&bad)["error"]["code"], "INPUT_SIZE_MISMATCH");
 }
+
+/// A reader that stops early (`pomc validate --list-codes | head -1`) ends `pomc` quietly: no
+/// panic message, success.
+#[cfg(unix)]
+#[test]
+fn closed_stdout_is_not_a_panic() {
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_pomc"))
+        .args(["validate", "--list-codes"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("pomc runs");
+    // Close the read end before pomc writes: every write hits a broken pipe.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+}
