@@ -197,6 +197,9 @@ pub fn stored_mesh_file(pano: &Panorama, index: usize) -> Option<String> {
     })
 }
 
+/// Geometry of each layer, where its mesh came from, and the warnings about stored meshes ignored.
+pub type PanoramaMeshes = (Vec<LayerGeometry>, Vec<MeshSource>, Vec<String>);
+
 /// Meshes of a panorama's layers: the stored quadtree where the layer has a usable one, else built
 /// with `params`. A stored mesh that cannot be read or decoded is ignored (spec §8.1) and reported
 /// in the returned warnings.
@@ -205,11 +208,12 @@ pub fn panorama_meshes(
     layers: &[RenderLayer],
     params: &MeshParams,
     o: &MeshOptions,
-) -> Result<(Vec<LayerGeometry>, Vec<MeshSource>, Vec<String>), RenderError> {
+) -> Result<PanoramaMeshes, RenderError> {
     check_options(o)?;
     check_layers(layers)?;
     params.check().map_err(|e| mesh_error(0, e))?;
-    let results: Vec<Result<(LayerGeometry, MeshSource, Option<String>), RenderError>> = layers
+    type One = Result<(LayerGeometry, MeshSource, Option<String>), RenderError>;
+    let results: Vec<One> = layers
         .par_iter()
         .enumerate()
         .map(|(index, l)| {
@@ -291,7 +295,7 @@ fn crosses_jump((da, ua): (f64, DVec3), (db, ub): (f64, DVec3), jump: f64, pixel
     if hi <= (1.0 + jump) * lo {
         return false;
     }
-    if !(lo > 0.0) {
+    if lo.is_nan() || lo <= 0.0 {
         return true;
     }
     let angle = ua.dot(ub).clamp(-1.0, 1.0).acos();
@@ -868,7 +872,8 @@ fn raster_band(
                     Cam::Persp { f, .. } => t * f,
                     Cam::Equi { .. } => t,
                 };
-                if !(z > 0.0) || z.is_infinite() || (matches!(cam, Cam::Persp { .. }) && z < near) {
+                let usable = z > 0.0 && z.is_finite();
+                if !usable || (matches!(cam, Cam::Persp { .. }) && z < near) {
                     continue;
                 }
                 frags += 1;
@@ -956,8 +961,8 @@ pub fn render_mesh(
     let bands = h.div_ceil(BAND);
     let mut bins: Vec<Vec<u32>> = vec![Vec::new(); bands];
     for (i, p) in preps.iter().enumerate() {
-        for b in p.y0 as usize / BAND..=p.y1 as usize / BAND {
-            bins[b].push(i as u32);
+        for bin in &mut bins[p.y0 as usize / BAND..=p.y1 as usize / BAND] {
+            bin.push(i as u32);
         }
     }
     let mut zbuf = vec![NO_FRAG; w * h];
@@ -986,7 +991,8 @@ pub fn render_mesh(
         depth: vec![OUTSIDE_DEPTH; n],
         covered: vec![false; n],
     };
-    let rows: Vec<(Vec<[f32; 3]>, Vec<f32>, Vec<bool>, u64)> = (0..h)
+    type Row = (Vec<[f32; 3]>, Vec<f32>, Vec<bool>, u64);
+    let rows: Vec<Row> = (0..h)
         .into_par_iter()
         .map(|y| {
             let mut rgb = vec![[0.0f32; 3]; w];
@@ -1030,9 +1036,9 @@ pub fn render_mesh(
         })
         .collect();
     for (y, (rgb, depth, covered, inf)) in rows.into_iter().enumerate() {
-        for x in 0..w {
-            for k in 0..3 {
-                frame.rgb[k][y * w + x] = rgb[x][k];
+        for (x, c) in rgb.iter().enumerate() {
+            for (plane, v) in frame.rgb.iter_mut().zip(c) {
+                plane[y * w + x] = *v;
             }
         }
         frame.depth[y * w..(y + 1) * w].copy_from_slice(&depth);
