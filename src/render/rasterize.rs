@@ -246,9 +246,10 @@ fn decode_stored(pano: &Panorama, file: &str, l: &RenderLayer) -> Result<LayerMe
     mesh::encode::decode(&bytes, l.image, &l.mapping).map_err(|e| e.to_string())
 }
 
-/// Half-size of the footprint quads of border pixels, layer pixels: a little over ½ so that the
-/// quads of neighbouring border pixels (whose extrapolated corners need not coincide) overlap.
-const FOOTPRINT: f64 = 0.55;
+/// Half-size of the footprint quads of border pixels, layer pixels: the splat's filter radius, over
+/// ½ so that the quads of neighbouring border pixels (whose extrapolated corners need not
+/// coincide) overlap, and silhouettes grow by ¼ pixel as with the splat's filter.
+const FOOTPRINT: f64 = 0.75;
 
 /// What the rasteriser draws of one layer, in the panorama's local frame: the layer's mesh minus
 /// the triangles that cross a depth discontinuity, plus a **footprint quad** for every border
