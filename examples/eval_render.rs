@@ -59,27 +59,9 @@ fn draw(images: &[LayerImage], m: AnyMapping, cam: &Camera) -> Res<Frame> {
     Ok(render::render(&layers, DMat4::IDENTITY, cam, &SplatOptions::default())?.frame)
 }
 
-/// Exact view: the first surface along each pixel-centre ray.
+/// Exact view: the first surface along each pixel-centre ray (`pomc_fixtures::eval::truth`).
 fn truth(scene: &Scene, cam: &Camera) -> Frame {
-    let (w, h) = (cam.width(), cam.height());
-    let mut f = Frame {
-        width: w,
-        height: h,
-        rgb: [vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h]],
-        depth: vec![-1.0; w * h],
-        covered: vec![false; w * h],
-    };
-    for i in 0..w * h {
-        let ray = cam.ray((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
-        if let Some(hit) = scene.hits(cam.eye(), ray).first() {
-            for k in 0..3 {
-                f.rgb[k][i] = hit.colour[k];
-            }
-            f.depth[i] = hit.t as f32;
-            f.covered[i] = true;
-        }
-    }
-    f
+    pomc_fixtures::eval::truth(scene, cam, 1)
 }
 
 /// Eye positions: the centre and 8 azimuths on horizontal rings of radius 0.25 and 0.5 m, plus

@@ -4,6 +4,7 @@
 //! relative to the directory and must stay inside it ([`Panorama::resolve`]). Reading a layer
 //! gives its full canvas whatever the storage (native EXR, thesis PNG+EXR, patch-packed atlas).
 
+use rayon::prelude::*;
 use std::path::{Component, Path, PathBuf};
 
 use crate::error::Error;
@@ -217,33 +218,53 @@ pub fn write_panorama(
 ) -> Result<Manifest, Error> {
     std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
     let mut out = manifest.clone();
-    for (k, (decl, image)) in out.layers.iter_mut().zip(layers).enumerate() {
-        let file = match &decl.source {
-            LayerSource::Native { file } => file.clone(),
-            LayerSource::Thesis { .. } => format!("layer{k}.exr"),
-        };
-        let path = resolve_inside(dir, &file).ok_or_else(|| PanoramaError::PathEscapes {
-            manifest: dir.join(MANIFEST_NAME),
-            file: file.clone(),
-            dir: dir.to_path_buf(),
-        })?;
+    // Layers are packed and encoded in parallel (each EXR encode is parallel too, but packing and
+    // the small layers are not).
+    let written: Vec<Result<(String, Option<Packing>), Error>> = out
+        .layers
+        .par_iter()
+        .zip(layers)
+        .enumerate()
+        .map(|(k, (decl, image))| {
+            let file = match &decl.source {
+                LayerSource::Native { file } => file.clone(),
+                LayerSource::Thesis { .. } => format!("layer{k}.exr"),
+            };
+            let path = resolve_inside(dir, &file).ok_or_else(|| PanoramaError::PathEscapes {
+                manifest: dir.join(MANIFEST_NAME),
+                file: file.clone(),
+                dir: dir.to_path_buf(),
+            })?;
+            let canvas = image.width as f64 * image.height as f64;
+            // An atlas never holds fewer pixels than the domain: a layer fuller than the
+            // threshold is not worth cutting up.
+            let worth_packing = options.pack
+                && (image.domain().iter().filter(|&&m| m).count() as f64) <= options.pack_threshold * canvas;
+            let packed =
+                if worth_packing { Some(pack::pack_layer(image, &options.pack_options)?) } else { None };
+            match packed {
+                Some(p) if (p.atlas_area() as f64) <= options.pack_threshold * canvas => {
+                    layer_io::write_exr(&path, &p.atlas, &options.exr)?;
+                    let packing = Packing {
+                        atlas_width: p.atlas.width as u32,
+                        atlas_height: p.atlas.height as u32,
+                        patches: p.patches,
+                    };
+                    Ok((file, Some(packing)))
+                }
+                _ => {
+                    layer_io::write_exr(&path, image, &options.exr)?;
+                    Ok((file, None))
+                }
+            }
+        })
+        .collect();
+    for ((decl, image), result) in out.layers.iter_mut().zip(layers).zip(written) {
+        let (file, packing) = result?;
         decl.source = LayerSource::Native { file };
         decl.width = Some(image.width as u32);
         decl.height = Some(image.height as u32);
-        decl.packing = None;
-        let packed = if options.pack { Some(pack::pack_layer(image, &options.pack_options)?) } else { None };
-        let canvas = image.width as f64 * image.height as f64;
-        match packed {
-            Some(p) if (p.atlas_area() as f64) <= options.pack_threshold * canvas => {
-                layer_io::write_exr(&path, &p.atlas, &options.exr)?;
-                decl.packing = Some(Packing {
-                    atlas_width: p.atlas.width as u32,
-                    atlas_height: p.atlas.height as u32,
-                    patches: p.patches,
-                });
-            }
-            _ => layer_io::write_exr(&path, image, &options.exr)?,
-        }
+        decl.packing = packing;
     }
     crate::fsutil::write_bytes_atomic(&dir.join(MANIFEST_NAME), out.to_xml().as_bytes())?;
     Ok(out)

@@ -81,74 +81,93 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
             seeds.push(p);
         }
     }
-    // (1) The band: nearest seed within the parallax a camera in the freedom radius can open.
-    let mut src = vec![NONE; n];
-    let mut angle_of = vec![0f64; n];
-    let mut order = Vec::new();
-    let mut queue: VecDeque<usize> = seeds.iter().copied().collect();
-    for &p in &seeds {
-        src[p] = p as u32;
-    }
-    while let Some(p) = queue.pop_front() {
-        let s = src[p] as usize;
-        for j in 0..8 {
-            let Some(q) = cx.nb.get(p, j) else { continue };
-            if src[q] != NONE || !hidden(q) {
-                continue;
+    // The band search and the rival search are independent.
+    let ((src, angle_of, order), (slot_of, rivals)) = rayon::join(
+        || {
+            // (1) The band: nearest seed within the parallax a camera in the freedom radius can open.
+            let mut src = vec![NONE; n];
+            let mut angle_of = vec![0f64; n];
+            let mut order = Vec::new();
+            let mut queue: VecDeque<usize> = seeds.iter().copied().collect();
+            for &p in &seeds {
+                src[p] = p as u32;
             }
-            let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
-            if angle > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64) + cx.margin {
-                continue;
+            while let Some(p) = queue.pop_front() {
+                let s = src[p] as usize;
+                for j in 0..8 {
+                    let Some(q) = cx.nb.get(p, j) else { continue };
+                    if src[q] != NONE || !hidden(q) {
+                        continue;
+                    }
+                    let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
+                    if angle
+                        > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64) + cx.margin
+                    {
+                        continue;
+                    }
+                    src[q] = s as u32;
+                    angle_of[q] = angle;
+                    order.push(q);
+                    queue.push_back(q);
+                }
             }
-            src[q] = s as u32;
-            angle_of[q] = angle;
-            order.push(q);
-            queue.push_back(q);
-        }
-    }
-    // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder.
-    let mut rivals = vec![[NONE; RIVALS]; n];
-    let mut queue: VecDeque<(usize, usize)> = VecDeque::new();
-    for &p in &seeds {
-        rivals[p][0] = p as u32;
-        queue.push_back((p, 0));
-    }
-    while let Some((p, slot)) = queue.pop_front() {
-        let s = rivals[p][slot];
-        for j in 0..8 {
-            let Some(q) = cx.nb.get(p, j) else { continue };
-            if !hidden(q) {
-                continue;
+            (src, angle_of, order)
+        },
+        || {
+            // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder. Slots are
+            // kept for hidden pixels only (compact index), the seeds being their own first rival.
+            let mut slot_of = vec![NONE; n];
+            let mut rivals: Vec<[u32; RIVALS]> = Vec::new();
+            let mut queue: VecDeque<(u32, u8)> = VecDeque::new();
+            for &p in &seeds {
+                slot_of[p] = rivals.len() as u32;
+                let mut r = [NONE; RIVALS];
+                r[0] = p as u32;
+                rivals.push(r);
+                queue.push_back((p as u32, 0));
             }
-            let r = &mut rivals[q];
-            if r.iter().any(|&t| t != NONE && same_surface(cx, t as usize, s as usize)) {
-                continue;
+            while let Some((p, slot)) = queue.pop_front() {
+                let s = rivals[slot_of[p as usize] as usize][slot as usize];
+                for j in 0..8 {
+                    let Some(q) = cx.nb.get(p as usize, j) else { continue };
+                    if !hidden(q) {
+                        continue;
+                    }
+                    if slot_of[q] == NONE {
+                        slot_of[q] = rivals.len() as u32;
+                        rivals.push([NONE; RIVALS]);
+                    }
+                    let r = &mut rivals[slot_of[q] as usize];
+                    if r.iter().any(|&t| t != NONE && same_surface(cx, t as usize, s as usize)) {
+                        continue;
+                    }
+                    let Some(free) = r.iter().position(|&t| t == NONE) else { continue };
+                    r[free] = s;
+                    queue.push_back((q as u32, free as u8));
+                }
             }
-            let Some(free) = r.iter().position(|&t| t == NONE) else { continue };
-            r[free] = s;
-            queue.push_back((q, free));
-        }
-    }
+            (slot_of, rivals)
+        },
+    );
     // Centroid of each surface of this layer (finite depths only).
-    let mut sums: HashMap<u32, (Vec3, u32)> = HashMap::new();
+    let surfaces =
+        (0..n).filter(|&p| cx.layer_of[p] == k).map(|p| cx.surface[p]).filter(|&s| s != NONE).max();
+    let mut sums = vec![(Vec3::ZERO, 0u32); surfaces.map_or(0, |m| m as usize + 1)];
     for p in 0..n {
         let d = cx.depth[p];
         if cx.layer_of[p] == k && d.is_finite() && d > 0.0 && cx.surface[p] != NONE {
-            let e = sums.entry(cx.surface[p]).or_insert((Vec3::ZERO, 0));
+            let e = &mut sums[cx.surface[p] as usize];
             e.0 += cx.dirs[p] * d;
             e.1 += 1;
         }
     }
-    let slots = sums.keys().max().map_or(0, |&m| m as usize + 1);
-    let mut centroid = vec![Vec3::NAN; slots];
-    for (s, (sum, c)) in sums {
-        centroid[s as usize] = sum / c as f32;
-    }
+    let centroid: Vec<Vec3> =
+        sums.iter().map(|&(sum, c)| if c > 0 { sum / c as f32 } else { Vec3::NAN }).collect();
     let mut fill = Fill::default();
     let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
     for q in order {
         let own = src[q] as usize;
-        let (s, d) = pick_surface(cx, &centroid, own, &rivals[q], q);
+        let (s, d) = pick_surface(cx, &centroid, own, &rivals[slot_of[q] as usize], q);
         let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
         fill.pixels.push((q, d, c));
         fill.max_angle = fill.max_angle.max(angle_of[q]);

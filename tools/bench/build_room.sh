@@ -11,8 +11,8 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
 cargo build --release -q -p pomc-cli -p pomc-fixtures
-pomc=target/release/pomc
-target/release/pomc-fixtures rgbd "$work/in" "$width" >/dev/null
+pomc=${CARGO_TARGET_DIR:-target}/release/pomc
+${CARGO_TARGET_DIR:-target}/release/pomc-fixtures rgbd "$work/in" "$width" >/dev/null
 
 results=()
 for i in $(seq "$runs"); do
@@ -23,7 +23,7 @@ for i in $(seq "$runs"); do
   results+=("{\"run\": $i, \"wall_s\": $wall, \"peak_rss_mb\": $((rss_kb / 1024)), \"report\": $(cat "$work/report.json")}")
 done
 "$pomc" validate "$work/out" --json > "$work/validate.json"
-eval=$(target/release/pomc-fixtures eval-build "$width")
+eval=$(${CARGO_TARGET_DIR:-target}/release/pomc-fixtures eval-build "$width")
 {
   echo "{\"machine\": \"$(nproc) cores, $(uname -m)\", \"commit\": \"$(git rev-parse --short HEAD)\", \"width\": $width,"
   echo "\"runs\": [$(IFS=,; echo "${results[*]}")],"

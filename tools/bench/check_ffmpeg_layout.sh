@@ -11,7 +11,7 @@ h=$((w / 2)); n=$((w / 4))
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cargo build --release -q -p pomc-cli
-pomc=target/release/pomc
+pomc=${CARGO_TARGET_DIR:-target}/release/pomc
 
 ffmpeg -v error -f lavfi -i "testsrc2=s=${w}x${h}" -frames:v 1 -y "$work/e.png"
 for interp in near linear; do

@@ -9,7 +9,7 @@ w=${1:-512}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cargo build --release -q -p pomc-cli
-python3 - "$work" "$w" "$PWD/target/release/pomc" <<'PY'
+python3 - "$work" "$w" "$(realpath "${CARGO_TARGET_DIR:-target}")/release/pomc" <<'PY'
 import subprocess, sys
 import numpy as np, py360convert
 work, w, pomc = sys.argv[1], int(sys.argv[2]), sys.argv[3]

@@ -9,7 +9,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
 cargo build --release -q -p pomc-cli
-pomc=target/release/pomc
+pomc=${CARGO_TARGET_DIR:-target}/release/pomc
 # A detailed 8192×4096 input (ffmpeg's testsrc2 pattern), the same file for both tools.
 ffmpeg -v error -f lavfi -i testsrc2=s=8192x4096 -frames:v 1 -y "$work/in.png"
 

@@ -89,6 +89,9 @@ pub struct Args {
     /// Normal angle (degrees) that closes regions where depth is continuous but the surface folds.
     #[arg(long, default_value_t = 35.0)]
     fold_deg: f64,
+    /// Extra fill band (pixels) beyond the parallax band of the freedom radius.
+    #[arg(long, default_value_t = 2.0)]
+    fill_margin: f64,
     /// Do not split at folds (depth discontinuities only).
     #[arg(long)]
     no_fold: bool,
@@ -135,6 +138,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         normals_out: args.normals,
         infinity: !args.no_infinity,
         classify: if args.classify == ClassifyArg::Geometry { Classify::Geometry } else { Classify::Depth },
+        margin_px: args.fill_margin,
         ..BuildOptions::default()
     };
     options.segment.edges.jump = args.jump;
