@@ -17,6 +17,8 @@ use glam::{DMat4, DVec3, Vec3};
 use pomc::build::{self, BuildOptions, RgbdInput};
 use pomc::layer::LayerImage;
 use pomc::mapping::{AnyMapping, MappingKind};
+use pomc::mesh::{self, MeshParams};
+use pomc::render::rasterize::{self, LayerGeometry, MeshOptions};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
 use pomc_fixtures::layers::{render_on, to_layer};
 use pomc_fixtures::{Rendered, Scene};
@@ -195,9 +197,10 @@ fn bench(width: usize) -> Res<()> {
             100.0 * st.hole_ratio
         );
     }
-    let cam = Camera::Equirect(EquirectCamera::new(DVec3::new(0.3, 0.0, 0.2), 2048, 1024)?);
     let layers: Vec<RenderLayer> =
         s.layered.iter().map(|image| RenderLayer { image, mapping: s.mapping }).collect();
+    bench_mesh(&layers)?;
+    let cam = Camera::Equirect(EquirectCamera::new(DVec3::new(0.3, 0.0, 0.2), 2048, 1024)?);
     let t = Instant::now();
     let r = render::render(&layers, DMat4::IDENTITY, &cam, &SplatOptions::default())?;
     println!(
@@ -205,6 +208,61 @@ fn bench(width: usize) -> Res<()> {
         t.elapsed().as_secs_f64(),
         100.0 * r.stats.hole_ratio
     );
+    Ok(())
+}
+
+/// The mesh method on the same views: mesh stages (per layer), then rasterisation medians.
+fn bench_mesh(layers: &[RenderLayer]) -> Res<()> {
+    let o = MeshOptions::default();
+    let mut geoms: Vec<LayerGeometry> = Vec::new();
+    for (k, l) in layers.iter().enumerate() {
+        let t = Instant::now();
+        let m = mesh::mesh_layer(l.image, &l.mapping, &MeshParams::default())?;
+        let mesh_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let g = LayerGeometry::new(k, m.mesh, l, o.jump)?;
+        println!(
+            "mesh layer {k}: mesh_layer {mesh_s:.3} s ({:?}), geometry {:.3} s: {} triangles, {} across jumps, {} border pixels",
+            m.times,
+            t.elapsed().as_secs_f64(),
+            g.mesh_triangles,
+            g.jump_triangles,
+            g.border_pixels
+        );
+        geoms.push(g);
+    }
+    let t = Instant::now();
+    let again = rasterize::mesh_layers(layers, &MeshParams::default(), &o)?;
+    println!("mesh stage (both layers in parallel): {:.3} s", t.elapsed().as_secs_f64());
+    drop(again);
+    for (eye, at) in [
+        (DVec3::ZERO, DVec3::new(2.0, 0.0, -0.8)),
+        (DVec3::new(0.0, 0.5, 0.0), DVec3::new(2.0, 0.0, -0.8)),
+        (DVec3::new(-0.35, -0.35, 0.0), DVec3::new(-1.4, 1.5, -0.55)),
+        (DVec3::new(0.0, 0.0, -0.5), DVec3::new(0.0, 0.0, -2.0)),
+    ] {
+        let cam = Camera::Perspective(Perspective::new(eye, at, DVec3::Z, 60.0, 960, 540)?);
+        let mut times = Vec::new();
+        let mut last = None;
+        for _ in 0..5 {
+            let t = Instant::now();
+            last = Some(rasterize::render_mesh(layers, &geoms, DMat4::IDENTITY, &cam, &o)?);
+            times.push(t.elapsed().as_secs_f64());
+        }
+        times.sort_by(f64::total_cmp);
+        let st = last.expect("five runs").stats;
+        println!(
+            "mesh: eye {eye} -> {at}: 960x540 median {:.3} s (min {:.3}, max {:.3}; raster {:.3} s, compose {:.3} s), {} triangles drawn, {} tests, holes {:.4} %",
+            times[2],
+            times[0],
+            times[4],
+            st.stages[0].seconds,
+            st.stages[1].seconds,
+            st.counts.triangles_drawn,
+            st.counts.tests,
+            100.0 * st.hole_ratio
+        );
+    }
     Ok(())
 }
 

@@ -4,11 +4,13 @@
 //! ([`splat`], thesis Alg. 10 with the Alg. 9 filter), resolves visibility per output pixel with a
 //! depth test ([`accum`]) — so the result does not depend on the layers' painter's order, which is
 //! only valid from the centre — and returns a [`Frame`] (colour, camera distance, coverage) and
-//! the figures of the run. [`metrics`] compares frames for the evaluation harness.
+//! the figures of the run. [`rasterize::render_mesh`] is the other method: z-buffered rasterisation
+//! of each layer's quadtree mesh. [`metrics`] compares frames for the evaluation harness.
 //!
 //! - [`camera`]: perspective and equirect output cameras;
 //! - [`splat`]: reprojection, adaptive sub-sampling, tiling and threads;
 //! - [`accum`]: per-pixel visibility and filter sums;
+//! - [`rasterize`]: the mesh method (meshes, footprints, rasterisation, deferred colour);
 //! - [`image`]: the frame and its files (EXR, tone-mapped PNG, mask);
 //! - [`metrics`]: PSNR, WS-PSNR, depth error.
 
@@ -16,6 +18,7 @@ pub mod accum;
 pub mod camera;
 pub mod image;
 pub mod metrics;
+pub mod rasterize;
 pub mod splat;
 
 use std::path::PathBuf;
@@ -26,6 +29,7 @@ use serde::Serialize;
 
 pub use camera::{Camera, EquirectCamera, Perspective};
 pub use image::Frame;
+pub use rasterize::{MeshOptions, MeshRenderStats, MeshRendered, RasterCounts};
 pub use splat::{SplatCounts, SplatOptions};
 
 use crate::layer::LayerImage;
@@ -49,6 +53,8 @@ pub enum RenderError {
     LayerChannel { index: usize, channel: &'static str },
     #[error("layer {index} is {width}x{height}, not a valid {kind:?} canvas")]
     LayerSize { index: usize, width: usize, height: usize, kind: MappingKind },
+    #[error("mesh of layer {index}: {message}")]
+    Mesh { index: usize, message: String },
     #[error("{path}: unsupported output file type; use {expected}")]
     OutputFormat { path: PathBuf, expected: &'static str },
 }
@@ -63,6 +69,7 @@ impl RenderError {
             RenderError::NoLayers => "RENDER_NO_LAYERS",
             RenderError::LayerChannel { .. } => "RENDER_LAYER_CHANNEL",
             RenderError::LayerSize { .. } => "RENDER_LAYER_SIZE",
+            RenderError::Mesh { .. } => "RENDER_MESH",
             RenderError::OutputFormat { .. } => "RENDER_OUTPUT_FORMAT",
         }
     }

@@ -5,8 +5,12 @@ use std::time::Instant;
 
 use glam::DVec3;
 use pomc::layer_io::ReadLimits;
+use pomc::mesh::MeshParams;
 use pomc::panorama::Panorama;
-use pomc::render::{self, image, Camera, EquirectCamera, Perspective, RenderLayer, SplatOptions};
+use pomc::render::{
+    self, image, rasterize, Camera, EquirectCamera, Frame, MeshOptions, Perspective, RenderLayer,
+    SplatOptions,
+};
 
 use crate::output::Output;
 use crate::Failure;
@@ -23,6 +27,9 @@ enum CameraArg {
 enum MethodArg {
     /// Adaptive 8-neighbourhood point splatting (thesis Alg. 10)
     Splat,
+    /// Z-buffered rasterisation of each layer's adaptive quadtree mesh (thesis 7.4); a mesh stored
+    /// with `pomc mesh --store` is decoded instead of rebuilt
+    Mesh,
 }
 
 #[derive(clap::Args, Debug)]
@@ -89,9 +96,76 @@ fn camera(args: &Args, eye: DVec3) -> Result<Camera, pomc::Error> {
     })
 }
 
+/// What a method produced, in the terms of the JSON report.
+struct Outcome {
+    frame: Frame,
+    width: usize,
+    height: usize,
+    layers: usize,
+    holes: usize,
+    hole_ratio: f64,
+    counts: serde_json::Value,
+    stages: Vec<(String, f64)>,
+    extra: serde_json::Value,
+}
+
+fn render_splat(layers: &[RenderLayer], to_world: glam::DMat4, cam: &Camera) -> Result<Outcome, Failure> {
+    let r = render::render(layers, to_world, cam, &SplatOptions::default()).map_err(pomc::Error::from)?;
+    let s = r.stats;
+    Ok(Outcome {
+        frame: r.frame,
+        width: s.width,
+        height: s.height,
+        layers: s.layers,
+        holes: s.holes,
+        hole_ratio: s.hole_ratio,
+        counts: serde_json::json!(s.counts),
+        stages: s.stages.iter().map(|st| (st.name.to_string(), st.seconds)).collect(),
+        extra: serde_json::json!({}),
+    })
+}
+
+fn render_mesh(
+    pano: &Panorama,
+    layers: &[RenderLayer],
+    to_world: glam::DMat4,
+    cam: &Camera,
+    out: &Output,
+) -> Result<Outcome, Failure> {
+    let t = Instant::now();
+    let (meshes, sources, warnings) =
+        rasterize::panorama_meshes(pano, layers, &MeshParams::default(), &MeshOptions::default())
+            .map_err(pomc::Error::from)?;
+    let mesh_s = t.elapsed().as_secs_f64();
+    if !out.quiet && !out.json {
+        for w in &warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    let triangles: usize = meshes.iter().map(|m| m.mesh_triangles).sum();
+    let border: usize = meshes.iter().map(|m| m.border_pixels).sum();
+    let r = rasterize::render_mesh(layers, &meshes, to_world, cam, &MeshOptions::default())
+        .map_err(pomc::Error::from)?;
+    let s = r.stats;
+    let mut stages = vec![("mesh".to_string(), mesh_s)];
+    stages.extend(s.stages.iter().map(|st| (st.name.to_string(), st.seconds)));
+    Ok(Outcome {
+        frame: r.frame,
+        width: s.width,
+        height: s.height,
+        layers: s.layers,
+        holes: s.holes,
+        hole_ratio: s.hole_ratio,
+        counts: serde_json::json!(s.counts),
+        stages,
+        extra: serde_json::json!({
+            "mesh": {"sources": sources, "triangles": triangles, "border_pixels": border, "warnings": warnings},
+        }),
+    })
+}
+
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let start = Instant::now();
-    let MethodArg::Splat = args.method;
     let bar = out.spinner("reading");
     let pano = Panorama::open(&args.pano)?;
     let to_world = pano.manifest.local_to_world();
@@ -103,50 +177,56 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     bar.set_message("rendering");
     let refs: Vec<RenderLayer> =
         layers.iter().map(|(image, mapping)| RenderLayer { image, mapping: *mapping }).collect();
-    let rendered =
-        render::render(&refs, to_world, &cam, &SplatOptions::default()).map_err(pomc::Error::from)?;
+    let r = match args.method {
+        MethodArg::Splat => render_splat(&refs, to_world, &cam)?,
+        MethodArg::Mesh => render_mesh(&pano, &refs, to_world, &cam, &out)?,
+    };
 
     bar.set_message("writing");
     let t = Instant::now();
-    image::save_colour(&rendered.frame, &args.output)?;
+    image::save_colour(&r.frame, &args.output)?;
     if let Some(p) = &args.depth {
-        image::save_depth(&rendered.frame, p)?;
+        image::save_depth(&r.frame, p)?;
     }
     if let Some(p) = &args.mask {
-        image::save_mask(&rendered.frame, p)?;
+        image::save_mask(&r.frame, p)?;
     }
     let write_s = t.elapsed().as_secs_f64();
     bar.finish_and_clear();
 
-    let s = &rendered.stats;
     let mut stages = serde_json::json!({"read_s": read_s, "write_s": write_s});
-    for st in &s.stages {
-        stages[format!("{}_s", st.name)] = serde_json::json!(st.seconds);
+    for (name, seconds) in &r.stages {
+        stages[format!("{name}_s")] = serde_json::json!(seconds);
     }
     stages["total_s"] = serde_json::json!(start.elapsed().as_secs_f64());
-    out.json(&serde_json::json!({
+    let method = format!("{:?}", args.method).to_lowercase();
+    let mut report = serde_json::json!({
         "output": args.output,
-        "method": "splat",
+        "method": method,
         "camera": format!("{:?}", args.camera).to_lowercase(),
         "eye": eye.to_array(),
-        "width": s.width,
-        "height": s.height,
-        "layers": s.layers,
-        "holes": s.holes,
-        "hole_ratio": s.hole_ratio,
-        "counts": s.counts,
+        "width": r.width,
+        "height": r.height,
+        "layers": r.layers,
+        "holes": r.holes,
+        "hole_ratio": r.hole_ratio,
+        "counts": r.counts,
         "stages": stages,
-    }));
+    });
+    if let (Some(obj), Some(extra)) = (report.as_object_mut(), r.extra.as_object()) {
+        obj.extend(extra.clone());
+    }
+    out.json(&report);
     out.say(format!(
-        "rendered {}x{} from {} layer(s) at eye ({:.3}, {:.3}, {:.3}) in {:.2} s, {:.3} % holes -> {}",
-        s.width,
-        s.height,
-        s.layers,
+        "rendered {}x{} ({method}) from {} layer(s) at eye ({:.3}, {:.3}, {:.3}) in {:.2} s, {:.3} % holes -> {}",
+        r.width,
+        r.height,
+        r.layers,
         eye.x,
         eye.y,
         eye.z,
         start.elapsed().as_secs_f64(),
-        100.0 * s.hole_ratio,
+        100.0 * r.hole_ratio,
         args.output.display()
     ));
     Ok(0)

@@ -99,3 +99,74 @@ fn render_failures_are_typed() {
     );
     assert_eq!(code(&["render", "/nonexistent", "-o", o, "--json"]), "PANORAMA_NOT_FOUND");
 }
+
+#[test]
+fn render_mesh_method_reports_stages_and_uses_stored_meshes() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path());
+    let d = dir.path().to_str().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let view = p("mesh.png");
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            d,
+            "-o",
+            &view,
+            "--method",
+            "mesh",
+            "--eye",
+            "0,0.3,1.2",
+            "--look-at",
+            "2,0,0.4",
+            "--size",
+            "160x90",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let out = pomc(&args);
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let mask = p("mask.png");
+    let v = render(&["--mask", &mask]);
+    assert_eq!(v["method"], "mesh");
+    assert_eq!((v["width"].as_u64(), v["height"].as_u64()), (Some(160), Some(90)));
+    assert!(v["hole_ratio"].as_f64().unwrap() < 0.01, "{v}");
+    for stage in ["read_s", "mesh_s", "raster_s", "compose_s", "write_s", "total_s"] {
+        assert!(v["stages"][stage].as_f64().is_some(), "{stage} missing: {v}");
+    }
+    assert_eq!(v["mesh"]["sources"], serde_json::json!(["built", "built"]));
+    assert!(v["mesh"]["triangles"].as_u64().unwrap() > 0);
+    let holes = v["holes"].as_u64().unwrap();
+    let m = image::open(dir.path().join("mask.png")).unwrap().to_luma8();
+    assert_eq!(m.pixels().filter(|p| p.0[0] == 0).count() as u64, holes);
+
+    // Stored quadtrees are decoded instead of rebuilt, and give the same image.
+    let built = std::fs::read(&view).unwrap();
+    for layer in ["0", "1"] {
+        let out = pomc(&["mesh", d, "--layer", layer, "--store", "--no-metric", "--quiet"]);
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    let v = render(&[]);
+    assert_eq!(v["mesh"]["sources"], serde_json::json!(["stored", "stored"]));
+    assert_eq!(std::fs::read(&view).unwrap(), built);
+
+    // A broken stored mesh is ignored with a warning (spec §8.1), never fatal.
+    let stored: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "pomcmesh"))
+        .collect();
+    assert_eq!(stored.len(), 2);
+    std::fs::write(&stored[0], b"POMCMESH\x01garbage").unwrap();
+    let v = render(&[]);
+    let sources = v["mesh"]["sources"].as_array().unwrap();
+    assert!(sources.contains(&serde_json::json!("built")) && sources.contains(&serde_json::json!("stored")));
+    assert_eq!(v["mesh"]["warnings"].as_array().unwrap().len(), 1, "{v}");
+    assert_eq!(std::fs::read(&view).unwrap(), built);
+
+    // An unknown method is a usage error.
+    let out = pomc(&["render", d, "-o", &view, "--method", "raytrace"]);
+    assert_eq!(out.status.code(), Some(2));
+}
