@@ -251,7 +251,7 @@ fn simplified_cube_background_is_closed_unflipped_and_within_bound() {
     assert_eq!(unhit, 0);
     // The samples are f32: the analytic truth may differ from them by ~1e-7.
     assert!(max <= e + 1e-6 && p99 <= e, "p99 {p99:e} max {max:e}");
-    // Measured on this canvas: 9,100 → 146 triangles (62×); asserted with margin.
+    // Measured on this canvas: 10,886 → 174 triangles (62×); asserted with a 3× margin.
     let (nq, ns) = (raw.mesh.triangles.len(), out.mesh.triangles.len());
     eprintln!("cube 6x96^2: {nq} -> {ns} triangles; {s:?}; room p99 {p99:e} max {max:e}");
     assert!(ns * 20 <= nq, "{nq} quadtree triangles simplified to only {ns}");
@@ -273,8 +273,9 @@ fn simplified_equirect_background_is_closed_across_seam_and_poles() {
     eprintln!("equirect 128x64: {} -> {} triangles; {s:?}", out.quadtree_triangles, out.mesh.triangles.len());
     assert_eq!(unhit, 0);
     assert!(p99 <= e, "{p99:e}");
+    // Measured: 2,734 → 158 triangles (17×).
     assert!(
-        out.mesh.triangles.len() * 4 <= out.quadtree_triangles,
+        out.mesh.triangles.len() * 8 <= out.quadtree_triangles,
         "{} of {}",
         out.mesh.triangles.len(),
         out.quadtree_triangles
