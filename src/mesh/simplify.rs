@@ -10,7 +10,8 @@
 //!   offsets divided by the distance, weights the solid angle), plus a tiny term preferring short edges;
 //!   a min-heap with ties broken by `(v, u)`: the output depends only on the input mesh.
 //! - **Acceptance**: a collapse is applied only when every triangle it creates
-//!   1. keeps its orientation as seen from the centre (`det[p0, p1, p2] < 0`: no flip, no fold),
+//!   1. keeps its orientation as seen from the centre and is not edge-on (`det[d0, d1, d2] < −1e-12` on
+//!      unit rays: no flip, no fold, no ill-conditioned hit),
 //!   2. joins no two vertices across a depth jump, and respects the `max_angle` extent cap,
 //!   3. leaves every valid pixel whose ray it hits within relative distance `max_error` of its sample
 //!      along that ray — the error of [`super::error::measure`], checked exactly: on a cube face a
@@ -19,6 +20,13 @@
 //!      (equirect, stitching strips) is ray-cast over its canvas candidates;
 //!
 //!   and the edge passes the link condition (the mesh stays a 2-manifold, watertight where it was).
+//! - **Bounds instead of scans**: every triangle carries an upper bound of its error (exact after a
+//!   scan). A collapse whose star lies within relative δ of one plane only multiplies the star's bound
+//!   by `(1+δ)/(1−δ)` (along any ray a triangle covers, its inverse hit distance is a positive
+//!   combination of its vertices'); otherwise each pair (new triangle, old triangle) of one cube face
+//!   is bounded by the ratio of their hit distances at the corners of their intersection polygon (a
+//!   linear-fractional function of the lattice position), and only pairs whose planes differ by more
+//!   than `PAIR_SKIP · E` there are scanned, over their intersection only.
 //! - **Constraints**: poles, lattice corners and vertices whose star is not a single fan never move; a
 //!   vertex on a lattice side (cube face edge, equirect seam column or pole row) only collapses onto a
 //!   vertex of the same side, so stitching strips stay pixel-free strips; a vertex on the mesh boundary
