@@ -789,8 +789,13 @@ impl<'a, 'b> Run<'a, 'b> {
             if !self.movable[c.v as usize] || self.stamp[c.v as usize] != c.stamp {
                 continue;
             }
-            // The cheapest acceptable target; none: `v` waits until its star changes.
-            for (_, u) in self.targets(c.v) {
+            // The cheapest acceptable target (the queued one first: `v`'s star is unchanged since it
+            // was queued, so it is still the cheapest); none: `v` waits until its star changes.
+            if let Some(errs) = self.check(c.v, c.u) {
+                self.collapse(c.v, c.u, &errs);
+                continue;
+            }
+            for (_, u) in self.targets(c.v).into_iter().filter(|&(_, u)| u != c.u) {
                 if let Some(errs) = self.check(c.v, u) {
                     self.collapse(c.v, u, &errs);
                     break;
