@@ -2,24 +2,13 @@
 //! disocclusions a single RGB-D layer leaves, inside the freedom radius; cameras at poles, across
 //! the seam, at the radius and near or far content never give NaN.
 
-use glam::{DMat4, DVec3, Vec3};
-use pomc::build::{self, BuildOptions, RgbdInput};
+use glam::{DMat4, DVec3};
+use pomc::build::{self, BuildOptions};
 use pomc::layer::LayerImage;
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
-use pomc_fixtures::layers::{render_on, to_layer};
-use pomc_fixtures::{Aabb, Rendered, Scene, Shape};
-
-fn rgbd(r: &Rendered, m: AnyMapping) -> RgbdInput {
-    let p = &r.first_hit;
-    let n = p.width * p.height;
-    RgbdInput {
-        mapping: m,
-        rgb: p.rgb.clone(),
-        depth: (0..n).map(|i| if p.mask[i] { p.depth[i] } else { f32::INFINITY }).collect(),
-        normals: Some((0..n).map(|i| Vec3::new(p.normal[0][i], p.normal[1][i], p.normal[2][i])).collect()),
-    }
-}
+use pomc_fixtures::layers::{render_on, rgbd_input, to_layer};
+use pomc_fixtures::{Aabb, Scene, Shape};
 
 /// The two systems compared: the layered POMC and the plain RGB-D panorama alone.
 struct Systems {
@@ -31,7 +20,7 @@ struct Systems {
 fn systems(scene: &Scene, kind: MappingKind, w: usize, h: usize) -> Systems {
     let mapping = AnyMapping::new(kind, w, h).unwrap();
     let r = render_on(scene, &mapping);
-    let built = build::build(&rgbd(&r, mapping), &BuildOptions::default(), &|_| {}).unwrap();
+    let built = build::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
     Systems {
         mapping,
         layered: built.layers.into_iter().map(|l| l.image).collect(),
