@@ -13,28 +13,17 @@
 
 use std::time::Instant;
 
-use glam::{DMat4, DVec3, Vec3};
-use pomc::build::{self, BuildOptions, RgbdInput};
+use glam::{DMat4, DVec3};
+use pomc::build::{self, BuildOptions};
 use pomc::layer::LayerImage;
 use pomc::mapping::{AnyMapping, MappingKind};
 use pomc::mesh::{self, MeshParams};
 use pomc::render::rasterize::{self, LayerGeometry, MeshOptions};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
-use pomc_fixtures::layers::{render_on, to_layer};
-use pomc_fixtures::{Rendered, Scene};
+use pomc_fixtures::layers::{render_on, rgbd_input, to_layer};
+use pomc_fixtures::Scene;
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
-
-fn rgbd(r: &Rendered, m: AnyMapping) -> RgbdInput {
-    let p = &r.first_hit;
-    let n = p.width * p.height;
-    RgbdInput {
-        mapping: m,
-        rgb: p.rgb.clone(),
-        depth: (0..n).map(|i| if p.mask[i] { p.depth[i] } else { f32::INFINITY }).collect(),
-        normals: Some((0..n).map(|i| Vec3::new(p.normal[0][i], p.normal[1][i], p.normal[2][i])).collect()),
-    }
-}
 
 /// The two systems compared.
 struct Systems {
@@ -46,7 +35,7 @@ struct Systems {
 fn systems(scene: &Scene, width: usize) -> Res<Systems> {
     let mapping = AnyMapping::new(MappingKind::Equirect, width, width / 2)?;
     let r = render_on(scene, &mapping);
-    let built = build::build(&rgbd(&r, mapping), &BuildOptions::default(), &|_| {})?;
+    let built = build::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {})?;
     Ok(Systems {
         mapping,
         layered: built.layers.into_iter().map(|l| l.image).collect(),

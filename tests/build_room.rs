@@ -1,26 +1,14 @@
 //! `pomc::build` against the exact multi-hit truth of the analytic room: layer assignment, the
 //! depth filled behind occluders, colour that never bleeds, valid output, and stiff scenes.
 
-use glam::{DVec3, Vec3};
-use pomc::build::{self, BuildOptions, Built, RgbdInput};
+use glam::DVec3;
+use pomc::build::{self, BuildOptions, Built};
 use pomc::layer::Sample;
 use pomc::manifest::Role;
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::panorama::{self, SaveOptions};
 use pomc::validate::{self, ValidateOptions};
-use pomc_fixtures::{layers::render_on, Aabb, Rendered, Scene, Shape};
-
-fn input(r: &Rendered, m: AnyMapping, normals: bool) -> RgbdInput {
-    let p = &r.first_hit;
-    let n = p.width * p.height;
-    RgbdInput {
-        mapping: m,
-        rgb: p.rgb.clone(),
-        depth: (0..n).map(|i| if p.mask[i] { p.depth[i] } else { f32::INFINITY }).collect(),
-        normals: normals
-            .then(|| (0..n).map(|i| Vec3::new(p.normal[0][i], p.normal[1][i], p.normal[2][i])).collect()),
-    }
-}
+use pomc_fixtures::{layers::render_on, layers::rgbd_input, Aabb, Rendered, Scene, Shape};
 
 fn front(b: &Built, p: usize) -> bool {
     b.layers.iter().find(|l| l.order == b.layer_of[p]).map(|l| l.role) == Some(Role::Object)
@@ -35,7 +23,7 @@ fn assignment_accuracy(b: &Built, r: &Rendered) -> f64 {
 
 fn check_room(m: AnyMapping, normals: bool) {
     let r = render_on(&Scene::room(), &m);
-    let b = build::build(&input(&r, m, normals), &BuildOptions::default(), &|_| {}).unwrap();
+    let b = build::build(&rgbd_input(&r, m, normals), &BuildOptions::default(), &|_| {}).unwrap();
     let acc = assignment_accuracy(&b, &r);
     assert!(acc >= 0.995, "{:?} normals={normals}: assignment accuracy {acc}", m.kind());
 
@@ -118,7 +106,7 @@ fn room_cube() {
 fn a_scene_without_discontinuities_gives_one_layer() {
     let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
     let r = render_on(&Scene { room: Scene::room().room, objects: vec![] }, &m);
-    let b = build::build(&input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
+    let b = build::build(&rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
     assert_eq!(b.layers.len(), 1, "{:?}", b.report.layers);
     assert_eq!(b.layers[0].filled_pixels, 0);
     assert!(b.layers[0].image.channel("N.X").is_none(), "normals only when asked for");
@@ -154,7 +142,7 @@ fn stiff_scenes_stay_finite() {
     ];
     for (k, scene) in scenes.iter().enumerate() {
         let r = render_on(scene, &m);
-        let mut inp = input(&r, m, false);
+        let mut inp = rgbd_input(&r, m, false);
         // Holes: NaN and 0 depths, and open sky (+inf).
         for p in (0..inp.depth.len()).step_by(97) {
             inp.depth[p] = if p % 2 == 0 { f32::NAN } else { 0.0 };
@@ -187,7 +175,7 @@ fn geometry_classification_separates_floor_ceiling_walls() {
     let m = AnyMapping::new(MappingKind::Equirect, 512, 256).unwrap();
     let r = render_on(&Scene::room(), &m);
     let options = BuildOptions { classify: build::Classify::Geometry, ..BuildOptions::default() };
-    let b = build::build(&input(&r, m, false), &options, &|_| {}).unwrap();
+    let b = build::build(&rgbd_input(&r, m, false), &options, &|_| {}).unwrap();
     let roles: Vec<Role> = b.layers.iter().map(|l| l.role).collect();
     for role in [Role::Floor, Role::Ceiling, Role::Wall, Role::Object] {
         assert!(roles.contains(&role), "no {role:?} layer: {:?}", b.report.layers);

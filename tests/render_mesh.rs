@@ -3,27 +3,16 @@
 //! radius, quality close to the splat method's, watertight and near-plane-clipped rasterisation,
 //! stiff cameras (poles, seam, the radius itself, very near and infinitely far content) without NaN.
 
-use glam::{DMat4, DVec3, Vec3};
-use pomc::build::{self, BuildOptions, RgbdInput};
+use glam::{DMat4, DVec3};
+use pomc::build::{self, BuildOptions};
 use pomc::layer::{LayerImage, SampleType};
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::mesh::LayerMesh;
 use pomc::mesh::MeshParams;
 use pomc::render::rasterize::{self, LayerGeometry, MeshOptions, MeshRendered};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
-use pomc_fixtures::layers::render_on;
-use pomc_fixtures::{Aabb, Rendered, Scene, Shape};
-
-fn rgbd(r: &Rendered, m: AnyMapping) -> RgbdInput {
-    let p = &r.first_hit;
-    let n = p.width * p.height;
-    RgbdInput {
-        mapping: m,
-        rgb: p.rgb.clone(),
-        depth: (0..n).map(|i| if p.mask[i] { p.depth[i] } else { f32::INFINITY }).collect(),
-        normals: Some((0..n).map(|i| Vec3::new(p.normal[0][i], p.normal[1][i], p.normal[2][i])).collect()),
-    }
-}
+use pomc_fixtures::layers::{render_on, rgbd_input};
+use pomc_fixtures::{Aabb, Scene, Shape};
 
 /// The layered POMC of a scene and its meshes.
 struct Pano {
@@ -36,7 +25,7 @@ impl Pano {
     fn new(scene: &Scene, kind: MappingKind, w: usize, h: usize) -> Pano {
         let mapping = AnyMapping::new(kind, w, h).unwrap();
         let r = render_on(scene, &mapping);
-        let built = build::build(&rgbd(&r, mapping), &BuildOptions::default(), &|_| {}).unwrap();
+        let built = build::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
         let layers: Vec<LayerImage> = built.layers.into_iter().map(|l| l.image).collect();
         let refs: Vec<RenderLayer> = layers.iter().map(|image| RenderLayer { image, mapping }).collect();
         let meshes = rasterize::mesh_layers(&refs, &MeshParams::default(), &MeshOptions::default()).unwrap();

@@ -48,6 +48,10 @@ impl Default for SplatOptions {
     }
 }
 
+/// Tolerance of the three-pixel plane test of [`LayerCtx::continuous`], relative to the nearer
+/// inverse depth (build's extrapolation tolerance).
+const PLANAR: f64 = 0.05;
+
 /// Side of the square tiles of layer pixels processed as a unit.
 const TILE: usize = 32;
 
@@ -244,6 +248,9 @@ struct Pt {
     ok: bool,
     /// `q` is valid.
     vis: bool,
+    /// Camera-space direction of the pixel's ray (set for every pixel of the canvas, inside the
+    /// domain or not): a neighbour's ray at the centre pixel's own depth bounds its footprint.
+    ray: DVec3,
 }
 
 /// Everything a tile needs, shared by all tiles of one layer.
@@ -258,6 +265,8 @@ struct LayerCtx<'a> {
     scales: &'a [f64],
     /// Panorama-local → camera space.
     to_cam: DMat4,
+    /// The panorama centre in camera space.
+    centre: DVec3,
     cull: Option<Cull>,
     o: SplatOptions,
 }
@@ -271,17 +280,18 @@ impl LayerCtx<'_> {
     fn point(&self, p: usize) -> Pt {
         let w = self.planes.mapping.width();
         let (i, j) = (p % w, p / w);
+        let ray = self.to_cam.transform_vector3(self.dirs.get(i, j));
         let (cam, dist) = match self.sample(p) {
             Sample::Surface(d) if d >= 0.0 && d.is_finite() => {
-                let c = self.to_cam.transform_point3(self.dirs.get(i, j) * d as f64);
+                let c = self.centre + ray * d as f64;
                 (c, c.length() as f32)
             }
-            Sample::Infinite => (self.to_cam.transform_vector3(self.dirs.get(i, j)), f32::INFINITY),
-            _ => return Pt::default(),
+            Sample::Infinite => (ray, f32::INFINITY),
+            _ => return Pt { ray, ..Pt::default() },
         };
         let rgb = [self.planes.rgb[0][p], self.planes.rgb[1][p], self.planes.rgb[2][p]];
         let q = self.camera.project(cam);
-        Pt { cam, q: q.unwrap_or_default(), dist, z: self.planes.z[p], rgb, ok: true, vis: q.is_some() }
+        Pt { cam, q: q.unwrap_or_default(), dist, z: self.planes.z[p], rgb, ok: true, vis: q.is_some(), ray }
     }
 
     /// Whether the tile may be skipped: nothing in the domain, or outside the view cone.
@@ -376,11 +386,20 @@ impl LayerCtx<'_> {
         (dx * row_scale(self.scales, a.y)).hypot(b.y - a.y)
     }
 
-    fn continuous(&self, a: f32, b: f32) -> bool {
-        if a.is_infinite() || b.is_infinite() {
-            return a == b;
+    /// Whether the centre pixel `c` and its neighbour `n` are one surface: a relative depth step
+    /// within `jump`, or `c` on the plane through `n` and the opposite neighbour `o` (inverse
+    /// depth linear across the three, as build's test, spec §7.2): ground seen at a grazing angle
+    /// near the horizon changes depth by more than `jump` a row, smoothly.
+    fn continuous(&self, c: f32, n: f32, o: &Pt) -> bool {
+        if c.is_infinite() || n.is_infinite() {
+            return c == n;
         }
-        (a - b).abs() as f64 <= self.o.jump * a.min(b) as f64
+        let (c, n) = (c as f64, n as f64);
+        if (c - n).abs() <= self.o.jump * c.min(n) {
+            return true;
+        }
+        let z = o.z as f64;
+        o.ok && z > 0.0 && z.is_finite() && (2.0 / c - 1.0 / n - 1.0 / z).abs() * c.min(n) <= PLANAR
     }
 
     /// Splat one pixel and its sub-samples; returns the number of samples.
@@ -389,15 +408,26 @@ impl LayerCtx<'_> {
             return 0;
         }
         let mut linked: [Option<&Pt>; 8] = [None; 8];
+        // Where a neighbour is not linked, the pixel still covers its own footprint: up to the
+        // neighbour's ray at the pixel's own depth.
+        let mut own: [Option<DVec3>; 8] = [None; 8];
         let (mut sx, mut sy) = (0.0f64, 0.0f64);
         for k in 0..8 {
             let nb = nbrs[k];
-            if !(nb.ok && self.continuous(c.z, nb.z)) {
-                continue;
-            }
-            linked[k] = Some(nb);
-            if nb.vis {
-                let g = self.gap(c.q, nb.q);
+            let (dx, dy) = OFFSETS[k];
+            let opposite = nbrs[offset_index(-dx as i64, -dy as i64)];
+            let reach = if nb.ok && self.continuous(c.z, nb.z, opposite) {
+                linked[k] = Some(nb);
+                nb.vis.then_some(nb.q)
+            } else if nb.ray != DVec3::ZERO {
+                let p = if c.dist.is_infinite() { nb.ray } else { self.centre + nb.ray * c.z as f64 };
+                own[k] = Some(p);
+                self.camera.project(p)
+            } else {
+                None
+            };
+            if let Some(q) = reach {
+                let g = self.gap(c.q, q);
                 if OFFSETS[k].0 != 0 {
                     sx = sx.max(g);
                 }
@@ -424,7 +454,7 @@ impl LayerCtx<'_> {
             let oy = (b as f64 + 0.5) / ny as f64 - 0.5;
             for a in 0..nx {
                 let ox = (a as f64 + 0.5) / nx as f64 - 0.5;
-                let (cam, rgb) = interpolate(c, &linked, ox, oy);
+                let (cam, rgb) = interpolate(c, &linked, &own, ox, oy);
                 if let Some(q) = self.camera.project(cam) {
                     let dist = if c.dist.is_infinite() { f32::INFINITY } else { cam.length() as f32 };
                     splat(self.camera, self.scales, radius, &Splat { q, dist, rgb, layer: self.index }, acc);
@@ -450,13 +480,20 @@ impl LayerCtx<'_> {
 /// depth jump (an object standing on the floor) leave no crack between them — but never reaches
 /// into the next pixel across a discontinuity. Synthesised corners take the pixel's colour.
 #[inline]
-fn interpolate(c: &Pt, linked: &[Option<&Pt>; 8], ox: f64, oy: f64) -> (DVec3, [f32; 3]) {
+fn interpolate(
+    c: &Pt,
+    linked: &[Option<&Pt>; 8],
+    own: &[Option<DVec3>; 8],
+    ox: f64,
+    oy: f64,
+) -> (DVec3, [f32; 3]) {
     let (sx, sy) = (if ox >= 0.0 { 1 } else { -1 }, if oy >= 0.0 { 1 } else { -1 });
     let side = |dx: i64, dy: i64| -> (DVec3, [f32; 3]) {
-        match (linked[offset_index(dx, dy)], linked[offset_index(-dx, -dy)]) {
+        let k = offset_index(dx, dy);
+        match (linked[k], linked[offset_index(-dx, -dy)]) {
             (Some(n), _) => (n.cam, n.rgb),
             (None, Some(m)) => (c.cam * 2.0 - m.cam, c.rgb),
-            (None, None) => (c.cam, c.rgb),
+            (None, None) => (own[k].unwrap_or(c.cam), c.rgb),
         }
     };
     let h = side(sx, 0);
@@ -552,6 +589,7 @@ pub fn splat_layers(
             camera,
             scales: &scales,
             to_cam,
+            centre: to_cam.transform_point3(DVec3::ZERO),
             cull,
             o: *o,
         })
