@@ -108,6 +108,21 @@ fn evaluate(width: usize, size: (usize, usize)) -> Res<()> {
                 p[sys] = metrics::psnr(&f, &gt);
                 r.psnr[sys].push(p[sys]);
                 r.holes[sys].push(f.hole_ratio());
+                if sys == 1 && f.hole_ratio() > 0.0 && std::env::var("SHOW_HOLES").is_ok() {
+                    for (i, _) in f.covered.iter().enumerate().filter(|(_, &c)| !c) {
+                        let ray = cam.ray((i % f.width) as f64 + 0.5, (i / f.width) as f64 + 0.5);
+                        let hits = scene.hits(eye, ray);
+                        eprintln!(
+                            "hole eye {eye:.2} px ({}, {}) point {:.3} surfaces {:?}",
+                            i % f.width,
+                            i / f.width,
+                            eye + ray.normalize() * gt.depth[i] as f64,
+                            hits.iter()
+                                .map(|h| (h.object, (h.t * 1000.0).round() / 1000.0))
+                                .collect::<Vec<_>>()
+                        );
+                    }
+                }
                 r.depth[sys].extend(metrics::depth_error(&f, &gt));
             }
             r.gain.push(p[1] - p[0]);
@@ -118,6 +133,16 @@ fn evaluate(width: usize, size: (usize, usize)) -> Res<()> {
             let f = draw(images, s.mapping, &cam)?;
             r.ws_psnr[sys].push(metrics::ws_psnr(&f, &gt));
             r.holes[sys].push(f.hole_ratio());
+            if sys == 1 && f.hole_ratio() > 0.0 && std::env::var("SHOW_HOLES").is_ok() {
+                for (i, _) in f.covered.iter().enumerate().filter(|(_, &c)| !c) {
+                    eprintln!(
+                        "hole eye {eye} equirect px ({}, {}) truth depth {}",
+                        i % f.width,
+                        i / f.width,
+                        gt.depth[i]
+                    );
+                }
+            }
         }
     }
     println!("| eye radius (m) | system | PSNR mean / min (dB) | WS-PSNR mean / min (dB) | holes mean / max (%) | depth error mean (m) | layered − single PSNR mean / min (dB) |");

@@ -78,7 +78,7 @@ fn edge_views() -> Vec<Camera> {
 }
 
 /// Hole ratio tolerated at the freedom radius (measured: ≤ 0.05 % equirect, 0.19 % cube 3×2).
-const MAX_HOLES: f64 = 2.5e-3;
+const MAX_HOLES: f64 = 0.0;
 
 #[test]
 fn layered_splat_fills_disocclusions_the_single_layer_leaves() {

@@ -1,6 +1,7 @@
 //! Filling what nearer layers hide, in the band a camera inside the freedom radius can see.
 //!
-//! From every pixel of a layer that borders an occluder (a nearer layer, across a depth jump), a
+//! From every pixel of a layer that borders an occluder (a nearer layer, across a depth jump or a
+//! fold: the floor a box stands on is hidden beside the box's bottom corner too), a
 //! breadth-first front grows into the occluder's pixels while the angle to its source stays
 //! within the largest parallax a camera within the freedom radius can open between the two
 //! depths. Depth continues the background surface (the ray meets the source's tangent plane:
@@ -75,9 +76,7 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
         if cx.layer_of[p] != k || cx.depth[p].is_nan() || cx.depth[p] <= 0.0 {
             continue;
         }
-        if (0..8).any(|j| cx.nb.get(p, j).is_some_and(|q| hidden(q) && cx.links.is_jump(p, j)))
-            && trusted_plane(cx, p)
-        {
+        if (0..8).any(|j| cx.nb.get(p, j).is_some_and(hidden)) && trusted_plane(cx, p) {
             seeds.push(p);
         }
     }
@@ -196,7 +195,9 @@ fn pick_surface(cx: &FillContext, centroid: &[Vec3], own: usize, rivals: &[u32],
         let (ca, cb) = if cx.surface[a] == cx.surface[b] {
             (pa, pb)
         } else {
-            (centroid[cx.surface[a] as usize], centroid[cx.surface[b] as usize])
+            // Pixels outside every segment (infinitely far) have no centroid.
+            let at = |p: usize| centroid.get(cx.surface[p] as usize).copied().unwrap_or(Vec3::NAN);
+            (at(a), at(b))
         };
         if na == Vec3::ZERO || nb == Vec3::ZERO || !(pa + pb + ca + cb).is_finite() {
             continue;
