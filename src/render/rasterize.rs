@@ -304,6 +304,68 @@ fn crosses_jump((da, ua): (f64, DVec3), (db, ub): (f64, DVec3), jump: f64, pixel
     hi > (1.0 + jump).powf(k) * lo
 }
 
+/// The layer's depth samples, for walking a mesh edge pixel by pixel.
+struct Lattice<'a> {
+    mapping: AnyMapping,
+    /// Finite depth or NaN per pixel.
+    depth: &'a [f32],
+    jump: f64,
+}
+
+impl Lattice<'_> {
+    /// Whether the samples along the lattice line from pixel `a` to pixel `b` (a mesh edge along a
+    /// row, a column or a diagonal, within one cube face, not across the seam) run continuously
+    /// by the splat's test: each step within `jump`, or on the plane through the pixels before or
+    /// after it (inverse depth linear, spec §9.3). Ground seen at a grazing angle passes; a real
+    /// discontinuity does not. Edges that are not such lines (stitching, poles) are not walked.
+    fn continuous(&self, a: u32, b: u32) -> bool {
+        let (w, h) = (self.mapping.width(), self.mapping.height());
+        let (a, b) = (a as usize, b as usize);
+        if a >= w * h || b >= w * h {
+            return false;
+        }
+        let (ax, ay, bx, by) = ((a % w) as i64, (a / w) as i64, (b % w) as i64, (b / w) as i64);
+        if let AnyMapping::Cube(c) = self.mapping {
+            let n = c.face_size() as i64;
+            if (ax / n, ay / n) != (bx / n, by / n) {
+                return false;
+            }
+        }
+        let (dx, dy) = (bx - ax, by - ay);
+        let steps = dx.abs().max(dy.abs());
+        if steps == 0 || (dx != 0 && dy != 0 && dx.abs() != dy.abs()) {
+            return false;
+        }
+        let (sx, sy) = (dx.signum(), dy.signum());
+        let at = |k: i64| -> Option<f64> {
+            let (x, y) = (ax + k * sx, ay + k * sy);
+            // One pixel beyond either end is looked at too (the plane test of a one-pixel edge).
+            if k < -1 || k > steps + 1 || x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
+                return None;
+            }
+            if let AnyMapping::Cube(c) = self.mapping {
+                let n = c.face_size() as i64;
+                if (x / n, y / n) != (ax / n, ay / n) {
+                    return None;
+                }
+            }
+            let d = self.depth[y as usize * w + x as usize];
+            (!d.is_nan()).then_some(d as f64)
+        };
+        let planar = |mid: f64, one: f64, other: Option<f64>| {
+            other.is_some_and(|o| (2.0 / mid - 1.0 / one - 1.0 / o).abs() * mid.min(one) <= 0.05)
+        };
+        for k in 0..steps {
+            let (Some(p), Some(q)) = (at(k), at(k + 1)) else { return false };
+            let step_ok = (p - q).abs() <= self.jump * p.min(q);
+            if !(step_ok || planar(p, q, at(k - 1)) || planar(q, p, at(k + 2))) {
+                return false;
+            }
+        }
+        true
+    }
+}
+
 /// Direction of the continuous canvas point `(i + ½ + ox, j + ½ + oy)`, continued past the
 /// equirect's edges and past a cube face's edges on the face's plane.
 fn corner_dir(m: &AnyMapping, i: usize, j: usize, ox: f64, oy: f64) -> DVec3 {
@@ -365,11 +427,15 @@ impl LayerGeometry {
         let LayerMesh { positions, sources, triangles, .. } = mesh;
         let vd: Vec<(f64, DVec3)> = positions.iter().map(|p| (p.length(), p.normalize_or_zero())).collect();
         let mesh_triangles = triangles.len();
+        let lattice = Lattice { mapping: m, depth: &dz, jump };
         let mut kept: Vec<[u32; 3]> = triangles
             .into_par_iter()
             .filter(|t| {
                 let v = t.map(|i| vd[i as usize]);
-                !(0..3).any(|k| crosses_jump(v[k], v[(k + 1) % 3], jump, pa))
+                !(0..3).any(|k| {
+                    crosses_jump(v[k], v[(k + 1) % 3], jump, pa)
+                        && !lattice.continuous(sources[t[k] as usize], sources[t[(k + 1) % 3] as usize])
+                })
             })
             .collect();
         let jump_triangles = mesh_triangles - kept.len();
