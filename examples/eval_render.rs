@@ -10,6 +10,8 @@
 //! cargo run --release --example eval_render -- [--width 2048] [--size 480x270] [--bench]
 //! ```
 //! `--bench` instead times a 960×540 render from the 2-layer room at `--width` (default 4096).
+//! With `SHOW_HOLES=1` in the environment, every uncovered pixel of a layered view is listed on
+//! stderr with the surfaces the true ray meets (to trace holes back to build or render).
 
 use std::time::Instant;
 
