@@ -314,7 +314,7 @@ struct Lattice<'a> {
 
 impl Lattice<'_> {
     /// Whether the samples along the lattice line from pixel `a` to pixel `b` (a mesh edge along a
-    /// row, a column or a diagonal, within one cube face, not across the seam) run continuously
+    /// row, a column or a diagonal, within one cube face, or across the equirect seam) run continuously
     /// by the splat's test: each step within `jump`, or on the plane through the pixels before or
     /// after it (inverse depth linear, spec §9.3). Ground seen at a grazing angle passes; a real
     /// discontinuity does not. Edges that are not such lines (stitching, poles) are not walked.
@@ -331,14 +331,22 @@ impl Lattice<'_> {
                 return false;
             }
         }
-        let (dx, dy) = (bx - ax, by - ay);
+        let (mut dx, dy) = (bx - ax, by - ay);
+        let wraps = matches!(self.mapping, AnyMapping::Equirect(_));
+        if wraps && dx.abs() > w as i64 / 2 {
+            // Across the equirect seam: the short way round.
+            dx -= dx.signum() * w as i64;
+        }
         let steps = dx.abs().max(dy.abs());
         if steps == 0 || (dx != 0 && dy != 0 && dx.abs() != dy.abs()) {
             return false;
         }
         let (sx, sy) = (dx.signum(), dy.signum());
         let at = |k: i64| -> Option<f64> {
-            let (x, y) = (ax + k * sx, ay + k * sy);
+            let (mut x, y) = (ax + k * sx, ay + k * sy);
+            if wraps {
+                x = x.rem_euclid(w as i64);
+            }
             // One pixel beyond either end is looked at too (the plane test of a one-pixel edge).
             if k < -1 || k > steps + 1 || x < 0 || y < 0 || x >= w as i64 || y >= h as i64 {
                 return None;
