@@ -11,7 +11,7 @@
 
 use glam::IVec3;
 
-use super::grid::{is_jump, Grid};
+use super::grid::{is_jump, Grid, JUMP_THRESHOLD};
 use crate::mapping::CubeFace;
 
 /// A vertex on a side to zip: position along the side, canvas id, depth (`NaN` when invalid).
@@ -22,12 +22,26 @@ pub struct ZipVertex {
     pub depth: f64,
 }
 
-fn joined(a: &ZipVertex, b: &ZipVertex) -> bool {
-    !a.depth.is_nan() && !b.depth.is_nan() && !is_jump(a.depth, b.depth)
+/// Two stitched vertices join valid samples of one surface. Vertices `k` pixels apart along the
+/// side (`k ≥ 1`) may differ by the jump ratio compounded `k` times: the quadtree already checked
+/// every pixel step along its own side, and a surface seen at a grazing angle (ground near the
+/// horizon) changes depth by a large ratio over a long cell edge, smoothly.
+fn joined(a: &ZipVertex, b: &ZipVertex, along: bool) -> bool {
+    if a.depth.is_nan() || b.depth.is_nan() {
+        return false;
+    }
+    if !along {
+        return !is_jump(a.depth, b.depth);
+    }
+    let k = a.pos.abs_diff(b.pos).max(1) as i32;
+    let (lo, hi) = (a.depth.min(b.depth), a.depth.max(b.depth));
+    hi <= (1.0 + JUMP_THRESHOLD).powi(k) * lo
 }
 
-fn push_if_joined(t: [&ZipVertex; 3], out: &mut Vec<[u32; 3]>) {
-    if joined(t[0], t[1]) && joined(t[1], t[2]) && joined(t[2], t[0]) {
+/// Emit a stitching triangle when its three edges join; `along` when its vertices' `pos` are
+/// positions along one side (a zip strip), not unrelated (a corner or a pole fan).
+fn push_if_joined(t: [&ZipVertex; 3], along: bool, out: &mut Vec<[u32; 3]>) {
+    if joined(t[0], t[1], along) && joined(t[1], t[2], along) && joined(t[2], t[0], along) {
         out.push([t[0].id, t[1].id, t[2].id]);
     }
 }
@@ -47,10 +61,10 @@ pub fn zip(a: &[ZipVertex], b: &[ZipVertex], out: &mut Vec<[u32; 3]>) {
             a[i + 1].pos <= b[j + 1].pos
         };
         if advance_a {
-            push_if_joined([&a[i], &a[i + 1], &b[j]], out);
+            push_if_joined([&a[i], &a[i + 1], &b[j]], true, out);
             i += 1;
         } else {
-            push_if_joined([&a[i], &b[j + 1], &b[j]], out);
+            push_if_joined([&a[i], &b[j + 1], &b[j]], true, out);
             j += 1;
         }
     }
@@ -135,7 +149,7 @@ fn stitch_cube_corners(grids: &[Grid], out: &mut Vec<[u32; 3]>) {
     corners.sort_by_key(|(k, _)| (k.x, k.y, k.z));
     for group in corners.chunk_by(|a, b| a.0 == b.0) {
         if let [a, b, c] = group {
-            push_if_joined([&a.1, &b.1, &c.1], out);
+            push_if_joined([&a.1, &b.1, &c.1], false, out);
         }
     }
 }
@@ -165,7 +179,7 @@ pub fn stitch_equirect(g: &Grid, used: &[bool], out: &mut Vec<[u32; 3]>) -> [f64
             continue;
         }
         for i in 0..ring.len() {
-            push_if_joined([&pole, &ring[i], &ring[(i + 1) % ring.len()]], out);
+            push_if_joined([&pole, &ring[i], &ring[(i + 1) % ring.len()]], false, out);
         }
     }
     depths
