@@ -189,8 +189,17 @@ pub fn estimate_normals(nb: &Neighbours, links: &Links, points: &[Vec3]) -> Vec<
                 let one_sided = |k: usize| -> Option<(Vec3, f32)> {
                     let (q, pq) = step(k)?;
                     let t = pq - c;
+                    // Cosine of the turn between this step and the next (one square root).
                     let straight = match step2(q, k) {
-                        Some(pr) => t.normalize_or_zero().dot((pr - pq).normalize_or_zero()),
+                        Some(pr) => {
+                            let u = pr - pq;
+                            let l2 = t.length_squared() * u.length_squared();
+                            if l2 > 0.0 {
+                                t.dot(u) / l2.sqrt()
+                            } else {
+                                0.0
+                            }
+                        }
                         None => 0.0,
                     };
                     Some((if k == fwd { t } else { -t }, straight))

@@ -70,16 +70,27 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     const NONE: u32 = u32::MAX;
     let n = cx.nb.len();
     let hidden = |q: usize| cx.layer_of[q] != NONE && cx.layer_of[q] > k && cx.depth[q] > 0.0;
-    let mut seeds = Vec::new();
+    // Seeds across a jump first; seeds along a fold only (the floor a box stands on) reach what
+    // the former leave.
+    let (mut seeds, mut fold_seeds) = (Vec::new(), Vec::new());
     for p in 0..n {
         // NaN (unknown) depth never seeds a fill.
         if cx.layer_of[p] != k || cx.depth[p].is_nan() || cx.depth[p] <= 0.0 {
             continue;
         }
-        if (0..8).any(|j| cx.nb.get(p, j).is_some_and(hidden)) && trusted_plane(cx, p) {
+        let mut borders = (0..8).filter(|&j| cx.nb.get(p, j).is_some_and(hidden));
+        let Some(first) = borders.next() else { continue };
+        if !trusted_plane(cx, p) {
+            continue;
+        }
+        if cx.links.is_jump(p, first) || borders.any(|j| cx.links.is_jump(p, j)) {
             seeds.push(p);
+        } else {
+            fold_seeds.push(p);
         }
     }
+    let jump_seeds = seeds.len();
+    seeds.extend(fold_seeds);
     // The band search and the rival search are independent.
     let ((src, angle_of, order), (slot_of, rivals)) = rayon::join(
         || {
@@ -87,11 +98,20 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
             let mut src = vec![NONE; n];
             let mut angle_of = vec![0f64; n];
             let mut order = Vec::new();
-            let mut queue: VecDeque<usize> = seeds.iter().copied().collect();
+            let mut queue: VecDeque<usize> = seeds[..jump_seeds].iter().copied().collect();
             for &p in &seeds {
                 src[p] = p as u32;
             }
-            while let Some(p) = queue.pop_front() {
+            let mut folds_queued = false;
+            loop {
+                let Some(p) = queue.pop_front() else {
+                    if folds_queued {
+                        break;
+                    }
+                    folds_queued = true;
+                    queue.extend(seeds[jump_seeds..].iter().copied());
+                    continue;
+                };
                 let s = src[p] as usize;
                 for j in 0..8 {
                     let Some(q) = cx.nb.get(p, j) else { continue };
@@ -118,7 +138,7 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
             let mut slot_of = vec![NONE; n];
             let mut rivals: Vec<[u32; RIVALS]> = Vec::new();
             let mut queue: VecDeque<(u32, u8)> = VecDeque::new();
-            for &p in &seeds {
+            for &p in &seeds[..jump_seeds] {
                 slot_of[p] = rivals.len() as u32;
                 let mut r = [NONE; RIVALS];
                 r[0] = p as u32;
@@ -166,7 +186,10 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
     for q in order {
         let own = src[q] as usize;
-        let (s, d) = pick_surface(cx, &centroid, own, &rivals[slot_of[q] as usize], q);
+        // Pixels only fold seeds reach have no rivals.
+        let none = [NONE; RIVALS];
+        let rival = rivals.get(slot_of[q] as usize).unwrap_or(&none);
+        let (s, d) = pick_surface(cx, &centroid, own, rival, q);
         let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
         fill.pixels.push((q, d, c));
         fill.max_angle = fill.max_angle.max(angle_of[q]);
