@@ -40,27 +40,7 @@ fn draw(images: &[&LayerImage], m: AnyMapping, cam: &Camera) -> Frame {
 
 /// Exact view: first surface along each pixel-centre ray.
 fn truth(scene: &Scene, cam: &Camera) -> Frame {
-    let (w, h) = (cam.width(), cam.height());
-    let mut f = Frame {
-        width: w,
-        height: h,
-        rgb: [vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h]],
-        depth: vec![-1.0; w * h],
-        covered: vec![false; w * h],
-    };
-    for y in 0..h {
-        for x in 0..w {
-            let i = y * w + x;
-            if let Some(hit) = scene.hits(cam.eye(), cam.ray(x as f64 + 0.5, y as f64 + 0.5)).first() {
-                for k in 0..3 {
-                    f.rgb[k][i] = hit.colour[k];
-                }
-                f.depth[i] = hit.t as f32;
-                f.covered[i] = true;
-            }
-        }
-    }
-    f
+    pomc_fixtures::eval::truth(scene, cam, 1)
 }
 
 fn persp(eye: DVec3, at: DVec3) -> Camera {

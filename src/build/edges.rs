@@ -147,14 +147,21 @@ fn smooth_by_extrapolation(
 ) -> bool {
     let behind_p = nb.get_at(x, y, opposite(k)).map(|i| depth[i] as f64);
     let beyond_q = nb.get2_at(x, y, k).map(|i| depth[i] as f64);
-    let min = a.min(b);
-    // Inverse depth one step on from `near`, given `far` one step back; compared in inverse
-    // depth relative to the nearer pixel, the scale at which a plane's 1/d is smooth.
-    let predict = |near: f64, far: f64| 2.0 / near - 1.0 / far;
-    let ok = |inv: f64, actual: f64| inv.is_finite() && (inv - 1.0 / actual).abs() * min <= tol;
-    let from_p = behind_p.filter(|&d| d > 0.0 && d.is_finite()).is_some_and(|d| ok(predict(a, d), b));
-    let from_q = beyond_q.filter(|&d| d > 0.0 && d.is_finite()).is_some_and(|d| ok(predict(b, d), a));
+    let usable = |d: &f64| *d > 0.0 && d.is_finite();
+    let from_p = behind_p.filter(usable).is_some_and(|d| continues_plane(a, b, d, tol));
+    let from_q = beyond_q.filter(usable).is_some_and(|d| continues_plane(b, a, d, tol));
     from_p || from_q
+}
+
+/// Whether three depths along a line of pixels — `back`, `mid`, `next` — lie on one plane: inverse
+/// depth is linear along a plane (`1/d = n·dir / h`), so `1/next` is extrapolated from `1/back` and
+/// `1/mid` and compared relative to the nearer of `mid`, `next` (the scale at which a plane's `1/d`
+/// is smooth). Build's jump test (spec §7.2), the splat's continuity (§9.3) and the mesh
+/// rasteriser's edge walk (§9.4b) share it.
+#[inline]
+pub fn continues_plane(mid: f64, next: f64, back: f64, tol: f64) -> bool {
+    let extrapolated = 2.0 / mid - 1.0 / back;
+    extrapolated.is_finite() && (extrapolated - 1.0 / next).abs() * mid.min(next) <= tol
 }
 
 /// Index of the opposite offset in [`OFFSETS`] (pairs are adjacent: 0↔1, 2↔3, 4↔7, 5↔6).

@@ -169,15 +169,15 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
         },
     );
     // Centroid of each surface of this layer (finite depths only).
-    let surfaces =
-        (0..n).filter(|&p| cx.layer_of[p] == k).map(|p| cx.surface[p]).filter(|&s| s != NONE).max();
-    let mut sums = vec![(Vec3::ZERO, 0u32); surfaces.map_or(0, |m| m as usize + 1)];
+    let mut sums: Vec<(Vec3, u32)> = Vec::new();
     for p in 0..n {
-        let d = cx.depth[p];
+        let (d, id) = (cx.depth[p], cx.surface[p] as usize);
         if cx.layer_of[p] == k && d.is_finite() && d > 0.0 && cx.surface[p] != NONE {
-            let e = &mut sums[cx.surface[p] as usize];
-            e.0 += cx.dirs[p] * d;
-            e.1 += 1;
+            if id >= sums.len() {
+                sums.resize(id + 1, (Vec3::ZERO, 0));
+            }
+            sums[id].0 += cx.dirs[p] * d;
+            sums[id].1 += 1;
         }
     }
     let centroid: Vec<Vec3> =

@@ -34,6 +34,7 @@ use serde::Serialize;
 use super::camera::Camera;
 use super::image::Frame;
 use super::{RenderError, RenderLayer, Stage};
+use crate::build::edges::continues_plane;
 use crate::build::graph::Neighbours;
 use crate::layer::{classify, LayerImage, Sample, OUTSIDE_DEPTH};
 use crate::mapping::{AnyMapping, Mapping};
@@ -361,7 +362,7 @@ impl Lattice<'_> {
             (!d.is_nan()).then_some(d as f64)
         };
         let planar = |mid: f64, one: f64, other: Option<f64>| {
-            other.is_some_and(|o| (2.0 / mid - 1.0 / one - 1.0 / o).abs() * mid.min(one) <= 0.05)
+            other.is_some_and(|o| continues_plane(mid, one, o, super::splat::PLANAR))
         };
         for k in 0..steps {
             let (Some(p), Some(q)) = (at(k), at(k + 1)) else { return false };

@@ -22,6 +22,7 @@ use serde::Serialize;
 
 use super::accum::Accum;
 use super::camera::Camera;
+use crate::build::edges::continues_plane;
 use crate::build::graph::{Neighbours, OFFSETS};
 use crate::layer::{classify, LayerImage, Sample};
 use crate::mapping::{AnyMapping, Mapping};
@@ -50,7 +51,7 @@ impl Default for SplatOptions {
 
 /// Tolerance of the three-pixel plane test of [`LayerCtx::continuous`], relative to the nearer
 /// inverse depth (build's extrapolation tolerance).
-const PLANAR: f64 = 0.05;
+pub const PLANAR: f64 = 0.05;
 
 /// Side of the square tiles of layer pixels processed as a unit.
 const TILE: usize = 32;
@@ -399,7 +400,7 @@ impl LayerCtx<'_> {
             return true;
         }
         let z = o.z as f64;
-        o.ok && z > 0.0 && z.is_finite() && (2.0 / c - 1.0 / n - 1.0 / z).abs() * c.min(n) <= PLANAR
+        o.ok && z > 0.0 && z.is_finite() && continues_plane(c, n, z, PLANAR)
     }
 
     /// Splat one pixel and its sub-samples; returns the number of samples.
