@@ -52,6 +52,13 @@ impl Neighbours {
         &self.mapping
     }
 
+    /// Whether the 8 neighbours of `(x, y)` are the plain offsets `±1`, `±W` (not at the canvas or a
+    /// face edge).
+    #[inline]
+    pub fn is_interior(&self, x: usize, y: usize) -> bool {
+        self.interior_col[x] && self.interior_row[y]
+    }
+
     /// Neighbour `k` (index into [`OFFSETS`]) of pixel index `p`; `None` only where the sphere
     /// has no distinct neighbour (a cube corner's missing diagonal).
     #[inline]
@@ -64,7 +71,7 @@ impl Neighbours {
     #[inline]
     pub fn get_at(&self, x: usize, y: usize, k: usize) -> Option<usize> {
         let (dx, dy) = OFFSETS[k];
-        if self.interior_col[x] && self.interior_row[y] {
+        if self.is_interior(x, y) {
             // Interior of the canvas (equirect) or of a face (cube): plain offsets.
             let nx = (x as isize + dx as isize) as usize;
             let ny = (y as isize + dy as isize) as usize;

@@ -14,31 +14,31 @@ use glam::DVec3;
 use super::grid::{Grid, PlaneDot};
 use super::normals;
 use super::quadtree::{NodeKind, Rect, Subdivide};
-use super::sat::{to_fixed, Sat};
+use super::sat::{to_fixed, CountSat, Sat};
 use super::MeshParams;
 
 /// Everything `S` needs about one lattice.
 pub struct Criterion<'a> {
     pub grid: &'a Grid,
     params: &'a MeshParams,
-    valid: Sat,
-    bad: Sat,
+    valid: CountSat,
+    bad: CountSat,
     /// `(features, residual)` when the thesis normal test is on.
-    normal_sats: Option<(Sat, Sat)>,
+    normal_sats: Option<(CountSat, Sat)>,
     max_angle_cos: Option<f64>,
 }
 
 impl<'a> Criterion<'a> {
     pub fn new(grid: &'a Grid, image: &crate::layer::LayerImage, params: &'a MeshParams) -> Criterion<'a> {
         let (w, h) = (grid.w, grid.h);
-        let valid = Sat::from_fn(w, h, |x, y| grid.valid(x, y) as u64);
+        let valid = CountSat::from_fn(w, h, |x, y| grid.valid(x, y));
         let (cw, ch) = (w.saturating_sub(1), h.saturating_sub(1));
-        let bad = Sat::from_fn(cw, ch, |x, y| grid.bad_cell(x, y) as u64);
+        let bad = CountSat::from_fn(cw, ch, |x, y| grid.bad_cell(x, y));
         let normal_sats = params.feature_angle_deg.filter(|_| params.uniform.is_none()).map(|deg| {
             let n = normals::lattice_normals(image, grid, params.normal_weighting);
             let v = normals::cell_variation(grid, &n);
             let threshold = 1.0 - deg.to_radians().cos();
-            let f = Sat::from_fn(cw, ch, |x, y| (v[y * cw + x] >= threshold) as u64);
+            let f = CountSat::from_fn(cw, ch, |x, y| v[y * cw + x] >= threshold);
             let r = Sat::from_fn(cw, ch, |x, y| {
                 let vn = v[y * cw + x];
                 if vn < threshold {
@@ -63,7 +63,7 @@ impl<'a> Criterion<'a> {
     fn normals_say_split(&self, r: &Rect) -> bool {
         let Some((f, res)) = &self.normal_sats else { return false };
         let (x0, y0, x1, y1) = (r.x0 as usize, r.y0 as usize, r.x1 as usize, r.y1 as usize);
-        if f.sum(x0, y0, x1, y1) >= 1 {
+        if f.count(x0, y0, x1, y1) >= 1 {
             return true;
         }
         let mean = res.sum(x0, y0, x1, y1) as f64 / (r.cells() as f64 * super::sat::FIXED_ONE);
@@ -112,9 +112,9 @@ impl<'a> Criterion<'a> {
 impl Subdivide for Criterion<'_> {
     fn kind(&self, r: &Rect) -> NodeKind {
         let (x0, y0, x1, y1) = (r.x0 as usize, r.y0 as usize, r.x1 as usize, r.y1 as usize);
-        if self.valid.sum(x0, y0, x1 + 1, y1 + 1) == 0 {
+        if self.valid.count(x0, y0, x1 + 1, y1 + 1) == 0 {
             NodeKind::Empty
-        } else if self.bad.sum(x0, y0, x1, y1) > 0 {
+        } else if self.bad.count(x0, y0, x1, y1) > 0 {
             NodeKind::Broken
         } else {
             NodeKind::Full

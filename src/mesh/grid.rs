@@ -121,22 +121,25 @@ pub struct Grid {
 impl Grid {
     /// Sample the lattice `w × h` at canvas origin `(ox, oy)` from a full-canvas layer image.
     pub fn new(image: &LayerImage, ox: usize, oy: usize, w: usize, h: usize, rays: Rays) -> Grid {
+        use rayon::prelude::*;
         let mut lambda = vec![f32::NAN; w * h];
         let mut depth = vec![f32::NAN; w * h];
         let (Some(z), a) = (image.depth(), image.coverage()) else {
             return Grid { ox, oy, w, h, canvas_w: image.width, rays, lambda, depth };
         };
-        for y in 0..h {
-            for x in 0..w {
-                let i = (oy + y) * image.width + ox + x;
-                if let Sample::Surface(d) = classify(z[i], a.map(|a| a[i])) {
-                    if d > 0.0 && d.is_finite() {
-                        depth[y * w + x] = d;
-                        lambda[y * w + x] = (d as f64 / rays.ray(x, y).length()) as f32;
+        lambda.par_chunks_mut(w.max(1)).zip(depth.par_chunks_mut(w.max(1))).enumerate().for_each(
+            |(y, (lrow, drow))| {
+                for x in 0..w {
+                    let i = (oy + y) * image.width + ox + x;
+                    if let Sample::Surface(d) = classify(z[i], a.map(|a| a[i])) {
+                        if d > 0.0 && d.is_finite() {
+                            drow[x] = d;
+                            lrow[x] = (d as f64 / rays.ray(x, y).length()) as f32;
+                        }
                     }
                 }
-            }
-        }
+            },
+        );
         Grid { ox, oy, w, h, canvas_w: image.width, rays, lambda, depth }
     }
 
@@ -171,9 +174,17 @@ impl Grid {
     }
 
     /// A cell that cannot be one continuous quad: a corner invalid or a jump along a side or diagonal.
+    #[inline]
     pub fn bad_cell(&self, x: usize, y: usize) -> bool {
-        let c = [(x, y), (x + 1, y), (x + 1, y + 1), (x, y + 1)];
-        let pairs = [(0, 1), (1, 2), (2, 3), (3, 0), (0, 2), (1, 3)];
-        pairs.iter().any(|&(i, j)| !self.connected(c[i], c[j]))
+        let i = y * self.w + x;
+        let d = &self.depth;
+        // A vertex is valid exactly when its depth is not NaN; NaN fails every `<=`, so a pair with an
+        // invalid vertex counts as apart, as with `!connected`.
+        let apart = |a: f32, b: f32| {
+            let (a, b) = (a as f64, b as f64);
+            !((a - b).abs() <= JUMP_THRESHOLD * a.min(b))
+        };
+        let (d0, d1, d2, d3) = (d[i], d[i + 1], d[i + self.w + 1], d[i + self.w]);
+        apart(d0, d1) || apart(d1, d2) || apart(d2, d3) || apart(d3, d0) || apart(d0, d2) || apart(d1, d3)
     }
 }

@@ -109,10 +109,29 @@ impl Tree {
         Some(Tree { nodes: vec![node] })
     }
 
-    /// Build top-down, breadth first, splitting wherever `S` says so.
-    pub fn build(w: usize, h: usize, s: &impl Subdivide) -> Option<Tree> {
+    /// Build top-down, breadth first, splitting wherever `S` says so. The decisions of one depth are
+    /// taken in parallel; nodes are appended in the same breadth-first order as a sequential build.
+    pub fn build(w: usize, h: usize, s: &(impl Subdivide + Sync)) -> Option<Tree> {
+        use rayon::prelude::*;
         let mut tree = Tree::root(w, h, s)?;
-        tree.refine_from(0, s, &mut |_| {});
+        let mut level = vec![0usize];
+        while !level.is_empty() {
+            let nodes = &tree.nodes;
+            let split: Vec<bool> = level
+                .par_iter()
+                .with_min_len(8)
+                .map(|&j| {
+                    let n = nodes[j];
+                    n.rect.splittable() && n.kind != NodeKind::Empty && s.split(&n.rect, n.kind)
+                })
+                .collect();
+            let mut next = Vec::new();
+            for (&j, _) in level.iter().zip(&split).filter(|(_, &b)| b) {
+                let first = tree.split(j, s);
+                next.extend(first..first + tree.nodes[j].n_children as usize);
+            }
+            level = next;
+        }
         Some(tree)
     }
 

@@ -18,24 +18,62 @@ pub fn to_fixed(v: f64) -> u64 {
     }
 }
 
-/// A `(w+1) × (h+1)` table of prefix sums of a `w × h` map.
-#[derive(Clone, Debug)]
-pub struct Sat {
-    w: usize,
-    h: usize,
-    data: Vec<u64>,
+/// Cell type of a table: unsigned integers with wrapping sums. Counts (at most the number of cells
+/// of a rectangle) use `u32` while the lattice has fewer than 2³² cells, halving the table's memory;
+/// fixed-point maps use `u64`.
+pub trait SatValue: Copy + Default + Send + Sync + PartialEq {
+    fn wrapping_add(self, o: Self) -> Self;
+    fn wrapping_sub(self, o: Self) -> Self;
 }
 
-impl Sat {
-    /// Table of the map `f(x, y)`, `0 ≤ x < w`, `0 ≤ y < h`.
-    pub fn from_fn(w: usize, h: usize, mut f: impl FnMut(usize, usize) -> u64) -> Sat {
+impl SatValue for u32 {
+    #[inline]
+    fn wrapping_add(self, o: Self) -> Self {
+        u32::wrapping_add(self, o)
+    }
+    #[inline]
+    fn wrapping_sub(self, o: Self) -> Self {
+        u32::wrapping_sub(self, o)
+    }
+}
+
+impl SatValue for u64 {
+    #[inline]
+    fn wrapping_add(self, o: Self) -> Self {
+        u64::wrapping_add(self, o)
+    }
+    #[inline]
+    fn wrapping_sub(self, o: Self) -> Self {
+        u64::wrapping_sub(self, o)
+    }
+}
+
+/// A `(w+1) × (h+1)` table of prefix sums of a `w × h` map.
+#[derive(Clone, Debug)]
+pub struct Sat<T = u64> {
+    w: usize,
+    h: usize,
+    data: Vec<T>,
+}
+
+impl<T: SatValue> Sat<T> {
+    /// Table of the map `f(x, y)`, `0 ≤ x < w`, `0 ≤ y < h`. Rows are summed in parallel, then each
+    /// row adds the one above (a streaming pass); the result does not depend on the thread count.
+    pub fn from_fn(w: usize, h: usize, f: impl Fn(usize, usize) -> T + Sync) -> Sat<T> {
+        use rayon::prelude::*;
         let stride = w + 1;
-        let mut data = vec![0u64; stride * (h + 1)];
-        for y in 0..h {
-            let mut row = 0u64;
+        let mut data = vec![T::default(); stride * (h + 1)];
+        data[stride..].par_chunks_mut(stride).enumerate().for_each(|(y, row)| {
+            let mut acc = T::default();
             for x in 0..w {
-                row = row.wrapping_add(f(x, y));
-                data[(y + 1) * stride + x + 1] = data[y * stride + x + 1].wrapping_add(row);
+                acc = acc.wrapping_add(f(x, y));
+                row[x + 1] = acc;
+            }
+        });
+        for y in 1..h {
+            let (above, rest) = data[y * stride..].split_at_mut(stride);
+            for (r, a) in rest[..stride].iter_mut().zip(above.iter()) {
+                *r = r.wrapping_add(*a);
             }
         }
         Sat { w, h, data }
@@ -53,15 +91,42 @@ impl Sat {
 
     /// Sum over the half-open rectangle `[x0, x1) × [y0, y1)` (clamped to the map).
     #[inline]
-    pub fn sum(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> u64 {
+    pub fn sum(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> T {
         let (x1, y1) = (x1.min(self.w), y1.min(self.h));
         if x0 >= x1 || y0 >= y1 {
-            return 0;
+            return T::default();
         }
         let s = self.w + 1;
         let d = &self.data;
         // Wrapping arithmetic: intermediate differences may wrap, the final sum never does.
         d[y1 * s + x1].wrapping_sub(d[y0 * s + x1]).wrapping_sub(d[y1 * s + x0]).wrapping_add(d[y0 * s + x0])
+    }
+}
+
+/// A table of counts (0/1 flags): `u32` cells when every rectangle sum fits, else `u64`.
+#[derive(Clone, Debug)]
+pub enum CountSat {
+    Narrow(Sat<u32>),
+    Wide(Sat<u64>),
+}
+
+impl CountSat {
+    /// Table of the flags `f(x, y)`.
+    pub fn from_fn(w: usize, h: usize, f: impl Fn(usize, usize) -> bool + Sync) -> CountSat {
+        if (w as u64) * (h as u64) < u32::MAX as u64 {
+            CountSat::Narrow(Sat::from_fn(w, h, |x, y| f(x, y) as u32))
+        } else {
+            CountSat::Wide(Sat::from_fn(w, h, |x, y| f(x, y) as u64))
+        }
+    }
+
+    /// Number of set flags in `[x0, x1) × [y0, y1)`.
+    #[inline]
+    pub fn count(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> u64 {
+        match self {
+            CountSat::Narrow(s) => s.sum(x0, y0, x1, y1) as u64,
+            CountSat::Wide(s) => s.sum(x0, y0, x1, y1),
+        }
     }
 }
 
@@ -73,9 +138,14 @@ mod tests {
     fn sums_match_brute_force() {
         let f = |x: usize, y: usize| ((x * 7 + y * 13) % 5) as u64;
         let sat = Sat::from_fn(9, 6, f);
+        let narrow = Sat::from_fn(9, 6, |x, y| f(x, y) as u32);
+        let flags = CountSat::from_fn(9, 6, |x, y| f(x, y) >= 2);
         for (x0, y0, x1, y1) in [(0, 0, 9, 6), (2, 1, 5, 4), (3, 3, 4, 4), (4, 2, 4, 5), (8, 5, 9, 6)] {
             let brute: u64 = (y0..y1).flat_map(|y| (x0..x1).map(move |x| f(x, y))).sum();
             assert_eq!(sat.sum(x0, y0, x1, y1), brute);
+            assert_eq!(narrow.sum(x0, y0, x1, y1) as u64, brute);
+            let count = (y0..y1).flat_map(|y| (x0..x1).map(move |x| (f(x, y) >= 2) as u64)).sum::<u64>();
+            assert_eq!(flags.count(x0, y0, x1, y1), count);
         }
     }
 

@@ -424,14 +424,22 @@ impl LayerGeometry {
         }
         let planes = Planes::new(layer.image, layer.mapping, false);
         // Finite depth or NaN, per pixel; and whether the layer has infinity samples.
-        let dz: Vec<f32> = (0..w * h)
-            .into_par_iter()
-            .map(|p| match planes.sample(p) {
-                Sample::Surface(d) if d > 0.0 && d.is_finite() => d,
-                _ => f32::NAN,
+        let mut dz = vec![f32::NAN; w * h];
+        let has_infinity = dz
+            .par_chunks_mut(w)
+            .enumerate()
+            .map(|(y, row)| {
+                let mut infinite = false;
+                for (x, d) in row.iter_mut().enumerate() {
+                    match planes.sample(y * w + x) {
+                        Sample::Surface(v) if v > 0.0 && v.is_finite() => *d = v,
+                        Sample::Infinite => infinite = true,
+                        _ => {}
+                    }
+                }
+                infinite
             })
-            .collect();
-        let has_infinity = (0..w * h).into_par_iter().any(|p| matches!(planes.sample(p), Sample::Infinite));
+            .reduce(|| false, |a, b| a || b);
         let pa = pixel_angle(&m);
         let LayerMesh { positions, sources, triangles, .. } = mesh;
         let vd: Vec<(f64, DVec3)> = positions.iter().map(|p| (p.length(), p.normalize_or_zero())).collect();
@@ -457,10 +465,23 @@ impl LayerGeometry {
         let corners: Vec<(u32, [DVec3; 4])> = (0..h)
             .into_par_iter()
             .flat_map_iter(|y| {
-                let (depth, nb) = (&depth, &nb);
+                let (depth, nb, dz) = (&depth, &nb, &dz);
                 (0..w).filter_map(move |x| {
                     let p = y * w + x;
                     let d = depth(p)?;
+                    if nb.is_interior(x, y) {
+                        // Fast path for the common case, a pixel inside the layer: all 8 neighbours
+                        // present and joined (NaN compares false, so an invalid one fails here).
+                        let all = [p + 1, p - 1, p + w, p - w, p + w + 1, p + w - 1, p - w + 1, p - w - 1]
+                            .iter()
+                            .all(|&q| {
+                                let e = dz[q] as f64;
+                                (d - e).abs() <= jump * d.min(e)
+                            });
+                        if all {
+                            return None;
+                        }
+                    }
                     let nd: [Option<f64>; 8] =
                         std::array::from_fn(|k| nb.get_at(x, y, k).and_then(depth).filter(|&e| joined(d, e)));
                     if nd.iter().all(Option::is_some) {

@@ -168,7 +168,9 @@ fn report(
 ) {
     let m = &meshed.mesh;
     let tris = m.triangles.len();
-    let per_million = if tris > 0 { encoded as f64 * 1e6 / tris as f64 } else { 0.0 };
+    // The encoding stores the quadtree, so its density is per quadtree triangle (thesis 7.4.4).
+    let qt = meshed.quadtree_triangles;
+    let per_million = if qt > 0 { encoded as f64 * 1e6 / qt as f64 } else { 0.0 };
     let t = &meshed.times;
     out.json(&serde_json::json!({
         "layer": args.layer,
@@ -199,7 +201,7 @@ fn report(
             None => String::new(),
         }
     ));
-    out.say(format!("encoded: {encoded} bytes ({per_million:.0} bytes per million triangles)"));
+    out.say(format!("encoded: {encoded} bytes ({per_million:.0} bytes per million quadtree triangles)"));
     if let Some((s, _)) = &stats {
         out.say(format!(
             "error over {} pixels ({} unhit): relative max {:.3e} p99 {:.3e} rms {:.3e}; absolute max {:.3e} m p99 {:.3e} m rms {:.3e} m",
