@@ -175,6 +175,7 @@ impl Grid {
 
     /// A cell that cannot be one continuous quad: a corner invalid or a jump along a side or diagonal.
     #[inline]
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x <= y)` is deliberate: NaN must count as apart.
     pub fn bad_cell(&self, x: usize, y: usize) -> bool {
         let i = y * self.w + x;
         let d = &self.depth;
