@@ -145,6 +145,36 @@ impl Criterion<'_> {
     }
 }
 
+/// The lattice points `x` of row `y` inside (or on) the triangle with integer corners `t`, as an
+/// inclusive range; `None` when there are none or the triangle is degenerate. Exact: each edge gives
+/// a linear inequality in `x` solved with floor division.
+fn row_span(t: [(i64, i64); 3], y: i64) -> Option<(i64, i64)> {
+    let [a, b, c] = t;
+    // Edge function of pq at (x, y): (q.x − p.x)(y − p.y) − (q.y − p.y)(x − p.x), signed so that
+    // the inside is ≥ 0 on all three edges.
+    let area = (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
+    if area == 0 {
+        return None;
+    }
+    let sign = area.signum();
+    let (mut lo, mut hi) = (a.0.min(b.0).min(c.0), a.0.max(b.0).max(c.0));
+    for (p, q) in [(a, b), (b, c), (c, a)] {
+        // Inside: ca·x + cb ≥ 0.
+        let ca = -(q.1 - p.1) * sign;
+        let cb = ((q.0 - p.0) * (y - p.1) + (q.1 - p.1) * p.0) * sign;
+        if ca > 0 {
+            // x ≥ ⌈−cb/ca⌉ = −⌊cb/ca⌋.
+            lo = lo.max(-cb.div_euclid(ca));
+        } else if ca < 0 {
+            // x ≤ ⌊cb/−ca⌋.
+            hi = hi.min(cb.div_euclid(-ca));
+        } else if cb < 0 {
+            return None;
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
 /// Per-pixel check against the plane of one lattice triangle.
 struct ErrorTest<'a> {
     g: &'a Grid,
@@ -166,12 +196,17 @@ impl ErrorTest<'_> {
         (n.length_squared() > 0.0 && k != 0.0 && k.is_finite()).then_some((n, k))
     }
 
+    /// `k/dot` (the plane's hit, in units of `λ`) is in front and within `e` of the sample `lam`;
+    /// multiplied out so the hot loops do not divide. NaN fails.
+    #[inline]
+    fn hit_ok(&self, k: f64, dot: f64, lam: f64) -> bool {
+        k * dot > 0.0 && (k - lam * dot).abs() <= self.e * lam * dot.abs()
+    }
+
     #[inline]
     fn pixel_ok(&self, dot: &PlaneDot, k: f64, x: u32, y: u32) -> bool {
         let (x, y) = (x as usize, y as usize);
-        let lam = self.g.lambda[y * self.g.w + x] as f64;
-        let lp = k / dot.at(x, y);
-        lp > 0.0 && (lp - lam).abs() <= self.e * lam
+        self.hit_ok(k, dot.at(x, y), self.g.lambda[y * self.g.w + x] as f64)
     }
 
     /// All lattice points of triangle `abc` (inclusive) within the bound.
@@ -179,25 +214,30 @@ impl ErrorTest<'_> {
         self.triangle_strided(a, b, c, 1)
     }
 
-    /// The lattice points of triangle `abc` on every `stride`-th row and column within the bound.
+    /// The lattice points of triangle `abc` on every `stride`-th row and column (counted from the
+    /// bounding box's corner) within the bound. Each row's span inside the triangle is solved exactly
+    /// in integers, so the inner loop only tests pixels.
     fn triangle_strided(&self, a: P, b: P, c: P, stride: usize) -> bool {
         let Some((n, k)) = self.plane(a, b, c) else { return false };
         let dot = self.g.rays.plane_dot(n);
-        let f = |p: P, q: P, x: i64, y: i64| {
-            (q.0 as i64 - p.0 as i64) * (y - p.1 as i64) - (q.1 as i64 - p.1 as i64) * (x - p.0 as i64)
-        };
-        let (x0, x1) = (a.0.min(b.0).min(c.0), a.0.max(b.0).max(c.0));
+        let pt = |p: P| (p.0 as i64, p.1 as i64);
+        let (a, b, c) = (pt(a), pt(b), pt(c));
+        let x0 = a.0.min(b.0).min(c.0);
         let (y0, y1) = (a.1.min(b.1).min(c.1), a.1.max(b.1).max(c.1));
-        let area = f(a, b, c.0 as i64, c.1 as i64);
+        let st = stride as i64;
+        let w = self.g.w;
         for y in (y0..=y1).step_by(stride) {
-            for x in (x0..=x1).step_by(stride) {
-                let (xi, yi) = (x as i64, y as i64);
-                let (e0, e1, e2) = (f(a, b, xi, yi), f(b, c, xi, yi), f(c, a, xi, yi));
-                let inside =
-                    if area > 0 { e0 >= 0 && e1 >= 0 && e2 >= 0 } else { e0 <= 0 && e1 <= 0 && e2 <= 0 };
-                if inside && !self.pixel_ok(&dot, k, x, y) {
+            let Some((lo, hi)) = row_span([a, b, c], y) else { continue };
+            // Onto the stride grid anchored at x0.
+            let lo = x0 + (lo - x0 + st - 1).div_euclid(st) * st;
+            let row = &self.g.lambda[y as usize * w..(y as usize + 1) * w];
+            let rd = dot.row(y as usize);
+            let mut x = lo;
+            while x <= hi {
+                if !self.hit_ok(k, rd.at(x as usize), row[x as usize] as f64) {
                     return false;
                 }
+                x += st;
             }
         }
         true
@@ -210,5 +250,42 @@ impl ErrorTest<'_> {
         let (x0, x1) = (a.0.min(b.0), a.0.max(b.0));
         let (y0, y1) = (a.1.min(b.1), a.1.max(b.1));
         (y0..=y1).all(|y| (x0..=x1).all(|x| self.pixel_ok(&dot, k, x, y)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::row_span;
+
+    /// The row spans are exactly the lattice points the edge functions call inside, for every
+    /// orientation and shape (slivers, axis-aligned edges, both windings).
+    #[test]
+    fn row_spans_match_brute_force() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = |m: i64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed % m as u64) as i64
+        };
+        for _ in 0..3000 {
+            let t = [(next(17), next(17)), (next(17), next(17)), (next(17), next(17))];
+            let [a, b, c] = t;
+            let f = |p: (i64, i64), q: (i64, i64), x: i64, y: i64| {
+                (q.0 - p.0) * (y - p.1) - (q.1 - p.1) * (x - p.0)
+            };
+            let area = f(a, b, c.0, c.1);
+            for y in -1..18 {
+                let brute: Vec<i64> = (-1..18)
+                    .filter(|&x| {
+                        let e = [f(a, b, x, y), f(b, c, x, y), f(c, a, x, y)];
+                        area != 0
+                            && (if area > 0 { e.iter().all(|&v| v >= 0) } else { e.iter().all(|&v| v <= 0) })
+                    })
+                    .collect();
+                let span: Vec<i64> = row_span(t, y).map_or(Vec::new(), |(lo, hi)| (lo..=hi).collect());
+                assert_eq!(span, brute, "triangle {t:?} row {y}");
+            }
+        }
     }
 }

@@ -98,6 +98,44 @@ impl PlaneDot<'_> {
             PlaneDot::Rays { rays, n } => n.dot(rays.ray(x, y)),
         }
     }
+
+    /// `n·r` along lattice row `y`, with the row's terms computed once.
+    #[inline]
+    pub fn row(&self, y: usize) -> RowDot<'_> {
+        match self {
+            PlaneDot::Affine { a, bx, by } => RowDot::Affine { base: a + by * y as f64, bx: *bx },
+            PlaneDot::Rays { rays, n } => match rays {
+                Rays::Equirect { cos_phi, sin_phi, cos_theta, sin_theta } => RowDot::Equirect {
+                    cos_phi,
+                    sin_phi,
+                    st: sin_theta[y],
+                    z: n.z * cos_theta[y],
+                    nx: n.x,
+                    ny: n.y,
+                },
+                // Never built: faces take the affine form. NaN would fail every test, safely.
+                Rays::Face { .. } => RowDot::Affine { base: f64::NAN, bx: f64::NAN },
+            },
+        }
+    }
+}
+
+/// `n·r` along one lattice row, see [`PlaneDot::row`].
+pub enum RowDot<'a> {
+    Affine { base: f64, bx: f64 },
+    Equirect { cos_phi: &'a [f64], sin_phi: &'a [f64], st: f64, z: f64, nx: f64, ny: f64 },
+}
+
+impl RowDot<'_> {
+    #[inline]
+    pub fn at(&self, x: usize) -> f64 {
+        match self {
+            RowDot::Affine { base, bx } => base + bx * x as f64,
+            RowDot::Equirect { cos_phi, sin_phi, st, z, nx, ny } => {
+                nx * (st * cos_phi[x]) + ny * (st * sin_phi[x]) + z
+            }
+        }
+    }
 }
 
 /// One lattice with its samples.

@@ -18,11 +18,6 @@ use clap::{Parser, Subcommand};
 
 use output::Output;
 
-// Rendering and meshing allocate and free canvas-sized buffers in turn; mimalloc keeps freed memory
-// for reuse instead of returning it to the OS, saving the page faults of touching fresh pages again.
-#[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 #[derive(Parser, Debug)]
 #[command(
     name = "pomc",
