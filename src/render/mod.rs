@@ -25,6 +25,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::{DMat4, DVec3};
+use rayon::prelude::*;
 use serde::Serialize;
 
 pub use camera::{Camera, EquirectCamera, Perspective};
@@ -193,7 +194,9 @@ pub fn read_layers(pano: &Panorama, limits: &ReadLimits) -> crate::Result<Vec<(L
     if pano.manifest.layers.is_empty() {
         return Err(RenderError::NoLayers.into());
     }
+    // Layers decode in parallel (each EXR decode is sequential).
     (0..pano.manifest.layers.len())
+        .into_par_iter()
         .map(|index| {
             let image = pano.read_layer(index, limits)?;
             let mapping = AnyMapping::new(kind, image.width, image.height).map_err(|_| {

@@ -64,6 +64,52 @@ pub struct Args {
     /// Also write the coverage mask (PNG: 255 covered, 0 hole).
     #[arg(long)]
     mask: Option<PathBuf>,
+    /// Camera path: render one frame per line `EYE [LOOK_AT]` (world x,y,z triples; `#` starts a
+    /// comment). The layers are read and meshed once. Output names must contain a run of `#`, replaced
+    /// by the zero-padded frame number (e.g. `-o view-####.png`).
+    #[arg(long, conflicts_with_all = ["eye", "look_at"])]
+    path: Option<PathBuf>,
+}
+
+/// One frame of a camera path: eye and (perspective) look-at, world.
+#[derive(Clone, Copy, Debug)]
+struct Shot {
+    eye: DVec3,
+    look_at: Option<DVec3>,
+}
+
+/// Parse a camera path file (see `--path`); errors name the file and line.
+fn read_path(file: &std::path::Path) -> Result<Vec<Shot>, Failure> {
+    let bad = |msg: String| Failure::usage(format!("{}: {msg}", file.display()));
+    let text = std::fs::read_to_string(file).map_err(|e| bad(format!("cannot read the camera path: {e}")))?;
+    let mut shots = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let parts: Vec<&str> = line.split_whitespace().collect();
+        let at_line = |e: String| bad(format!("line {}: {e} (expected `x,y,z [x,y,z]`)", i + 1));
+        let (eye, look_at) = match parts.as_slice() {
+            [e] => (parse_vec3(e).map_err(at_line)?, None),
+            [e, a] => (parse_vec3(e).map_err(at_line)?, Some(parse_vec3(a).map_err(at_line)?)),
+            _ => return Err(at_line(format!("{} fields", parts.len()))),
+        };
+        shots.push(Shot { eye, look_at });
+    }
+    if shots.is_empty() {
+        return Err(bad("the camera path has no frames".into()));
+    }
+    Ok(shots)
+}
+
+/// `name` with its (last) run of `#` replaced by `index`, zero-padded to the run's length.
+fn frame_name(name: &std::path::Path, index: usize) -> Option<PathBuf> {
+    let s = name.to_str()?;
+    let end = s.rfind('#')? + 1;
+    let start = s[..end].rfind(|c| c != '#').map_or(0, |i| i + 1);
+    let width = end - start;
+    Some(PathBuf::from(format!("{}{index:0width$}{}", &s[..start], &s[end..])))
 }
 
 fn parse_vec3(s: &str) -> Result<DVec3, String> {
@@ -82,11 +128,12 @@ fn parse_size(s: &str) -> Result<(usize, usize), String> {
     Ok((w, h))
 }
 
-fn camera(args: &Args, eye: DVec3) -> Result<Camera, pomc::Error> {
+fn camera(args: &Args, shot: Shot) -> Result<Camera, pomc::Error> {
+    let eye = shot.eye;
     Ok(match args.camera {
         CameraArg::Perspective => {
             let (w, h) = args.size.unwrap_or((960, 540));
-            let at = args.look_at.unwrap_or(eye + DVec3::X);
+            let at = shot.look_at.unwrap_or(eye + DVec3::X);
             Camera::Perspective(Perspective::new(eye, at, args.up, args.fov, w, h)?)
         }
         CameraArg::Equirect => {
@@ -106,7 +153,6 @@ struct Outcome {
     hole_ratio: f64,
     counts: serde_json::Value,
     stages: Vec<(String, f64)>,
-    extra: serde_json::Value,
 }
 
 fn render_splat(layers: &[RenderLayer], to_world: glam::DMat4, cam: &Camera) -> Result<Outcome, Failure> {
@@ -121,22 +167,22 @@ fn render_splat(layers: &[RenderLayer], to_world: glam::DMat4, cam: &Camera) -> 
         hole_ratio: s.hole_ratio,
         counts: serde_json::json!(s.counts),
         stages: s.stages.iter().map(|st| (st.name.to_string(), st.seconds)).collect(),
-        extra: serde_json::json!({}),
     })
 }
 
-fn render_mesh(
-    pano: &Panorama,
-    layers: &[RenderLayer],
-    to_world: glam::DMat4,
-    cam: &Camera,
-    out: &Output,
-) -> Result<Outcome, Failure> {
+/// What is prepared once per panorama for the mesh method.
+struct MeshSetup {
+    meshes: Vec<rasterize::LayerGeometry>,
+    seconds: f64,
+    extra: serde_json::Value,
+}
+
+fn mesh_setup(pano: &Panorama, layers: &[RenderLayer], out: &Output) -> Result<MeshSetup, Failure> {
     let t = Instant::now();
     let (meshes, sources, warnings) =
         rasterize::panorama_meshes(pano, layers, &MeshParams::default(), &MeshOptions::default())
             .map_err(pomc::Error::from)?;
-    let mesh_s = t.elapsed().as_secs_f64();
+    let seconds = t.elapsed().as_secs_f64();
     if !out.quiet && !out.json {
         for w in &warnings {
             eprintln!("warning: {w}");
@@ -144,11 +190,21 @@ fn render_mesh(
     }
     let triangles: usize = meshes.iter().map(|m| m.mesh_triangles).sum();
     let border: usize = meshes.iter().map(|m| m.border_pixels).sum();
-    let r = rasterize::render_mesh(layers, &meshes, to_world, cam, &MeshOptions::default())
+    let extra = serde_json::json!({
+        "mesh": {"sources": sources, "triangles": triangles, "border_pixels": border, "warnings": warnings},
+    });
+    Ok(MeshSetup { meshes, seconds, extra })
+}
+
+fn render_mesh(
+    layers: &[RenderLayer],
+    setup: &MeshSetup,
+    to_world: glam::DMat4,
+    cam: &Camera,
+) -> Result<Outcome, Failure> {
+    let r = rasterize::render_mesh(layers, &setup.meshes, to_world, cam, &MeshOptions::default())
         .map_err(pomc::Error::from)?;
     let s = r.stats;
-    let mut stages = vec![("mesh".to_string(), mesh_s)];
-    stages.extend(s.stages.iter().map(|st| (st.name.to_string(), st.seconds)));
     Ok(Outcome {
         frame: r.frame,
         width: s.width,
@@ -157,77 +213,187 @@ fn render_mesh(
         holes: s.holes,
         hole_ratio: s.hole_ratio,
         counts: serde_json::json!(s.counts),
-        stages,
-        extra: serde_json::json!({
-            "mesh": {"sources": sources, "triangles": triangles, "border_pixels": border, "warnings": warnings},
-        }),
+        stages: s.stages.iter().map(|st| (st.name.to_string(), st.seconds)).collect(),
     })
+}
+
+/// Write one frame's outputs (colour, and depth and mask when asked) under `index`'s names.
+fn write_frame(args: &Args, r: &Outcome, index: Option<usize>) -> Result<PathBuf, Failure> {
+    let name = |p: &PathBuf| -> Result<PathBuf, Failure> {
+        match index {
+            None => Ok(p.clone()),
+            Some(i) => frame_name(p, i).ok_or_else(|| {
+                Failure::usage(format!(
+                    "{}: with --path every output name needs a run of `#` for the frame number (e.g. view-####.png)",
+                    p.display()
+                ))
+            }),
+        }
+    };
+    let colour = name(&args.output)?;
+    image::save_colour(&r.frame, &colour)?;
+    if let Some(p) = &args.depth {
+        image::save_depth(&r.frame, &name(p)?)?;
+    }
+    if let Some(p) = &args.mask {
+        image::save_mask(&r.frame, &name(p)?)?;
+    }
+    Ok(colour)
 }
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let start = Instant::now();
+    let shots = match &args.path {
+        Some(file) => {
+            let shots = read_path(file)?;
+            // Check every output name before any work.
+            for p in std::iter::once(&args.output).chain(&args.depth).chain(&args.mask) {
+                write_name_check(p)?;
+            }
+            Some(shots)
+        }
+        None => None,
+    };
     let bar = out.spinner("reading");
     let pano = Panorama::open(&args.pano)?;
     let to_world = pano.manifest.local_to_world();
-    let eye = args.eye.unwrap_or_else(|| render::centre(to_world));
-    let cam = camera(&args, eye)?;
+    let centre = render::centre(to_world);
+    let single = [Shot { eye: args.eye.unwrap_or(centre), look_at: args.look_at }];
+    let shots: &[Shot] = shots.as_deref().unwrap_or(&single);
+    // Every camera is checked before the layers are read.
+    let cams: Vec<Camera> = shots.iter().map(|s| camera(&args, *s)).collect::<Result<_, _>>()?;
     let layers = render::read_layers(&pano, &ReadLimits::default())?;
     let read_s = start.elapsed().as_secs_f64();
 
-    bar.set_message("rendering");
     let refs: Vec<RenderLayer> =
         layers.iter().map(|(image, mapping)| RenderLayer { image, mapping: *mapping }).collect();
-    let r = match args.method {
-        MethodArg::Splat => render_splat(&refs, to_world, &cam)?,
-        MethodArg::Mesh => render_mesh(&pano, &refs, to_world, &cam, &out)?,
+    let setup = match args.method {
+        MethodArg::Splat => None,
+        MethodArg::Mesh => {
+            bar.set_message("meshing");
+            Some(mesh_setup(&pano, &refs, &out)?)
+        }
     };
-
-    bar.set_message("writing");
-    let t = Instant::now();
-    image::save_colour(&r.frame, &args.output)?;
-    if let Some(p) = &args.depth {
-        image::save_depth(&r.frame, p)?;
-    }
-    if let Some(p) = &args.mask {
-        image::save_mask(&r.frame, p)?;
-    }
-    let write_s = t.elapsed().as_secs_f64();
     bar.finish_and_clear();
-
-    let mut stages = serde_json::json!({"read_s": read_s, "write_s": write_s});
-    for (name, seconds) in &r.stages {
-        stages[format!("{name}_s")] = serde_json::json!(seconds);
-    }
-    stages["total_s"] = serde_json::json!(start.elapsed().as_secs_f64());
+    let progress = (args.path.is_some()).then(|| out.progress(cams.len() as u64, "rendering"));
     let method = format!("{:?}", args.method).to_lowercase();
-    let mut report = serde_json::json!({
-        "output": args.output,
-        "method": method,
-        "camera": format!("{:?}", args.camera).to_lowercase(),
-        "eye": eye.to_array(),
-        "width": r.width,
-        "height": r.height,
-        "layers": r.layers,
-        "holes": r.holes,
-        "hole_ratio": r.hole_ratio,
-        "counts": r.counts,
-        "stages": stages,
-    });
-    if let (Some(obj), Some(extra)) = (report.as_object_mut(), r.extra.as_object()) {
+    let mut frames = Vec::new();
+    let mut last = None;
+    for (i, (cam, shot)) in cams.iter().zip(shots).enumerate() {
+        let t = Instant::now();
+        let r = match &setup {
+            None => render_splat(&refs, to_world, cam)?,
+            Some(setup) => render_mesh(&refs, setup, to_world, cam)?,
+        };
+        let render_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let colour = write_frame(&args, &r, args.path.as_ref().map(|_| i))?;
+        let write_s = t.elapsed().as_secs_f64();
+        let mut stages = serde_json::json!({"write_s": write_s, "frame_s": render_s + write_s});
+        for (name, seconds) in &r.stages {
+            stages[format!("{name}_s")] = serde_json::json!(seconds);
+        }
+        frames.push(serde_json::json!({
+            "output": colour, "eye": shot.eye.to_array(), "holes": r.holes, "hole_ratio": r.hole_ratio,
+            "counts": r.counts, "stages": stages,
+        }));
+        if let Some(p) = &progress {
+            p.inc(1);
+        }
+        last = Some((r, colour));
+    }
+    if let Some(p) = progress {
+        p.finish_and_clear();
+    }
+    let Some((r, colour)) = last else { return Ok(0) };
+
+    let mut report = if args.path.is_none() {
+        // One view: its stages flat, as before paths existed.
+        let mut stages = serde_json::json!({"read_s": read_s});
+        if let Some(s) = &setup {
+            stages["mesh_s"] = serde_json::json!(s.seconds);
+        }
+        if let Some(f) = frames[0]["stages"].as_object() {
+            for (k, v) in f.iter().filter(|(k, _)| k.as_str() != "frame_s") {
+                stages[k.as_str()] = v.clone();
+            }
+        }
+        stages["total_s"] = serde_json::json!(start.elapsed().as_secs_f64());
+        serde_json::json!({
+            "output": colour,
+            "method": method,
+            "camera": format!("{:?}", args.camera).to_lowercase(),
+            "eye": shots[0].eye.to_array(),
+            "width": r.width,
+            "height": r.height,
+            "layers": r.layers,
+            "holes": r.holes,
+            "hole_ratio": r.hole_ratio,
+            "counts": r.counts,
+            "stages": stages,
+        })
+    } else {
+        let mut per_frame: Vec<f64> = frames.iter().filter_map(|f| f["stages"]["frame_s"].as_f64()).collect();
+        per_frame.sort_by(f64::total_cmp);
+        let worst_holes = frames.iter().filter_map(|f| f["hole_ratio"].as_f64()).fold(0.0, f64::max);
+        serde_json::json!({
+            "method": method,
+            "camera": format!("{:?}", args.camera).to_lowercase(),
+            "width": r.width,
+            "height": r.height,
+            "layers": r.layers,
+            "frames": frames,
+            "max_hole_ratio": worst_holes,
+            "stages": {
+                "read_s": read_s,
+                "mesh_s": setup.as_ref().map(|s| s.seconds),
+                "frame_median_s": per_frame[per_frame.len() / 2],
+                "frame_max_s": per_frame[per_frame.len() - 1],
+                "total_s": start.elapsed().as_secs_f64(),
+            },
+        })
+    };
+    if let (Some(obj), Some(extra)) =
+        (report.as_object_mut(), setup.as_ref().and_then(|s| s.extra.as_object()))
+    {
         obj.extend(extra.clone());
     }
     out.json(&report);
-    out.say(format!(
-        "rendered {}x{} ({method}) from {} layer(s) at eye ({:.3}, {:.3}, {:.3}) in {:.2} s, {:.3} % holes -> {}",
-        r.width,
-        r.height,
-        r.layers,
-        eye.x,
-        eye.y,
-        eye.z,
-        start.elapsed().as_secs_f64(),
-        100.0 * r.hole_ratio,
-        args.output.display()
-    ));
+    if args.path.is_some() {
+        out.say(format!(
+            "rendered {} frames {}x{} ({method}) from {} layer(s) in {:.2} s ({:.3} s per frame, median), worst holes {:.3} % -> {}",
+            frames.len(),
+            r.width,
+            r.height,
+            r.layers,
+            start.elapsed().as_secs_f64(),
+            report["stages"]["frame_median_s"].as_f64().unwrap_or(0.0),
+            100.0 * report["max_hole_ratio"].as_f64().unwrap_or(0.0),
+            args.output.display()
+        ));
+    } else {
+        let eye = shots[0].eye;
+        out.say(format!(
+            "rendered {}x{} ({method}) from {} layer(s) at eye ({:.3}, {:.3}, {:.3}) in {:.2} s, {:.3} % holes -> {}",
+            r.width,
+            r.height,
+            r.layers,
+            eye.x,
+            eye.y,
+            eye.z,
+            start.elapsed().as_secs_f64(),
+            100.0 * r.hole_ratio,
+            colour.display()
+        ));
+    }
     Ok(0)
+}
+
+fn write_name_check(p: &std::path::Path) -> Result<(), Failure> {
+    frame_name(p, 0).map(|_| ()).ok_or_else(|| {
+        Failure::usage(format!(
+            "{}: with --path every output name needs a run of `#` for the frame number (e.g. view-####.png)",
+            p.display()
+        ))
+    })
 }

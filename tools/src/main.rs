@@ -62,6 +62,13 @@ pub struct Failure {
     pub exit: u8,
 }
 
+impl Failure {
+    /// An argument the command cannot use (a camera path, an output name), code `CLI_USAGE`.
+    pub fn usage(message: String) -> Failure {
+        Failure { code: "CLI_USAGE", message, exit: 2 }
+    }
+}
+
 impl From<pomc::Error> for Failure {
     fn from(e: pomc::Error) -> Self {
         Failure { code: e.code(), message: e.to_string(), exit: 2 }

@@ -170,3 +170,74 @@ fn render_mesh_method_reports_stages_and_uses_stored_meshes() {
     let out = pomc(&["render", d, "-o", &view, "--method", "raytrace"]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// A camera path renders one frame per line from one read (and one meshing) of the layers; each frame
+/// is the very image a single render of that camera gives.
+#[test]
+fn camera_path_renders_every_frame_like_single_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path());
+    let pano = dir.path().to_str().unwrap().to_string();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    std::fs::write(
+        p("path.txt"),
+        "# eye look-at\n0,0,1.2 2,0,0.4\n\n0,0.3,1.2 2,0,0.4  # second\n-0.2,0,1.2\n",
+    )
+    .unwrap();
+    for method in ["splat", "mesh"] {
+        let out = pomc(&[
+            "render",
+            &pano,
+            "-o",
+            &p(&format!("{method}-##.png")),
+            "--mask",
+            &p(&format!("{method}-mask-##.png")),
+            "--path",
+            &p("path.txt"),
+            "--size",
+            "120x68",
+            "--method",
+            method,
+            "--json",
+        ]);
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let frames = v["frames"].as_array().unwrap();
+        assert_eq!(frames.len(), 3, "{v}");
+        assert!(v["stages"]["frame_median_s"].as_f64().unwrap() > 0.0);
+        for k in 0..3 {
+            assert!(dir.path().join(format!("{method}-0{k}.png")).is_file());
+            assert!(dir.path().join(format!("{method}-mask-0{k}.png")).is_file());
+        }
+        let single = pomc(&[
+            "render",
+            &pano,
+            "-o",
+            &p(&format!("{method}-single.png")),
+            "--eye",
+            "0,0.3,1.2",
+            "--look-at",
+            "2,0,0.4",
+            "--size",
+            "120x68",
+            "--method",
+            method,
+            "--quiet",
+        ]);
+        assert_eq!(single.status.code(), Some(0));
+        let a = std::fs::read(dir.path().join(format!("{method}-01.png"))).unwrap();
+        let b = std::fs::read(dir.path().join(format!("{method}-single.png"))).unwrap();
+        assert!(a == b, "{method}: frame 1 differs from the single render of its camera");
+    }
+    // An output name without `#` and a malformed line are usage errors that name the file.
+    let out = pomc(&["render", &pano, "-o", &p("x.png"), "--path", &p("path.txt"), "--json"]);
+    assert_eq!(out.status.code(), Some(2));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["error"]["code"], "CLI_USAGE");
+    std::fs::write(p("bad.txt"), "0,0,1.2\n0,0\n").unwrap();
+    let out = pomc(&["render", &pano, "-o", &p("y-#.png"), "--path", &p("bad.txt")]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.txt: line 2"), "{err}");
+    assert!(!dir.path().join("y-0.png").exists(), "nothing is rendered before the path is checked");
+}
