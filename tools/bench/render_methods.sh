@@ -47,9 +47,28 @@ for v in "${views[@]}"; do
     done
   done
 done
+# Camera paths: the four views RUNS times each from one read (and one meshing) of the layers; the
+# per-frame time is what a viewer or a frame sequence pays once the panorama is loaded.
+: > "$work/path.txt"
+for i in $(seq "$runs"); do
+  for v in "${views[@]}"; do
+    read -r eye at name <<< "$v"
+    echo "$eye $at" >> "$work/path.txt"
+  done
+done
+paths=()
+for method in splat mesh mesh-stored; do
+  pano=$work/pano
+  m=$method
+  if [ "$method" = mesh-stored ]; then pano=$work/stored; m=mesh; fi
+  "$pomc" render "$pano" -o "$work/frame-####.png" --method "$m" --size 960x540 --path "$work/path.txt" \
+    --json > "$work/p.json"
+  paths+=("{\"method\": \"$method\", \"report\": $(cat "$work/p.json")}")
+done
 {
   echo "{\"machine\": \"$(nproc) cores, $(uname -m)\", \"commit\": \"$(git rev-parse --short HEAD)\", \"width\": $width,"
-  echo "\"layers\": $layers, \"size\": \"960x540\", \"runs\": [$(IFS=,; echo "${results[*]}")]}"
+  echo "\"layers\": $layers, \"size\": \"960x540\", \"runs\": [$(IFS=,; echo "${results[*]}")],"
+  echo "\"paths\": [$(IFS=,; echo "${paths[*]}")]}"
 } > docs/render-bench.json
 python3 - <<'PY'
 import json, statistics
@@ -66,4 +85,15 @@ for (view, method), reps in rows.items():
     cells = [f"{med(k):.3f}" if med(k) is not None else "—" for k in keys]
     tris = reps[0].get("mesh", {}).get("triangles", "—")
     print(f"| {view} | {method} | " + " | ".join(cells) + f" | {100 * reps[0]['hole_ratio']:.4f} | {tris} |")
+print()
+print(f"Camera path ({len(d['paths'][0]['report']['frames'])} frames: the four views × runs), one process per method")
+print("| method | read_s | mesh_s | frame median (s) | frame max (s) | render median, no write (s) | total_s | worst holes (%) |")
+print("|---|---|---|---|---|---|---|---|")
+for p in d["paths"]:
+    r = p["report"]
+    st = r["stages"]
+    draw = sorted(f["stages"]["frame_s"] - f["stages"]["write_s"] for f in r["frames"])
+    mesh = f"{st['mesh_s']:.3f}" if st.get("mesh_s") is not None else "—"
+    print(f"| {p['method']} | {st['read_s']:.3f} | {mesh} | {st['frame_median_s']:.3f} | {st['frame_max_s']:.3f} | "
+          f"{draw[len(draw) // 2]:.3f} | {st['total_s']:.3f} | {100 * r['max_hole_ratio']:.4f} |")
 PY
