@@ -174,8 +174,11 @@ pub fn segment(
     Segments { id, level, size, occludes }
 }
 
-/// Longest occlusion chain per segment, processed far to near so cycles (which real data can
-/// produce) are broken in favour of the mean depth. A segment that occludes nothing takes the
+/// Longest occlusion chain per segment. Real data can produce cycles (A occludes B somewhere, B
+/// occludes A elsewhere); only relations inside a cycle (a strongly connected component of the
+/// occlusion graph) are ordered by mean depth, far to near, to break it. A relation between
+/// components always counts, whatever the means: a distant building occludes the ground behind it
+/// although the ground as a whole is nearer on average. A segment that occludes nothing takes the
 /// level of the larger segment it shares the longest fold with: a box face next to the rest of
 /// the box stays with the box, while the floor a box stands on does not follow the box.
 fn levels(
@@ -185,26 +188,40 @@ fn levels(
     occludes: &[(u32, u32, u32)],
     folds: &HashMap<(u32, u32), u32>,
 ) -> Vec<u32> {
-    let mut order: Vec<u32> = (0..count as u32).collect();
-    order.sort_by(|&a, &b| mean[b as usize].total_cmp(&mean[a as usize]).then(a.cmp(&b)));
-    let mut rank = vec![0usize; count];
-    for (r, &s) in order.iter().enumerate() {
-        rank[s as usize] = r;
-    }
     let mut behind: Vec<Vec<u32>> = vec![Vec::new(); count];
     for &(near, far, _) in occludes {
         behind[near as usize].push(far);
     }
-    let mut level = vec![0u32; count];
-    let mut occluder = vec![false; count];
-    for &s in &order {
-        for &f in &behind[s as usize] {
-            if rank[f as usize] < rank[s as usize] {
-                occluder[s as usize] = true;
-                level[s as usize] = level[s as usize].max(level[f as usize] + 1);
+    let comp = strong_components(&behind);
+    // Farther mean first; ties by id: the order that breaks cycles.
+    let farther = |a: u32, b: u32| {
+        mean[a as usize] > mean[b as usize] || (mean[a as usize] == mean[b as usize] && a < b)
+    };
+    for (s, list) in behind.iter_mut().enumerate() {
+        list.retain(|&f| comp[f as usize] != comp[s] || farther(f, s as u32));
+    }
+    // What is left is acyclic: longest path by memoised depth-first search (iterative).
+    let mut level = vec![u32::MAX; count];
+    let mut stack: Vec<(u32, usize)> = Vec::new();
+    for root in 0..count as u32 {
+        if level[root as usize] != u32::MAX {
+            continue;
+        }
+        stack.push((root, 0));
+        while let Some(&mut (s, ref mut next)) = stack.last_mut() {
+            let list = &behind[s as usize];
+            if let Some(&f) = list.get(*next) {
+                *next += 1;
+                if level[f as usize] == u32::MAX {
+                    stack.push((f, 0));
+                }
+                continue;
             }
+            level[s as usize] = list.iter().map(|&f| level[f as usize].saturating_add(1)).max().unwrap_or(0);
+            stack.pop();
         }
     }
+    let occluder: Vec<bool> = behind.iter().map(|l| !l.is_empty()).collect();
     let mut attached: Vec<Vec<(u32, u32)>> = vec![Vec::new(); count];
     for (&(a, b), &c) in folds {
         if size[b as usize] > size[a as usize] {
@@ -236,4 +253,88 @@ fn levels(
         }
     }
     level
+}
+
+/// Strongly connected component of every node of a directed graph (Tarjan, iterative: segment
+/// graphs of noisy data can be deep).
+fn strong_components(next: &[Vec<u32>]) -> Vec<u32> {
+    const UNSEEN: u32 = u32::MAX;
+    let n = next.len();
+    let (mut index, mut low, mut comp) = (vec![UNSEEN; n], vec![0u32; n], vec![UNSEEN; n]);
+    let mut on_stack = vec![false; n];
+    let (mut stack, mut call): (Vec<u32>, Vec<(u32, usize)>) = (Vec::new(), Vec::new());
+    let (mut counter, mut comps) = (0u32, 0u32);
+    for root in 0..n as u32 {
+        if index[root as usize] != UNSEEN {
+            continue;
+        }
+        call.push((root, 0));
+        index[root as usize] = counter;
+        low[root as usize] = counter;
+        counter += 1;
+        stack.push(root);
+        on_stack[root as usize] = true;
+        while let Some(&mut (v, ref mut k)) = call.last_mut() {
+            let vi = v as usize;
+            if let Some(&w) = next[vi].get(*k) {
+                *k += 1;
+                let wi = w as usize;
+                if index[wi] == UNSEEN {
+                    index[wi] = counter;
+                    low[wi] = counter;
+                    counter += 1;
+                    stack.push(w);
+                    on_stack[wi] = true;
+                    call.push((w, 0));
+                } else if on_stack[wi] {
+                    low[vi] = low[vi].min(index[wi]);
+                }
+                continue;
+            }
+            call.pop();
+            if let Some(&(u, _)) = call.last() {
+                low[u as usize] = low[u as usize].min(low[vi]);
+            }
+            if low[vi] == index[vi] {
+                while let Some(w) = stack.pop() {
+                    on_stack[w as usize] = false;
+                    comp[w as usize] = comps;
+                    if w == v {
+                        break;
+                    }
+                }
+                comps += 1;
+            }
+        }
+    }
+    comp
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A distant building (mean 23 m) occludes the ground (mean 8 m: mostly near the camera): with no
+    /// cycle the relation counts, so the building is a level above the ground.
+    #[test]
+    fn far_occluder_of_a_nearer_on_average_surface_is_promoted() {
+        let mean = [8.0, 23.0];
+        let level = levels(2, &mean, &[1000, 50], &[(1, 0, 30)], &HashMap::new());
+        assert_eq!(level, vec![0, 1]);
+    }
+
+    /// A cycle A → B → C → A is broken by mean depth (far to near); a segment outside the cycle
+    /// that occludes one of it stacks above the whole chain.
+    #[test]
+    fn cycles_are_broken_by_mean_depth_only_inside_the_cycle() {
+        // Means: 0 far (10 m), 1 middle (5 m), 2 near (2 m); 3 occludes 2 but is farther (12 m).
+        let mean = [10.0, 5.0, 2.0, 12.0];
+        let occ = [(1, 0, 9), (2, 1, 9), (0, 2, 9), (3, 2, 9)];
+        let level = levels(4, &mean, &[9; 4], &occ, &HashMap::new());
+        // Inside the cycle only near → far survive: 2 → 1 → 0 (0 → 2 dropped).
+        assert_eq!(&level[..3], &[0, 1, 2]);
+        assert_eq!(level[3], 3);
+        let comp = strong_components(&[vec![1], vec![2], vec![0], vec![2]]);
+        assert!(comp[0] == comp[1] && comp[1] == comp[2] && comp[3] != comp[0]);
+    }
 }
