@@ -265,6 +265,10 @@ fn grazing_ground_under_the_sky_leaves_no_holes() {
         (DVec3::new(0.0, 0.0, 0.5), DVec3::new(-0.955, -0.296, 0.14)),
         (DVec3::new(0.0, 0.0, 0.25), DVec3::new(0.3, -0.955, 0.0)),
         (DVec3::new(0.5, 0.0, 0.0), DVec3::new(1.0, 0.0, -0.05)),
+        // Past the far building's left edge (20 m away) to the ground behind it: the building must be
+        // a layer above the ground although the ground is nearer on average (80 holes before).
+        (DVec3::new(0.0, 0.5, 0.0), look),
+        (DVec3::new(0.0, 0.25, 0.0), look),
     ] {
         // Output pixels finer than the panorama's (0.09° against 0.18°), as in the harness.
         let cam = Camera::Perspective(Perspective::new(eye, eye + dir, DVec3::Z, 90.0, 960, 540).unwrap());

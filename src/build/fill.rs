@@ -95,12 +95,19 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     let ((src, angle_of, order), (slot_of, rivals)) = rayon::join(
         || {
             // (1) The band: nearest seed within the parallax a camera in the freedom radius can open.
+            // Breadth-first from the seeds; a pixel already claimed switches to a nearer (in angle)
+            // seed of the same kind reaching it later and passes the improvement on. Without that the
+            // source drifts diagonally along a straight edge (the first seed to arrive wins) and the
+            // band comes out up to √2 narrower than the parallax needs.
             let mut src = vec![NONE; n];
             let mut angle_of = vec![0f64; n];
             let mut order = Vec::new();
             let mut queue: VecDeque<usize> = seeds[..jump_seeds].iter().copied().collect();
-            for &p in &seeds {
+            // 1: jump seed, 2: fold seed.
+            let mut kind = vec![0u8; n];
+            for (i, &p) in seeds.iter().enumerate() {
                 src[p] = p as u32;
+                kind[p] = if i < jump_seeds { 1 } else { 2 };
             }
             let mut folds_queued = false;
             loop {
@@ -115,18 +122,27 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
                 let s = src[p] as usize;
                 for j in 0..8 {
                     let Some(q) = cx.nb.get(p, j) else { continue };
-                    if src[q] != NONE || !hidden(q) {
+                    if !hidden(q)
+                        || (src[q] != NONE && (src[q] as usize == q || kind[src[q] as usize] != kind[s]))
+                    {
                         continue;
                     }
                     let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
-                    if angle
-                        > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64) + cx.margin
+                    let first = src[q] == NONE;
+                    // Strictly nearer (beyond rounding) or no switch: every switch lowers a pixel's angle,
+                    // so the propagation ends.
+                    if (!first && angle >= angle_of[q] - 1e-9)
+                        || angle
+                            > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64)
+                                + cx.margin
                     {
                         continue;
                     }
                     src[q] = s as u32;
                     angle_of[q] = angle;
-                    order.push(q);
+                    if first {
+                        order.push(q);
+                    }
                     queue.push_back(q);
                 }
             }
