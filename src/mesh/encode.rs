@@ -42,7 +42,9 @@ pub fn encode(trees: &[Option<Tree>], mapping: &AnyMapping) -> Result<Vec<u8>, M
             payload.push(chunk.iter().enumerate().fold(0u8, |acc, (i, &bit)| acc | ((bit as u8) << (7 - i))));
         }
     }
-    let z = zstd::encode_all(payload.as_slice(), 19).map_err(|e| MeshError::Encoding(e.to_string()))?;
+    // One-shot compression knows the input size, so level 19 sizes its tables to the (small) payload
+    // instead of allocating for an unknown stream (tens of milliseconds).
+    let z = zstd::bulk::compress(&payload, 19).map_err(|e| MeshError::Encoding(e.to_string()))?;
     let mut out = MAGIC.to_vec();
     out.push(VERSION);
     out.extend_from_slice(&z);
