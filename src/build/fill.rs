@@ -154,7 +154,10 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
             let mut slot_of = vec![NONE; n];
             let mut rivals: Vec<[u32; RIVALS]> = Vec::new();
             let mut queue: VecDeque<(u32, u8)> = VecDeque::new();
-            for &p in &seeds[..jump_seeds] {
+            // Directions only (the infinity layer): there is no plane to continue, so no rival to
+            // weigh; skipping the search spares a flood through everything finite.
+            let planes = seeds[..jump_seeds].iter().any(|&p| cx.depth[p].is_finite());
+            for &p in seeds[..jump_seeds].iter().filter(|_| planes) {
                 slot_of[p] = rivals.len() as u32;
                 let mut r = [NONE; RIVALS];
                 r[0] = p as u32;
