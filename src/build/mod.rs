@@ -49,6 +49,8 @@ pub struct BuildOptions {
     pub normals_out: bool,
     /// Put infinitely far content and content beyond `d_dirmin` in a direction-only layer.
     pub infinity: bool,
+    /// Move mixed pixels (between a nearer and a farther surface, across jumps to both) to the farther.
+    pub drop_mixed: bool,
     /// Extra fill band in pixels beyond the parallax band (reconstruction filters reach ~1-2 px).
     pub margin_px: f64,
     pub classify: Classify,
@@ -62,6 +64,7 @@ impl Default for BuildOptions {
             depth_bands: Vec::new(),
             normals_out: false,
             infinity: true,
+            drop_mixed: true,
             margin_px: 2.0,
             classify: Classify::Depth,
         }
@@ -188,6 +191,8 @@ pub struct BuildReport {
     /// Fraction of the sphere's pixels in at least one layer (1 for a valid result).
     pub coverage: f64,
     pub unknown_pixels: usize,
+    /// Mixed pixels moved to the farther side of their edge.
+    pub mixed_pixels: usize,
     pub segments: usize,
     /// Distance beyond which content goes to the infinity layer (m).
     pub d_dirmin: f64,
@@ -259,14 +264,29 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
             }
         })
         .collect();
-    let unknown_pixels = depth.iter().filter(|d| d.is_nan()).count();
     let nb = Neighbours::new(m);
     let dirs = pixel_dirs(&m);
+    let mut links = edges::Links::compute(&nb, &depth, &o.segment.edges);
+    // Mixed pixels (an anti-aliased or filtered depth pass averages the two sides of an edge): a
+    // pixel across a jump from a nearer and from a farther neighbour, between them, belongs to
+    // neither surface. It joins the farther side at its depth, so the edge between the two sides
+    // (and who occludes whom) stays.
+    let mut mixed_pixels = 0;
+    if o.drop_mixed {
+        let mixed = mixed_pixels_of(&nb, &depth, &links);
+        if !mixed.is_empty() {
+            mixed_pixels = mixed.len();
+            for &(p, d) in &mixed {
+                depth[p] = d;
+            }
+            links = edges::Links::compute(&nb, &depth, &o.segment.edges);
+        }
+    }
+    let unknown_pixels = depth.iter().filter(|d| d.is_nan()).count();
     lap("classify", &mut stages);
 
     // (2) Normals.
     progress("normals");
-    let links = edges::Links::compute(&nb, &depth, &o.segment.edges);
     let normals: Vec<Vec3> = match &input.normals {
         Some(given) if given.len() == n => given
             .par_iter()
@@ -416,6 +436,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
             .collect(),
         coverage: covered as f64 / n as f64,
         unknown_pixels,
+        mixed_pixels,
         segments: seg.size.len(),
         d_dirmin: dmin,
         max_band_deg,
@@ -425,6 +446,36 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         margin_px: o.margin_px,
     };
     Ok(Built { layers, layer_of, report })
+}
+
+/// Pixels whose depth lies strictly between a nearer neighbour and a farther neighbour, each across a
+/// jump (the mixed samples of an anti-aliased depth edge, spec §7 step 1), with the depth of their
+/// farthest such neighbour.
+fn mixed_pixels_of(nb: &Neighbours, depth: &[f32], links: &edges::Links) -> Vec<(usize, f32)> {
+    (0..nb.len())
+        .into_par_iter()
+        .filter_map(|p| {
+            let d = depth[p];
+            if !(d.is_finite() && d > 0.0) {
+                return None;
+            }
+            let (x, y) = (p % nb.width(), p / nb.width());
+            let (mut nearer, mut farthest) = (false, d);
+            for k in 0..8 {
+                if !links.is_jump(p, k) {
+                    continue;
+                }
+                let Some(q) = nb.get_at(x, y, k) else { continue };
+                let e = depth[q];
+                nearer |= e < d;
+                // Infinity (sky) is not a depth to take: such a pixel stays as it is.
+                if e > farthest && e.is_finite() {
+                    farthest = e;
+                }
+            }
+            (nearer && farthest > d).then_some((p, farthest))
+        })
+        .collect()
 }
 
 /// Unknown-depth pixels join the layer of the farthest known neighbour and take its depth,
@@ -583,5 +634,34 @@ pub fn manifest(
         },
         freedom_radius,
         layers,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mapping::MappingKind;
+
+    /// A column of pixels halfway between a near surface (2 m) and a far one (4 m), like a box
+    /// filter makes at an edge, joins the far side; nothing else moves (the seam and the poles
+    /// included).
+    #[test]
+    fn mixed_pixels_join_the_farther_side() {
+        let m = AnyMapping::new(MappingKind::Equirect, 16, 8).unwrap();
+        let nb = Neighbours::new(m);
+        let depth: Vec<f32> = (0..16 * 8)
+            .map(|p| match p % 16 {
+                0..=5 => 2.0,
+                6 => 3.0,
+                _ => 4.0,
+            })
+            .collect();
+        let links = edges::Links::compute(&nb, &depth, &edges::EdgeOptions::default());
+        let mixed = mixed_pixels_of(&nb, &depth, &links);
+        let mut cols: Vec<usize> = mixed.iter().map(|&(p, _)| p % 16).collect();
+        cols.dedup();
+        assert_eq!(cols, vec![6], "{mixed:?}");
+        assert_eq!(mixed.len(), 8);
+        assert!(mixed.iter().all(|&(_, d)| d == 4.0));
     }
 }

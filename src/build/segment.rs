@@ -174,6 +174,11 @@ pub fn segment(
     Segments { id, level, size, occludes }
 }
 
+/// A segment behind another that is over `SPECK` times larger, and smaller than `SPECK_MAX` pixels,
+/// is a speck: it does not count as occluded by it.
+const SPECK: u64 = 1000;
+const SPECK_MAX: u32 = 256;
+
 /// Longest occlusion chain per segment. Real data can produce cycles (A occludes B somewhere, B
 /// occludes A elsewhere); only relations inside a cycle (a strongly connected component of the
 /// occlusion graph) are ordered by mean depth, far to near, to break it. A relation between
@@ -190,6 +195,11 @@ fn levels(
 ) -> Vec<u32> {
     let mut behind: Vec<Vec<u32>> = vec![Vec::new(); count];
     for &(near, far, _) in occludes {
+        // A speck behind a surface (a few mixed or noisy pixels) does not lift the surface a level.
+        if (size[far as usize] as u64) * SPECK < size[near as usize] as u64 && size[far as usize] < SPECK_MAX
+        {
+            continue;
+        }
         behind[near as usize].push(far);
     }
     let comp = strong_components(&behind);
@@ -336,5 +346,21 @@ mod tests {
         assert_eq!(level[3], 3);
         let comp = strong_components(&[vec![1], vec![2], vec![0], vec![2]]);
         assert!(comp[0] == comp[1] && comp[1] == comp[2] && comp[3] != comp[0]);
+    }
+}
+
+#[cfg(test)]
+mod speck_tests {
+    use super::*;
+
+    /// A wall (100 000 px) with a 12-pixel speck of something farther behind it stays the
+    /// background; a box in front of the wall is still a level up.
+    #[test]
+    fn a_speck_behind_a_surface_does_not_lift_it() {
+        let mean = [4.0, 4.5, 2.0];
+        let size = [100_000, 12, 5_000];
+        let level = levels(3, &mean, &size, &[(0, 1, 5), (2, 0, 40)], &HashMap::new());
+        assert_eq!(level[0], 0);
+        assert_eq!(level[2], 1);
     }
 }

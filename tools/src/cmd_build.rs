@@ -107,6 +107,10 @@ pub struct Args {
     /// Keep far content in the finite layers (no infinity layer).
     #[arg(long)]
     no_infinity: bool,
+    /// Keep mixed pixels (depth between a nearer and a farther neighbour across jumps to both, as an
+    /// anti-aliased depth pass makes at edges) instead of treating them as unknown.
+    #[arg(long)]
+    keep_mixed: bool,
     /// Store every layer as a full canvas (no patch packing).
     #[arg(long)]
     no_pack: bool,
@@ -137,6 +141,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         depth_bands: args.depth_bands.clone(),
         normals_out: args.normals,
         infinity: !args.no_infinity,
+        drop_mixed: !args.keep_mixed,
         classify: if args.classify == ClassifyArg::Geometry { Classify::Geometry } else { Classify::Depth },
         margin_px: args.fill_margin,
         ..BuildOptions::default()
