@@ -222,12 +222,7 @@ fn write_frame(args: &Args, r: &Outcome, index: Option<usize>) -> Result<PathBuf
     let name = |p: &PathBuf| -> Result<PathBuf, Failure> {
         match index {
             None => Ok(p.clone()),
-            Some(i) => frame_name(p, i).ok_or_else(|| {
-                Failure::usage(format!(
-                    "{}: with --path every output name needs a run of `#` for the frame number (e.g. view-####.png)",
-                    p.display()
-                ))
-            }),
+            Some(i) => numbered(p, i),
         }
     };
     let colour = name(&args.output)?;
@@ -390,7 +385,12 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
 }
 
 fn write_name_check(p: &std::path::Path) -> Result<(), Failure> {
-    frame_name(p, 0).map(|_| ()).ok_or_else(|| {
+    numbered(p, 0).map(|_| ())
+}
+
+/// [`frame_name`], or the usage error of a name without `#`.
+fn numbered(p: &std::path::Path, index: usize) -> Result<PathBuf, Failure> {
+    frame_name(p, index).ok_or_else(|| {
         Failure::usage(format!(
             "{}: with --path every output name needs a run of `#` for the frame number (e.g. view-####.png)",
             p.display()
