@@ -517,15 +517,7 @@ fn bad_input_is_a_typed_error() {
 fn hostile_layer_values_never_give_nan() {
     let (w, h) = (64, 32);
     let m = AnyMapping::new(MappingKind::Equirect, w, h).unwrap();
-    let depths = [f32::NAN, -1.0, 0.0, 1e-30, 1e30, f32::INFINITY, 1.0, f32::MAX, 2.0, 2.0];
-    let colours = [f32::NAN, f32::INFINITY, -5.0, 0.5, 1e30, 0.25, 0.0];
-    let mut img = LayerImage::new(w, h);
-    img.set_channel("Z", SampleType::F32, (0..w * h).map(|i| depths[i % depths.len()]).collect());
-    for c in ["R", "G", "B"] {
-        img.set_channel(c, SampleType::F32, (0..w * h).map(|i| colours[(i / 3) % colours.len()]).collect());
-    }
-    let coverage: Vec<f32> = (0..w * h).map(|i| if i % 11 == 0 { 0.0 } else { 0.5 }).collect();
-    img.set_channel("A", SampleType::F32, coverage);
+    let img = pomc_fixtures::layers::hostile_layer(w, h);
     for cam in [
         persp(DVec3::ZERO, DVec3::X),
         persp(DVec3::new(0.0, 0.0, 0.5), DVec3::new(0.0, 0.0, 3.0)),

@@ -63,7 +63,9 @@ impl Rays {
                 let a = n.dot(c) + nr * (0.5 * k - 1.0) + nd * (0.5 * k - 1.0);
                 PlaneDot::Affine { a, bx: nr * k, by: nd * k }
             }
-            Rays::Equirect { .. } => PlaneDot::Rays { rays: self, n },
+            Rays::Equirect { cos_phi, sin_phi, cos_theta, sin_theta } => {
+                PlaneDot::Rays { cos_phi, sin_phi, cos_theta, sin_theta, n }
+            }
         }
     }
 
@@ -86,17 +88,25 @@ impl Rays {
 
 /// `n·r` over the lattice, see [`Rays::plane_dot`].
 pub enum PlaneDot<'a> {
-    Affine { a: f64, bx: f64, by: f64 },
-    Rays { rays: &'a Rays, n: DVec3 },
+    Affine {
+        a: f64,
+        bx: f64,
+        by: f64,
+    },
+    /// The equirect's ray tables (unit rays `(sinθ cosφ, sinθ sinφ, cosθ)`).
+    Rays {
+        cos_phi: &'a [f64],
+        sin_phi: &'a [f64],
+        cos_theta: &'a [f64],
+        sin_theta: &'a [f64],
+        n: DVec3,
+    },
 }
 
 impl PlaneDot<'_> {
     #[inline]
     pub fn at(&self, x: usize, y: usize) -> f64 {
-        match self {
-            PlaneDot::Affine { a, bx, by } => a + bx * x as f64 + by * y as f64,
-            PlaneDot::Rays { rays, n } => n.dot(rays.ray(x, y)),
-        }
+        self.row(y).at(x)
     }
 
     /// `n·r` along lattice row `y`, with the row's terms computed once.
@@ -104,17 +114,13 @@ impl PlaneDot<'_> {
     pub fn row(&self, y: usize) -> RowDot<'_> {
         match self {
             PlaneDot::Affine { a, bx, by } => RowDot::Affine { base: a + by * y as f64, bx: *bx },
-            PlaneDot::Rays { rays, n } => match rays {
-                Rays::Equirect { cos_phi, sin_phi, cos_theta, sin_theta } => RowDot::Equirect {
-                    cos_phi,
-                    sin_phi,
-                    st: sin_theta[y],
-                    z: n.z * cos_theta[y],
-                    nx: n.x,
-                    ny: n.y,
-                },
-                // Never built: faces take the affine form. NaN would fail every test, safely.
-                Rays::Face { .. } => RowDot::Affine { base: f64::NAN, bx: f64::NAN },
+            PlaneDot::Rays { cos_phi, sin_phi, cos_theta, sin_theta, n } => RowDot::Equirect {
+                cos_phi,
+                sin_phi,
+                st: sin_theta[y],
+                z: n.z * cos_theta[y],
+                nx: n.x,
+                ny: n.y,
             },
         }
     }

@@ -26,27 +26,21 @@ pub trait SatValue: Copy + Default + Send + Sync + PartialEq {
     fn wrapping_sub(self, o: Self) -> Self;
 }
 
-impl SatValue for u32 {
-    #[inline]
-    fn wrapping_add(self, o: Self) -> Self {
-        u32::wrapping_add(self, o)
-    }
-    #[inline]
-    fn wrapping_sub(self, o: Self) -> Self {
-        u32::wrapping_sub(self, o)
-    }
+macro_rules! sat_value {
+    ($($t:ty),*) => {$(
+        impl SatValue for $t {
+            #[inline]
+            fn wrapping_add(self, o: Self) -> Self {
+                <$t>::wrapping_add(self, o)
+            }
+            #[inline]
+            fn wrapping_sub(self, o: Self) -> Self {
+                <$t>::wrapping_sub(self, o)
+            }
+        }
+    )*};
 }
-
-impl SatValue for u64 {
-    #[inline]
-    fn wrapping_add(self, o: Self) -> Self {
-        u64::wrapping_add(self, o)
-    }
-    #[inline]
-    fn wrapping_sub(self, o: Self) -> Self {
-        u64::wrapping_sub(self, o)
-    }
-}
+sat_value!(u32, u64);
 
 /// A `(w+1) × (h+1)` table of prefix sums of a `w × h` map.
 #[derive(Clone, Debug)]

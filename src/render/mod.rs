@@ -90,25 +90,26 @@ pub struct Stage {
     pub seconds: f64,
 }
 
-/// Figures of one render.
+/// Figures of one render: the work counters `C` and options `O` are those of the method (splat by
+/// default; the mesh method's are [`MeshRenderStats`]).
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct RenderStats {
+pub struct RenderStats<C = SplatCounts, O = SplatOptions> {
     pub width: usize,
     pub height: usize,
     pub layers: usize,
     /// Output pixels no layer covers.
     pub holes: usize,
     pub hole_ratio: f64,
-    pub counts: SplatCounts,
-    pub options: SplatOptions,
+    pub counts: C,
+    pub options: O,
     pub stages: Vec<Stage>,
 }
 
 /// A rendered view.
 #[derive(Clone, Debug)]
-pub struct Rendered {
+pub struct Rendered<C = SplatCounts, O = SplatOptions> {
     pub frame: Frame,
-    pub stats: RenderStats,
+    pub stats: RenderStats<C, O>,
 }
 
 fn check_options(o: &SplatOptions) -> Result<(), RenderError> {

@@ -97,26 +97,12 @@ impl RasterCounts {
     }
 }
 
-/// Figures of one mesh render (the keys of the splat method where they apply).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct MeshRenderStats {
-    pub width: usize,
-    pub height: usize,
-    pub layers: usize,
-    pub holes: usize,
-    pub hole_ratio: f64,
-    pub counts: RasterCounts,
-    pub options: MeshOptions,
-    /// `raster` (set-up, binning, z-buffer) and `compose` (colour, infinity, frame).
-    pub stages: Vec<Stage>,
-}
+/// Figures of one mesh render: stages `raster` (set-up, binning, z-buffer) and `compose` (colour,
+/// infinity, frame).
+pub type MeshRenderStats = super::RenderStats<RasterCounts, MeshOptions>;
 
 /// A view rendered from meshes.
-#[derive(Clone, Debug)]
-pub struct MeshRendered {
-    pub frame: Frame,
-    pub stats: MeshRenderStats,
-}
+pub type MeshRendered = super::Rendered<RasterCounts, MeshOptions>;
 
 fn check_options(o: &MeshOptions) -> Result<(), RenderError> {
     if !(o.jump > 0.0 && o.jump.is_finite()) {

@@ -155,10 +155,10 @@ struct Outcome {
     stages: Vec<(String, f64)>,
 }
 
-fn render_splat(layers: &[RenderLayer], to_world: glam::DMat4, cam: &Camera) -> Result<Outcome, Failure> {
-    let r = render::render(layers, to_world, cam, &SplatOptions::default()).map_err(pomc::Error::from)?;
+/// The report of either method's render.
+fn outcome<C: serde::Serialize, O>(r: render::Rendered<C, O>) -> Outcome {
     let s = r.stats;
-    Ok(Outcome {
+    Outcome {
         frame: r.frame,
         width: s.width,
         height: s.height,
@@ -167,7 +167,12 @@ fn render_splat(layers: &[RenderLayer], to_world: glam::DMat4, cam: &Camera) -> 
         hole_ratio: s.hole_ratio,
         counts: serde_json::json!(s.counts),
         stages: s.stages.iter().map(|st| (st.name.to_string(), st.seconds)).collect(),
-    })
+    }
+}
+
+fn render_splat(layers: &[RenderLayer], to_world: glam::DMat4, cam: &Camera) -> Result<Outcome, Failure> {
+    let r = render::render(layers, to_world, cam, &SplatOptions::default()).map_err(pomc::Error::from)?;
+    Ok(outcome(r))
 }
 
 /// What is prepared once per panorama for the mesh method.
@@ -204,17 +209,7 @@ fn render_mesh(
 ) -> Result<Outcome, Failure> {
     let r = rasterize::render_mesh(layers, &setup.meshes, to_world, cam, &MeshOptions::default())
         .map_err(pomc::Error::from)?;
-    let s = r.stats;
-    Ok(Outcome {
-        frame: r.frame,
-        width: s.width,
-        height: s.height,
-        layers: s.layers,
-        holes: s.holes,
-        hole_ratio: s.hole_ratio,
-        counts: serde_json::json!(s.counts),
-        stages: s.stages.iter().map(|st| (st.name.to_string(), st.seconds)).collect(),
-    })
+    Ok(outcome(r))
 }
 
 /// Write one frame's outputs (colour, and depth and mask when asked) under `index`'s names.
