@@ -83,7 +83,7 @@ fn simplified(e: f64, max_angle_deg: Option<f64>) -> MeshParams {
     MeshParams {
         max_error: Some(e),
         max_angle_deg,
-        simplify: Some(SimplifyParams { max_error: e, max_angle_deg }),
+        simplify: Some(SimplifyParams { max_error: e, max_angle_deg, greedy: true }),
         ..MeshParams::default()
     }
 }
@@ -118,7 +118,7 @@ fn sweep_max_error() {
             let a = a.unwrap();
             let s = error::measure(&a.mesh.positions, &a.mesh.triangles, &bg, &m);
             println!("CSV {name},{e},{},{},{},{secs}", a.mesh.triangles.len(), s.p99_rel, s.max_rel);
-            println!("  {:?} {:?}", a.times, a.simplify);
+            println!("  {:?} {:?} {:?}", a.times, a.simplify, a.greedy);
         }
     }
 }

@@ -30,7 +30,7 @@ fn check(m: AnyMapping, z: Vec<f32>, p: &MeshParams) {
 fn simplified_is_sound(m: &AnyMapping, img: &LayerImage, p: &MeshParams) {
     let e = p.max_error.unwrap_or(0.005);
     let raw = mesh::mesh_layer(img, m, &MeshParams { simplify: None, ..p.clone() }).unwrap();
-    let sp = SimplifyParams { max_error: e, max_angle_deg: None };
+    let sp = SimplifyParams { max_error: e, max_angle_deg: None, greedy: true };
     let out = mesh::mesh_layer(img, m, &MeshParams { simplify: Some(sp), ..p.clone() }).unwrap().mesh;
     assert!(out.positions.iter().all(|v| v.is_finite()));
     assert!(out.triangles.len() <= raw.mesh.triangles.len());

@@ -189,7 +189,7 @@ fn simplified(e: f64) -> MeshParams {
     MeshParams {
         max_error: Some(e),
         max_angle_deg: None,
-        simplify: Some(SimplifyParams { max_error: e, max_angle_deg: None }),
+        simplify: Some(SimplifyParams { max_error: e, max_angle_deg: None, greedy: true }),
         ..MeshParams::default()
     }
 }

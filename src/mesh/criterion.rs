@@ -148,7 +148,7 @@ impl Criterion<'_> {
 /// The lattice points `x` of row `y` inside (or on) the triangle with integer corners `t`, as an
 /// inclusive range; `None` when there are none or the triangle is degenerate. Exact: each edge gives
 /// a linear inequality in `x` solved with floor division.
-fn row_span(t: [(i64, i64); 3], y: i64) -> Option<(i64, i64)> {
+pub(crate) fn row_span(t: [(i64, i64); 3], y: i64) -> Option<(i64, i64)> {
     let [a, b, c] = t;
     // Edge function of pq at (x, y): (q.x − p.x)(y − p.y) − (q.y − p.y)(x − p.x), signed so that
     // the inside is ≥ 0 on all three edges.

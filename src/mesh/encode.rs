@@ -136,5 +136,5 @@ pub fn decode(bytes: &[u8], image: &LayerImage, mapping: &AnyMapping) -> Result<
         };
         trees.push(tree);
     }
-    Ok(mesh_from_trees(&grids, &trees, mapping).0)
+    Ok(mesh_from_trees(&grids, &trees, mapping))
 }

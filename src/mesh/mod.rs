@@ -12,6 +12,7 @@ pub mod criterion;
 pub mod encode;
 pub mod error;
 pub mod export;
+pub mod greedy;
 pub mod grid;
 pub mod normals;
 pub mod quadtree;
@@ -156,6 +157,8 @@ pub struct StageTimes {
     pub triangulate_ms: f64,
     pub assemble_ms: f64,
     pub simplify_ms: f64,
+    /// Greedy insertion of the clean cube faces (when [`simplify::SimplifyParams::greedy`]).
+    pub greedy_ms: f64,
 }
 
 /// A mesh with the quadtrees it came from.
@@ -163,12 +166,15 @@ pub struct StageTimes {
 pub struct Meshed {
     /// The quadtree mesh, or its simplification when [`MeshParams::simplify`] is set.
     pub mesh: LayerMesh,
-    /// Triangles of the quadtree mesh (before simplification).
+    /// Triangles before the collapse stage: the quadtree mesh, with the greedy faces' meshes when
+    /// some lattices were meshed by greedy insertion.
     pub quadtree_triangles: usize,
     /// Counters of the simplification stage, when it ran.
     pub simplify: Option<simplify::SimplifyStats>,
-    /// One tree per lattice (`None` for a lattice without cells).
+    /// One tree per lattice (`None` for a lattice without cells, or meshed by greedy insertion).
     pub trees: Vec<Option<Tree>>,
+    /// Counters of each lattice meshed by greedy insertion (`None`: meshed by the quadtree).
+    pub greedy: Vec<Option<greedy::GreedyStats>>,
     pub times: StageTimes,
 }
 
@@ -215,23 +221,40 @@ pub fn mesh_layer(
     let t = Instant::now();
     let grids = lattices(image, mapping)?;
     let sample_ms = ms(t);
+    // Clean cube faces go to greedy insertion when the simplified mesh is asked for.
+    let greedy_params = params.simplify.as_ref().filter(|s| s.greedy && params.uniform.is_none());
     let t = Instant::now();
-    let trees: Vec<Option<Tree>> = grids
+    let greedy: Vec<Option<greedy::FaceMesh>> = grids
         .par_iter()
         .map(|g| {
-            let c = criterion::Criterion::new(g, image, params);
-            let mut tree = Tree::build(g.w, g.h, &c)?;
-            balance::balance(&mut tree, &c);
-            Some(tree)
+            let sp = greedy_params?;
+            let inv = greedy::clean_inverse_depth(g)?;
+            Some(greedy::mesh_face(g, &inv, sp.max_error, sp.max_angle_deg))
         })
         .collect();
+    let greedy_ms = if greedy_params.is_some() { ms(t) } else { 0.0 };
+    let t = Instant::now();
+    let skip: Vec<bool> = greedy.iter().map(Option::is_some).collect();
+    let trees = build_trees(&grids, image, params, &skip);
     let quadtree_ms = ms(t);
-    let (mesh, triangulate_ms, assemble_ms) = mesh_from_trees(&grids, &trees, mapping);
+    let t = Instant::now();
+    let parts: Vec<(Vec<[u32; 3]>, Vec<bool>)> = grids
+        .par_iter()
+        .zip(trees.par_iter())
+        .zip(greedy.par_iter())
+        .map(|((g, tree), done)| match done {
+            Some(f) => (f.triangles.clone(), f.used.clone()),
+            None => tree_part(g, tree.as_ref()),
+        })
+        .collect();
+    let (mesh, _, assemble_ms) = mesh_from_parts(&grids, parts, mapping);
+    let triangulate_ms = ms(t) - assemble_ms;
     let quadtree_triangles = mesh.triangles.len();
     let t = Instant::now();
     let (mesh, stats) = match &params.simplify {
         Some(sp) => {
-            let (m, s) = simplify::simplify(&mesh, &grids, mapping, sp);
+            let done: Vec<Option<Vec<f64>>> = greedy.iter().map(|f| f.as_ref().map(|f| f.errors.clone())).collect();
+            let (m, s) = simplify::simplify(&mesh, &grids, mapping, sp, &done);
             (m, Some(s))
         }
         None => (mesh, None),
@@ -242,24 +265,55 @@ pub fn mesh_layer(
         quadtree_triangles,
         simplify: stats,
         trees,
-        times: StageTimes { sample_ms, quadtree_ms, triangulate_ms, assemble_ms, simplify_ms },
+        greedy: greedy.into_iter().map(|f| f.map(|f| f.stats)).collect(),
+        times: StageTimes { sample_ms, quadtree_ms, triangulate_ms, assemble_ms, simplify_ms, greedy_ms },
     })
 }
 
-/// Triangulate, stitch and assemble; shared by [`mesh_layer`] and the decoder.
-fn mesh_from_trees(grids: &[Grid], trees: &[Option<Tree>], mapping: &AnyMapping) -> (LayerMesh, f64, f64) {
-    let t = Instant::now();
-    let parts: Vec<(Vec<[u32; 3]>, Vec<bool>)> = grids
+/// The balanced quadtree of every lattice not flagged in `skip` (`None`: no cells, or skipped).
+fn build_trees(grids: &[Grid], image: &LayerImage, params: &MeshParams, skip: &[bool]) -> Vec<Option<Tree>> {
+    grids
         .par_iter()
-        .zip(trees.par_iter())
-        .map(|(g, tree)| match tree {
-            Some(tree) => {
-                let used = triangulate::used_vertices(tree, g);
-                (triangulate::triangulate(tree, g, &used), used)
+        .enumerate()
+        .map(|(k, g)| {
+            if skip.get(k).copied().unwrap_or(false) {
+                return None;
             }
-            None => (Vec::new(), vec![false; g.w * g.h]),
+            let c = criterion::Criterion::new(g, image, params);
+            let mut tree = Tree::build(g.w, g.h, &c)?;
+            balance::balance(&mut tree, &c);
+            Some(tree)
         })
-        .collect();
+        .collect()
+}
+
+/// The quadtrees of a layer alone (what `.pomcmesh` stores, [`encode`]), e.g. when [`mesh_layer`]
+/// meshed some lattices by greedy insertion and did not build theirs.
+pub fn quadtrees(image: &LayerImage, mapping: &AnyMapping, params: &MeshParams) -> Result<Vec<Option<Tree>>, MeshError> {
+    params.check()?;
+    let grids = lattices(image, mapping)?;
+    Ok(build_trees(&grids, image, params, &[]))
+}
+
+/// The quadtree's triangles and used vertices of one lattice.
+fn tree_part(g: &Grid, tree: Option<&Tree>) -> (Vec<[u32; 3]>, Vec<bool>) {
+    match tree {
+        Some(tree) => {
+            let used = triangulate::used_vertices(tree, g);
+            (triangulate::triangulate(tree, g, &used), used)
+        }
+        None => (Vec::new(), vec![false; g.w * g.h]),
+    }
+}
+
+/// Stitch the lattices' triangles and assemble the mesh; returns it with the stitching and assembly
+/// times (ms).
+fn mesh_from_parts(
+    grids: &[Grid],
+    parts: Vec<(Vec<[u32; 3]>, Vec<bool>)>,
+    mapping: &AnyMapping,
+) -> (LayerMesh, f64, f64) {
+    let t = Instant::now();
     let mut tris: Vec<[u32; 3]> = parts.iter().flat_map(|p| p.0.iter().copied()).collect();
     let used: Vec<Vec<bool>> = parts.into_iter().map(|p| p.1).collect();
     let mut poles = [f64::NAN; 2];
@@ -267,10 +321,17 @@ fn mesh_from_trees(grids: &[Grid], trees: &[Option<Tree>], mapping: &AnyMapping)
         AnyMapping::Cube(_) => stitch::stitch_cube(grids, &used, &mut tris),
         AnyMapping::Equirect(_) => poles = stitch::stitch_equirect(&grids[0], &used[0], &mut tris),
     }
-    let triangulate_ms = ms(t);
+    let stitch_ms = ms(t);
     let t = Instant::now();
     let mesh = assemble(grids, mapping, &tris, poles);
-    (mesh, triangulate_ms, ms(t))
+    (mesh, stitch_ms, ms(t))
+}
+
+/// Triangulate, stitch and assemble the quadtree mesh; used by the decoder.
+fn mesh_from_trees(grids: &[Grid], trees: &[Option<Tree>], mapping: &AnyMapping) -> LayerMesh {
+    let parts: Vec<(Vec<[u32; 3]>, Vec<bool>)> =
+        grids.par_iter().zip(trees.par_iter()).map(|(g, tree)| tree_part(g, tree.as_ref())).collect();
+    mesh_from_parts(grids, parts, mapping).0
 }
 
 /// Compact canvas ids into vertices, compute positions, orient towards the centre.

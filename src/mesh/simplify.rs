@@ -57,6 +57,9 @@ pub struct SimplifyParams {
     pub max_error: f64,
     /// Cap on the angle between the rays of two vertices of a triangle (texture distortion), degrees.
     pub max_angle_deg: Option<f64>,
+    /// Mesh clean cube faces (every pixel valid, no depth jump) by greedy insertion
+    /// ([`super::greedy`]) instead of quadtree + collapses: faster and fewer triangles there.
+    pub greedy: bool,
 }
 
 /// Counters of one run.
@@ -809,12 +812,16 @@ impl<'a, 'b> Run<'a, 'b> {
     }
 }
 
-/// Simplify a mesh made by [`super::mesh_layer`] from `grids` (its lattices) on `mapping`.
+/// Simplify a mesh made by [`super::mesh_layer`] from `grids` (its lattices) on `mapping`. Lattices
+/// with `done[g]` (already meshed to the tolerance by [`super::greedy`]: the exact error of each of
+/// the lattice's triangles, in mesh order) skip the per-lattice phase; their side vertices still take
+/// part in the whole-mesh phase.
 pub fn simplify(
     mesh: &LayerMesh,
     grids: &[Grid],
     mapping: &AnyMapping,
     params: &SimplifyParams,
+    done: &[Option<Vec<f64>>],
 ) -> (LayerMesh, SimplifyStats) {
     let (w, h) = (mesh.width, mesh.height);
     let cube = matches!(mapping, AnyMapping::Cube(_));
@@ -885,6 +892,11 @@ pub fn simplify(
             let tris: Vec<[u32; 3]> =
                 mesh.triangles.iter().filter(|t| grid_of_tri(t) == Some(g)).copied().collect();
             let own = tris.len();
+            if let Some(Some(errs)) = done.get(g as usize) {
+                if errs.len() == own {
+                    return (tris, errs.clone(), SimplifyStats::default());
+                }
+            }
             let mut all = tris;
             all.extend(mesh.triangles.iter().filter(|t| grid_of_tri(t).is_none() && touches(t, g)));
             let movable: Vec<bool> = (0..n)

@@ -54,6 +54,11 @@ pub struct Args {
     /// with the same --max-error and --max-angle, unless --uniform or --max-error 0).
     #[arg(long)]
     no_simplify: bool,
+    /// Simplify clean cube faces with quadtree + collapses too, instead of greedy insertion (which is
+    /// faster and gives fewer triangles; faces with a domain border or a depth jump always take the
+    /// quadtree).
+    #[arg(long)]
+    no_greedy: bool,
 }
 
 fn fail(code: &'static str, message: String) -> Failure {
@@ -82,6 +87,7 @@ fn params(a: &Args) -> MeshParams {
             mesh::simplify::SimplifyParams {
                 max_error: a.max_error,
                 max_angle_deg: (a.max_angle > 0.0).then_some(a.max_angle),
+                greedy: !a.no_greedy,
             }
         }),
     }
@@ -108,7 +114,16 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let meshed = mesh::mesh_layer(&image, &mapping, &params)?;
     spin.set_message("encoding");
     let t = Instant::now();
-    let encoded = encode::encode(&meshed.trees, &mapping)?;
+    // The encoding stores the quadtrees; lattices meshed by greedy insertion have none yet, so they
+    // are built only when the encoding is to be stored.
+    let greedy = meshed.greedy.iter().any(Option::is_some);
+    let encoded = if !greedy {
+        Some(encode::encode(&meshed.trees, &mapping)?)
+    } else if args.store {
+        Some(encode::encode(&mesh::quadtrees(&image, &mapping, &params)?, &mapping)?)
+    } else {
+        None
+    };
     let encode_ms = ms(t);
     let m = &meshed.mesh;
     let stats = if args.no_metric {
@@ -128,11 +143,11 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         pomc::fsutil::write_bytes_atomic(path, &bytes)?;
         export_ms = ms(t);
     }
-    if args.store {
-        store(&pano, args.layer, &encoded)?;
+    if let (true, Some(bytes)) = (args.store, &encoded) {
+        store(&pano, args.layer, bytes)?;
     }
     spin.finish_and_clear();
-    report(&args, out, &meshed, encoded.len(), stats, [read_ms, encode_ms, export_ms]);
+    report(&args, out, &meshed, encoded.map(|e| e.len()), stats, [read_ms, encode_ms, export_ms]);
     Ok(0)
 }
 
@@ -162,26 +177,32 @@ fn report(
     args: &Args,
     out: Output,
     meshed: &mesh::Meshed,
-    encoded: usize,
+    encoded: Option<usize>,
     stats: Option<(error::ErrorStats, f64)>,
     [read_ms, encode_ms, export_ms]: [f64; 3],
 ) {
     let m = &meshed.mesh;
     let tris = m.triangles.len();
-    // The encoding stores the quadtree, so its density is per quadtree triangle (thesis 7.4.4).
+    // The encoding stores the quadtree, so its density is per quadtree triangle (thesis 7.4.4); that
+    // count is known when the whole layer was meshed by the quadtree.
+    let greedy_faces = meshed.greedy.iter().filter(|g| g.is_some()).count();
     let qt = meshed.quadtree_triangles;
-    let per_million = if qt > 0 { encoded as f64 * 1e6 / qt as f64 } else { 0.0 };
+    let per_million = encoded.filter(|_| qt > 0 && greedy_faces == 0).map(|e| e as f64 * 1e6 / qt as f64);
     let t = &meshed.times;
     out.json(&serde_json::json!({
         "layer": args.layer,
         "width": m.width, "height": m.height,
         "triangles": tris, "vertices": m.positions.len(),
-        "quadtree_triangles": meshed.quadtree_triangles, "simplify": meshed.simplify,
+        "quadtree_triangles": (greedy_faces == 0).then_some(qt),
+        "before_collapses_triangles": qt,
+        "greedy_faces": greedy_faces, "greedy": meshed.greedy,
+        "simplify": meshed.simplify,
         "encoded_bytes": encoded, "encoded_bytes_per_million_triangles": per_million,
         "error": stats.as_ref().map(|s| &s.0),
         "times_ms": {
             "read": read_ms, "sample": t.sample_ms, "quadtree": t.quadtree_ms,
-            "triangulate": t.triangulate_ms, "assemble": t.assemble_ms, "simplify": t.simplify_ms,
+            "greedy": t.greedy_ms, "triangulate": t.triangulate_ms, "assemble": t.assemble_ms,
+            "simplify": t.simplify_ms,
             "encode": encode_ms, "metric": stats.as_ref().map(|s| s.1), "export": export_ms,
         },
         "output": args.output,
@@ -201,7 +222,11 @@ fn report(
             None => String::new(),
         }
     ));
-    out.say(format!("encoded: {encoded} bytes ({per_million:.0} bytes per million quadtree triangles)"));
+    match (encoded, per_million) {
+        (Some(e), Some(p)) => out.say(format!("encoded: {e} bytes ({p:.0} bytes per million quadtree triangles)")),
+        (Some(e), None) => out.say(format!("encoded: {e} bytes (quadtree)")),
+        (None, _) => out.say("encoded: not computed (greedy faces build no quadtree; --store encodes it)".to_string()),
+    }
     if let Some((s, _)) = &stats {
         out.say(format!(
             "error over {} pixels ({} unhit): relative max {:.3e} p99 {:.3e} rms {:.3e}; absolute max {:.3e} m p99 {:.3e} m rms {:.3e} m",
@@ -209,8 +234,9 @@ fn report(
         ));
     }
     out.say(format!(
-        "times (ms): read {read_ms:.0}, sample {:.0}, quadtree {:.0}, triangulate {:.0}, assemble {:.0}, simplify {:.0}, encode {encode_ms:.0}, metric {}, export {export_ms:.0}",
+        "times (ms): read {read_ms:.0}, sample {:.0}, greedy {:.0}, quadtree {:.0}, triangulate {:.0}, assemble {:.0}, simplify {:.0}, encode {encode_ms:.0}, metric {}, export {export_ms:.0}",
         t.sample_ms,
+        t.greedy_ms,
         t.quadtree_ms,
         t.triangulate_ms,
         t.assemble_ms,

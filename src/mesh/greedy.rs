@@ -1,0 +1,477 @@
+//! Greedy insertion meshing of a *clean* cube-face lattice (every pixel valid, no depth jump): the
+//! Garland–Heckbert (1995) refinement that Delatin/hmm use on heightmaps, driven by pomc's exact 3D
+//! error instead of a height difference.
+//!
+//! Start from the lattice's two corner triangles; repeatedly take the triangle with the largest error,
+//! insert its worst lattice point as a vertex, restore the Delaunay property by edge flips, and rescan
+//! the triangles that changed; stop when no triangle's error exceeds the tolerance. Vertices are pixel
+//! centres (exact samples, exact texture coordinates), like the quadtree's.
+//!
+//! **Why it is exact.** On a cube face the lattice ray `r` is affine in the lattice position, so the
+//! inverse hit distance `w = 1/λ` (point `λ·r`) of a planar triangle is affine over its lattice
+//! triangle, and a planar triangle covers exactly the lattice points of its lattice triangle (central
+//! projection keeps lines straight). A pixel's relative error along its ray is then
+//! `|λ_mesh − λ|/λ = |w − w_mesh| / w_mesh`: the scan below measures exactly what
+//! [`super::error::measure`] reports, pixel by pixel. Predicates (orientation, in-circle) are exact
+//! integer arithmetic.
+//!
+//! `max_angle` (texture distortion, thesis 7.4.3): a triangle whose vertex rays span more than the cap
+//! is split at the lattice point nearest its centroid, so the output never has such a triangle unless
+//! it holds no lattice point to split at.
+
+use super::criterion::row_span;
+use super::grid::{Grid, Rays};
+
+/// A lattice point.
+type P = (i64, i64);
+
+/// `1/λ` per vertex when every vertex is valid and no two neighbours (sides and diagonals of every
+/// cell) differ by a depth jump; `None` otherwise (the quadtree handles domain borders and jumps).
+pub fn clean_inverse_depth(g: &Grid) -> Option<Vec<f32>> {
+    use rayon::prelude::*;
+    if g.w < 2 || g.h < 2 || !matches!(g.rays, Rays::Face { .. }) {
+        return None;
+    }
+    let (w, h) = (g.w, g.h);
+    let mut out = vec![0.0f32; w * h];
+    let ok = out.par_chunks_mut(w).enumerate().all(|(y, row)| {
+        for (x, o) in row.iter_mut().enumerate() {
+            let l = g.lambda[y * w + x];
+            if !(l > 0.0 && l.is_finite()) {
+                return false;
+            }
+            *o = 1.0 / l;
+        }
+        // Cells of the row below (`y` is their top side).
+        y + 1 >= h || (0..w - 1).all(|x| !g.bad_cell(x, y))
+    });
+    ok.then_some(out)
+}
+
+/// Edge function; positive for every triangle of the triangulation (its vertices `a, b, c` in order).
+#[inline]
+fn edge(a: P, b: P, c: P) -> i64 {
+    (b.0 - c.0) * (a.1 - c.1) - (b.1 - c.1) * (a.0 - c.0)
+}
+
+/// `p` strictly inside the circumcircle of `a, b, c` (orientation of [`edge`]); exact.
+#[inline]
+fn in_circle(a: P, b: P, c: P, p: P) -> bool {
+    let (dx, dy) = ((a.0 - p.0) as i128, (a.1 - p.1) as i128);
+    let (ex, ey) = ((b.0 - p.0) as i128, (b.1 - p.1) as i128);
+    let (fx, fy) = ((c.0 - p.0) as i128, (c.1 - p.1) as i128);
+    let ap = dx * dx + dy * dy;
+    let bp = ex * ex + ey * ey;
+    let cp = fx * fx + fy * fy;
+    dx * (ey * cp - bp * fy) - dy * (ex * cp - bp * fx) + ap * (ex * fy - ey * fx) < 0
+}
+
+/// Counters of one face.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct GreedyStats {
+    pub insertions: usize,
+    /// Lattice points scanned (the cost of the method).
+    pub scanned: u64,
+}
+
+/// Greedy insertion over one clean lattice. Triangles are triples of vertex indices; `half[e]` is the
+/// opposite half-edge of half-edge `e = 3t + k` (from vertex `k` to vertex `k + 1` of triangle `t`).
+struct Mesher<'a> {
+    nw: usize,
+    inv: &'a [f32],
+    rays: &'a Rays,
+    e: f64,
+    /// Angle cap in radians.
+    cap: Option<f64>,
+    pts: Vec<P>,
+    tri: Vec<u32>,
+    half: Vec<i32>,
+    cand: Vec<P>,
+    key: Vec<f64>,
+    /// Largest relative error of each triangle (exact, from its last scan).
+    err: Vec<f64>,
+    qpos: Vec<i32>,
+    queue: Vec<u32>,
+    pending: Vec<u32>,
+    stats: GreedyStats,
+}
+
+impl<'a> Mesher<'a> {
+    fn new(g: &'a Grid, inv: &'a [f32], e: f64, cap: Option<f64>) -> Self {
+        let mut m = Mesher {
+            nw: g.w,
+            inv,
+            rays: &g.rays,
+            e,
+            cap,
+            pts: Vec::new(),
+            tri: Vec::new(),
+            half: Vec::new(),
+            cand: Vec::new(),
+            key: Vec::new(),
+            err: Vec::new(),
+            qpos: Vec::new(),
+            queue: Vec::new(),
+            pending: Vec::new(),
+            stats: GreedyStats::default(),
+        };
+        let (x1, y1) = (g.w as i64 - 1, g.h as i64 - 1);
+        let p0 = m.add_point((0, 0));
+        let p1 = m.add_point((x1, 0));
+        let p2 = m.add_point((0, y1));
+        let p3 = m.add_point((x1, y1));
+        let t0 = m.add_triangle([p3, p0, p2], [-1, -1, -1], None);
+        m.add_triangle([p0, p3, p1], [t0 as i32, -1, -1], None);
+        m.flush();
+        m
+    }
+
+    fn add_point(&mut self, p: P) -> u32 {
+        self.pts.push(p);
+        self.pts.len() as u32 - 1
+    }
+
+    /// Add (or overwrite slot `at`, a half-edge index) a triangle; returns its first half-edge.
+    fn add_triangle(&mut self, v: [u32; 3], h: [i32; 3], at: Option<usize>) -> usize {
+        let e = at.unwrap_or(self.tri.len());
+        let t = e / 3;
+        if e == self.tri.len() {
+            self.tri.extend_from_slice(&v);
+            self.half.extend_from_slice(&h);
+            self.cand.push((0, 0));
+            self.key.push(0.0);
+            self.err.push(0.0);
+            self.qpos.push(-1);
+        } else {
+            self.tri[e..e + 3].copy_from_slice(&v);
+            self.half[e..e + 3].copy_from_slice(&h);
+        }
+        for (k, &o) in h.iter().enumerate() {
+            if o >= 0 {
+                self.half[o as usize] = (e + k) as i32;
+            }
+        }
+        self.pending.push(t as u32);
+        e
+    }
+
+    fn run(&mut self) {
+        while let Some(&t) = self.queue.first() {
+            if !(self.key[t as usize] > 1.0) {
+                break;
+            }
+            self.step();
+            self.flush();
+        }
+    }
+
+    fn flush(&mut self) {
+        while let Some(t) = self.pending.pop() {
+            self.find_candidate(t as usize);
+        }
+    }
+
+    fn vertices(&self, t: usize) -> [P; 3] {
+        [0, 1, 2].map(|k| self.pts[self.tri[3 * t + k] as usize])
+    }
+
+    /// Scan triangle `t`: its worst pixel (relative error along the ray) and its queue key
+    /// (error / tolerance, or the angle overshoot when that is larger).
+    fn find_candidate(&mut self, t: usize) {
+        let [a, b, c] = self.vertices(t);
+        let at = |p: P| self.inv[p.1 as usize * self.nw + p.0 as usize] as f64;
+        let (wa, wb, wc) = (at(a), at(b), at(c));
+        let (dx1, dy1, dx2, dy2) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64, (c.0 - a.0) as f64, (c.1 - a.1) as f64);
+        let det = dx1 * dy2 - dx2 * dy1;
+        let gx = ((wb - wa) * dy2 - (wc - wa) * dy1) / det;
+        let gy = (dx1 * (wc - wa) - dx2 * (wb - wa)) / det;
+        let (y0, y1) = (a.1.min(b.1).min(c.1), a.1.max(b.1).max(c.1));
+        let mut best = 0.0f64;
+        let mut best_at = a;
+        let mut scanned = 0u64;
+        for y in y0..=y1 {
+            let Some((lo, hi)) = row_span([a, b, c], y) else { continue };
+            let row = &self.inv[y as usize * self.nw + lo as usize..=y as usize * self.nw + hi as usize];
+            scanned += row.len() as u64;
+            let base = wa + gx * (lo - a.0) as f64 + gy * (y - a.1) as f64;
+            // `|w − w_m| > best·w_m` tests the ratio without a division per pixel (w_m > 0: a convex
+            // combination of positive vertex values).
+            let mut found = usize::MAX;
+            for (k, &v) in row.iter().enumerate() {
+                let wm = base + gx * k as f64;
+                if (v as f64 - wm).abs() > best * wm {
+                    best = (v as f64 - wm).abs() / wm;
+                    found = k;
+                }
+            }
+            if found != usize::MAX {
+                best_at = (lo + found as i64, y);
+            }
+        }
+        self.stats.scanned += scanned;
+        self.err[t] = best;
+        if best_at == a || best_at == b || best_at == c {
+            best = 0.0;
+        }
+        let mut key = best / self.e;
+        let mut cand = best_at;
+        if let Some(cap) = self.cap {
+            let over = self.extent(a, b, c) / cap;
+            if over > 1.0 && over > key {
+                match self.centroid_point(a, b, c) {
+                    Some(p) => {
+                        key = over;
+                        cand = p;
+                    }
+                    None if key <= 1.0 => key = 0.0,
+                    None => {}
+                }
+            }
+        }
+        self.cand[t] = cand;
+        self.key[t] = key;
+        self.queue_push(t as u32);
+    }
+
+    /// Largest angle between two of the vertex rays, radians.
+    fn extent(&self, a: P, b: P, c: P) -> f64 {
+        let r = [a, b, c].map(|p| self.rays.ray(p.0 as usize, p.1 as usize).normalize());
+        let cos = r[0].dot(r[1]).min(r[1].dot(r[2])).min(r[2].dot(r[0]));
+        cos.clamp(-1.0, 1.0).acos()
+    }
+
+    /// A lattice point of the triangle (not a vertex) near its centroid, if any.
+    fn centroid_point(&self, a: P, b: P, c: P) -> Option<P> {
+        let (cx, cy) = ((a.0 + b.0 + c.0) as f64 / 3.0, (a.1 + b.1 + c.1) as f64 / 3.0);
+        let (y0, y1) = (a.1.min(b.1).min(c.1), a.1.max(b.1).max(c.1));
+        let yc = (cy.round() as i64).clamp(y0, y1);
+        let mut best: Option<(f64, P)> = None;
+        // Rows outward from the centroid's; the first rows with points hold the nearest ones.
+        for d in 0..=(y1 - y0) {
+            for y in [yc - d, yc + d] {
+                if y < y0 || y > y1 || (d == 0 && y != yc) {
+                    continue;
+                }
+                let Some((lo, hi)) = row_span([a, b, c], y) else { continue };
+                let x = (cx.round() as i64).clamp(lo, hi);
+                for x in [x, x - 1, x + 1] {
+                    let p = (x, y);
+                    if x < lo || x > hi || p == a || p == b || p == c {
+                        continue;
+                    }
+                    let dist = (x as f64 - cx).powi(2) + (y as f64 - cy).powi(2);
+                    if best.is_none_or(|(bd, _)| dist < bd) {
+                        best = Some((dist, p));
+                    }
+                }
+            }
+            if best.is_some_and(|(bd, _)| bd <= (d as f64).powi(2)) {
+                break;
+            }
+        }
+        best.map(|(_, p)| p)
+    }
+
+    fn step(&mut self) {
+        let t = self.queue_pop() as usize;
+        let (e0, e1, e2) = (3 * t, 3 * t + 1, 3 * t + 2);
+        let [p0, p1, p2] = [self.tri[e0], self.tri[e1], self.tri[e2]];
+        let [a, b, c] = self.vertices(t);
+        let p = self.cand[t];
+        let pn = self.add_point(p);
+        self.stats.insertions += 1;
+        if edge(a, b, p) == 0 {
+            self.split_edge(pn, e0);
+        } else if edge(b, c, p) == 0 {
+            self.split_edge(pn, e1);
+        } else if edge(c, a, p) == 0 {
+            self.split_edge(pn, e2);
+        } else {
+            let (h0, h1, h2) = (self.half[e0], self.half[e1], self.half[e2]);
+            let t0 = self.add_triangle([p0, p1, pn], [h0, -1, -1], Some(e0));
+            let t1 = self.add_triangle([p1, p2, pn], [h1, -1, t0 as i32 + 1], None);
+            let t2 = self.add_triangle([p2, p0, pn], [h2, t0 as i32 + 2, t1 as i32 + 1], None);
+            self.legalize(t0);
+            self.legalize(t1);
+            self.legalize(t2);
+        }
+    }
+
+    /// The new point `pn` lies on half-edge `a` of the (popped) triangle: split it and its twin.
+    fn split_edge(&mut self, pn: u32, a: usize) {
+        let a0 = a - a % 3;
+        let (al, ar) = (a0 + (a + 1) % 3, a0 + (a + 2) % 3);
+        let (p0, pr, pl) = (self.tri[ar], self.tri[a], self.tri[al]);
+        let (hal, har) = (self.half[al], self.half[ar]);
+        let b = self.half[a];
+        if b < 0 {
+            let t0 = self.add_triangle([pn, p0, pr], [-1, har, -1], Some(a0));
+            let t1 = self.add_triangle([p0, pn, pl], [t0 as i32, -1, hal], None);
+            self.legalize(t0 + 1);
+            self.legalize(t1 + 2);
+            return;
+        }
+        let b = b as usize;
+        let b0 = b - b % 3;
+        let (bl, br) = (b0 + (b + 2) % 3, b0 + (b + 1) % 3);
+        let p1 = self.tri[bl];
+        let (hbl, hbr) = (self.half[bl], self.half[br]);
+        self.queue_remove(b0 / 3);
+        let t0 = self.add_triangle([p0, pr, pn], [har, -1, -1], Some(a0));
+        let t1 = self.add_triangle([pr, p1, pn], [hbr, -1, t0 as i32 + 1], Some(b0));
+        let t2 = self.add_triangle([p1, pl, pn], [hbl, -1, t1 as i32 + 1], None);
+        let t3 = self.add_triangle([pl, p0, pn], [hal, t0 as i32 + 2, t2 as i32 + 1], None);
+        self.legalize(t0);
+        self.legalize(t1);
+        self.legalize(t2);
+        self.legalize(t3);
+    }
+
+    /// Flip half-edge `a` if its quad violates the Delaunay condition, recursively.
+    fn legalize(&mut self, a: usize) {
+        let b = self.half[a];
+        if b < 0 {
+            return;
+        }
+        let b = b as usize;
+        let (a0, b0) = (a - a % 3, b - b % 3);
+        let (al, ar) = (a0 + (a + 1) % 3, a0 + (a + 2) % 3);
+        let (bl, br) = (b0 + (b + 2) % 3, b0 + (b + 1) % 3);
+        let (p0, pr, pl, p1) = (self.tri[ar], self.tri[a], self.tri[al], self.tri[bl]);
+        let q = |v: u32| self.pts[v as usize];
+        if !in_circle(q(p0), q(pr), q(pl), q(p1)) {
+            return;
+        }
+        let (hal, har, hbl, hbr) = (self.half[al], self.half[ar], self.half[bl], self.half[br]);
+        self.queue_remove(a0 / 3);
+        self.queue_remove(b0 / 3);
+        let t0 = self.add_triangle([p0, p1, pl], [-1, hbl, hal], Some(a0));
+        let t1 = self.add_triangle([p1, p0, pr], [t0 as i32, har, hbr], Some(b0));
+        self.legalize(t0 + 1);
+        self.legalize(t1 + 2);
+    }
+
+    // Indexed binary max-heap of triangles by key.
+
+    fn less(&self, i: usize, j: usize) -> bool {
+        self.key[self.queue[i] as usize] > self.key[self.queue[j] as usize]
+    }
+
+    fn swap(&mut self, i: usize, j: usize) {
+        self.queue.swap(i, j);
+        self.qpos[self.queue[i] as usize] = i as i32;
+        self.qpos[self.queue[j] as usize] = j as i32;
+    }
+
+    fn up(&mut self, mut j: usize) {
+        while j > 0 {
+            let i = (j - 1) / 2;
+            if !self.less(j, i) {
+                break;
+            }
+            self.swap(i, j);
+            j = i;
+        }
+    }
+
+    /// Sift down within `..n`; `true` when the element moved.
+    fn down(&mut self, i0: usize, n: usize) -> bool {
+        let mut i = i0;
+        loop {
+            let j1 = 2 * i + 1;
+            if j1 >= n {
+                break;
+            }
+            let j = if j1 + 1 < n && self.less(j1 + 1, j1) { j1 + 1 } else { j1 };
+            if !self.less(j, i) {
+                break;
+            }
+            self.swap(i, j);
+            i = j;
+        }
+        i > i0
+    }
+
+    fn queue_push(&mut self, t: u32) {
+        let i = self.queue.len();
+        self.qpos[t as usize] = i as i32;
+        self.queue.push(t);
+        self.up(i);
+    }
+
+    fn queue_pop(&mut self) -> u32 {
+        let n = self.queue.len() - 1;
+        self.swap(0, n);
+        self.down(0, n);
+        let t = self.queue.pop().expect("non-empty queue");
+        self.qpos[t as usize] = -1;
+        t
+    }
+
+    fn queue_remove(&mut self, t: usize) {
+        let i = self.qpos[t];
+        if i < 0 {
+            // Not scanned yet: drop it from the pending list.
+            if let Some(k) = self.pending.iter().position(|&p| p as usize == t) {
+                self.pending.swap_remove(k);
+            }
+            return;
+        }
+        let (i, n) = (i as usize, self.queue.len() - 1);
+        if i != n {
+            self.swap(i, n);
+            if !self.down(i, n) {
+                self.up(i);
+            }
+        }
+        let t = self.queue.pop().expect("non-empty queue");
+        self.qpos[t as usize] = -1;
+    }
+}
+
+/// A meshed face.
+pub struct FaceMesh {
+    /// Canvas pixel ids, in the orientation of [`edge`] on the lattice.
+    pub triangles: Vec<[u32; 3]>,
+    /// Largest relative error of each triangle along the rays it covers.
+    pub errors: Vec<f64>,
+    /// Used-vertex flags of the lattice.
+    pub used: Vec<bool>,
+    pub stats: GreedyStats,
+}
+
+/// Mesh a clean lattice (`inv` from [`clean_inverse_depth`]) so that every pixel lies within relative
+/// distance `max_error` of the mesh along its ray.
+pub fn mesh_face(g: &Grid, inv: &[f32], max_error: f64, max_angle_deg: Option<f64>) -> FaceMesh {
+    let mut m = Mesher::new(g, inv, max_error, max_angle_deg.map(f64::to_radians));
+    m.run();
+    let mut used = vec![false; g.w * g.h];
+    for p in &m.pts {
+        used[p.1 as usize * g.w + p.0 as usize] = true;
+    }
+    let triangles = m
+        .tri
+        .chunks_exact(3)
+        .map(|t| [0, 1, 2].map(|k| {
+            let p = m.pts[t[k] as usize];
+            g.pixel(p.0 as usize, p.1 as usize)
+        }))
+        .collect();
+    FaceMesh { triangles, errors: m.err, used, stats: m.stats }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn in_circle_matches_geometry() {
+        // Unit-square corners in the triangulation's orientation; the centre is inside, far points not.
+        let (a, b, c) = ((4, 4), (0, 0), (0, 4));
+        assert!(edge(a, b, c) > 0);
+        assert!(in_circle(a, b, c, (2, 2)));
+        assert!(in_circle(a, b, c, (3, 1)));
+        assert!(!in_circle(a, b, c, (4, 0))); // cocircular: not strictly inside
+        assert!(!in_circle(a, b, c, (9, 9)));
+    }
+}
