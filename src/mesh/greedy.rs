@@ -66,6 +66,19 @@ fn in_circle(a: P, b: P, c: P, p: P) -> bool {
     dx * (ey * cp - bp * fy) - dy * (ex * cp - bp * fx) + ap * (ex * fy - ey * fx) < 0
 }
 
+/// Errors below this fraction of the tolerance count as flat: the Delaunay criterion picks diagonals.
+const FLAT: f64 = 0.25;
+
+/// One scan of a triangle.
+#[derive(Clone, Copy, Debug, Default)]
+struct Scan {
+    /// Largest relative error over its pixels.
+    err: f64,
+    /// Queue priority: > 1 means the triangle must be split (at `cand`).
+    key: f64,
+    cand: P,
+}
+
 /// Counters of one face.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct GreedyStats {
@@ -86,10 +99,9 @@ struct Mesher<'a> {
     pts: Vec<P>,
     tri: Vec<u32>,
     half: Vec<i32>,
-    cand: Vec<P>,
-    key: Vec<f64>,
-    /// Largest relative error of each triangle (exact, from its last scan).
-    err: Vec<f64>,
+    /// Last scan of each triangle, valid when `fresh`.
+    scans: Vec<Scan>,
+    fresh: Vec<bool>,
     qpos: Vec<i32>,
     queue: Vec<u32>,
     pending: Vec<u32>,
@@ -107,9 +119,8 @@ impl<'a> Mesher<'a> {
             pts: Vec::new(),
             tri: Vec::new(),
             half: Vec::new(),
-            cand: Vec::new(),
-            key: Vec::new(),
-            err: Vec::new(),
+            scans: Vec::new(),
+            fresh: Vec::new(),
             qpos: Vec::new(),
             queue: Vec::new(),
             pending: Vec::new(),
@@ -120,8 +131,8 @@ impl<'a> Mesher<'a> {
         let p1 = m.add_point((x1, 0));
         let p2 = m.add_point((0, y1));
         let p3 = m.add_point((x1, y1));
-        let t0 = m.add_triangle([p3, p0, p2], [-1, -1, -1], None);
-        m.add_triangle([p0, p3, p1], [t0 as i32, -1, -1], None);
+        let t0 = m.add_triangle([p3, p0, p2], [-1, -1, -1], None, None);
+        m.add_triangle([p0, p3, p1], [t0 as i32, -1, -1], None, None);
         m.flush();
         m
     }
@@ -131,20 +142,22 @@ impl<'a> Mesher<'a> {
         self.pts.len() as u32 - 1
     }
 
-    /// Add (or overwrite slot `at`, a half-edge index) a triangle; returns its first half-edge.
-    fn add_triangle(&mut self, v: [u32; 3], h: [i32; 3], at: Option<usize>) -> usize {
+    /// Add (or overwrite slot `at`, a half-edge index) a triangle, with its scan when known;
+    /// returns its first half-edge.
+    fn add_triangle(&mut self, v: [u32; 3], h: [i32; 3], at: Option<usize>, scan: Option<Scan>) -> usize {
         let e = at.unwrap_or(self.tri.len());
         let t = e / 3;
         if e == self.tri.len() {
             self.tri.extend_from_slice(&v);
             self.half.extend_from_slice(&h);
-            self.cand.push((0, 0));
-            self.key.push(0.0);
-            self.err.push(0.0);
+            self.scans.push(scan.unwrap_or_default());
+            self.fresh.push(scan.is_some());
             self.qpos.push(-1);
         } else {
             self.tri[e..e + 3].copy_from_slice(&v);
             self.half[e..e + 3].copy_from_slice(&h);
+            self.scans[t] = scan.unwrap_or_default();
+            self.fresh[t] = scan.is_some();
         }
         for (k, &o) in h.iter().enumerate() {
             if o >= 0 {
@@ -157,7 +170,7 @@ impl<'a> Mesher<'a> {
 
     fn run(&mut self) {
         while let Some(&t) = self.queue.first() {
-            if !(self.key[t as usize] > 1.0) {
+            if !(self.scans[t as usize].key > 1.0) {
                 break;
             }
             self.step();
@@ -167,7 +180,8 @@ impl<'a> Mesher<'a> {
 
     fn flush(&mut self) {
         while let Some(t) = self.pending.pop() {
-            self.find_candidate(t as usize);
+            self.ensure_scanned(t as usize);
+            self.queue_push(t);
         }
     }
 
@@ -175,10 +189,18 @@ impl<'a> Mesher<'a> {
         [0, 1, 2].map(|k| self.pts[self.tri[3 * t + k] as usize])
     }
 
-    /// Scan triangle `t`: its worst pixel (relative error along the ray) and its queue key
+    /// Scan of triangle `t`, computed now if its slot changed since the last one.
+    fn ensure_scanned(&mut self, t: usize) -> Scan {
+        if !self.fresh[t] {
+            self.scans[t] = self.scan(self.vertices(t));
+            self.fresh[t] = true;
+        }
+        self.scans[t]
+    }
+
+    /// Scan a lattice triangle: its worst pixel (relative error along the ray) and its queue key
     /// (error / tolerance, or the angle overshoot when that is larger).
-    fn find_candidate(&mut self, t: usize) {
-        let [a, b, c] = self.vertices(t);
+    fn scan(&mut self, [a, b, c]: [P; 3]) -> Scan {
         let at = |p: P| self.inv[p.1 as usize * self.nw + p.0 as usize] as f64;
         let (wa, wb, wc) = (at(a), at(b), at(c));
         let (dx1, dy1, dx2, dy2) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64, (c.0 - a.0) as f64, (c.1 - a.1) as f64);
@@ -209,7 +231,7 @@ impl<'a> Mesher<'a> {
             }
         }
         self.stats.scanned += scanned;
-        self.err[t] = best;
+        let err = best;
         if best_at == a || best_at == b || best_at == c {
             best = 0.0;
         }
@@ -228,9 +250,7 @@ impl<'a> Mesher<'a> {
                 }
             }
         }
-        self.cand[t] = cand;
-        self.key[t] = key;
-        self.queue_push(t as u32);
+        Scan { err, key, cand }
     }
 
     /// Largest angle between two of the vertex rays, radians.
@@ -277,7 +297,7 @@ impl<'a> Mesher<'a> {
         let (e0, e1, e2) = (3 * t, 3 * t + 1, 3 * t + 2);
         let [p0, p1, p2] = [self.tri[e0], self.tri[e1], self.tri[e2]];
         let [a, b, c] = self.vertices(t);
-        let p = self.cand[t];
+        let p = self.scans[t].cand;
         let pn = self.add_point(p);
         self.stats.insertions += 1;
         if edge(a, b, p) == 0 {
@@ -288,9 +308,9 @@ impl<'a> Mesher<'a> {
             self.split_edge(pn, e2);
         } else {
             let (h0, h1, h2) = (self.half[e0], self.half[e1], self.half[e2]);
-            let t0 = self.add_triangle([p0, p1, pn], [h0, -1, -1], Some(e0));
-            let t1 = self.add_triangle([p1, p2, pn], [h1, -1, t0 as i32 + 1], None);
-            let t2 = self.add_triangle([p2, p0, pn], [h2, t0 as i32 + 2, t1 as i32 + 1], None);
+            let t0 = self.add_triangle([p0, p1, pn], [h0, -1, -1], Some(e0), None);
+            let t1 = self.add_triangle([p1, p2, pn], [h1, -1, t0 as i32 + 1], None, None);
+            let t2 = self.add_triangle([p2, p0, pn], [h2, t0 as i32 + 2, t1 as i32 + 1], None, None);
             self.legalize(t0);
             self.legalize(t1);
             self.legalize(t2);
@@ -305,8 +325,8 @@ impl<'a> Mesher<'a> {
         let (hal, har) = (self.half[al], self.half[ar]);
         let b = self.half[a];
         if b < 0 {
-            let t0 = self.add_triangle([pn, p0, pr], [-1, har, -1], Some(a0));
-            let t1 = self.add_triangle([p0, pn, pl], [t0 as i32, -1, hal], None);
+            let t0 = self.add_triangle([pn, p0, pr], [-1, har, -1], Some(a0), None);
+            let t1 = self.add_triangle([p0, pn, pl], [t0 as i32, -1, hal], None, None);
             self.legalize(t0 + 1);
             self.legalize(t1 + 2);
             return;
@@ -317,17 +337,22 @@ impl<'a> Mesher<'a> {
         let p1 = self.tri[bl];
         let (hbl, hbr) = (self.half[bl], self.half[br]);
         self.queue_remove(b0 / 3);
-        let t0 = self.add_triangle([p0, pr, pn], [har, -1, -1], Some(a0));
-        let t1 = self.add_triangle([pr, p1, pn], [hbr, -1, t0 as i32 + 1], Some(b0));
-        let t2 = self.add_triangle([p1, pl, pn], [hbl, -1, t1 as i32 + 1], None);
-        let t3 = self.add_triangle([pl, p0, pn], [hal, t0 as i32 + 2, t2 as i32 + 1], None);
+        let t0 = self.add_triangle([p0, pr, pn], [har, -1, -1], Some(a0), None);
+        let t1 = self.add_triangle([pr, p1, pn], [hbr, -1, t0 as i32 + 1], Some(b0), None);
+        let t2 = self.add_triangle([p1, pl, pn], [hbl, -1, t1 as i32 + 1], None, None);
+        let t3 = self.add_triangle([pl, p0, pn], [hal, t0 as i32 + 2, t2 as i32 + 1], None, None);
         self.legalize(t0);
         self.legalize(t1);
         self.legalize(t2);
         self.legalize(t3);
     }
 
-    /// Flip half-edge `a` if its quad violates the Delaunay condition, recursively.
+    /// Flip half-edge `a` when the other diagonal of its quad fits the data better, recursively.
+    ///
+    /// *Data-dependent* (Garland–Heckbert's variant, with the maximum error): flip when the flipped
+    /// pair's larger error is smaller. Where both diagonals are well within the tolerance the Delaunay
+    /// criterion decides, so flat regions keep well-shaped triangles. A quad that is not strictly
+    /// convex is never flipped.
     fn legalize(&mut self, a: usize) {
         let b = self.half[a];
         if b < 0 {
@@ -339,14 +364,27 @@ impl<'a> Mesher<'a> {
         let (bl, br) = (b0 + (b + 2) % 3, b0 + (b + 1) % 3);
         let (p0, pr, pl, p1) = (self.tri[ar], self.tri[a], self.tri[al], self.tri[bl]);
         let q = |v: u32| self.pts[v as usize];
-        if !in_circle(q(p0), q(pr), q(pl), q(p1)) {
+        let (n0, n1) = ([q(p0), q(p1), q(pl)], [q(p1), q(p0), q(pr)]);
+        if edge(n0[0], n0[1], n0[2]) <= 0 || edge(n1[0], n1[1], n1[2]) <= 0 {
+            return;
+        }
+        let delaunay = in_circle(q(p0), q(pr), q(pl), q(p1));
+        let old = self.ensure_scanned(a0 / 3).err.max(self.ensure_scanned(b0 / 3).err);
+        let floor = FLAT * self.e;
+        if old <= floor && !delaunay {
+            return;
+        }
+        let (s0, s1) = (self.scan(n0), self.scan(n1));
+        let new = s0.err.max(s1.err);
+        let flip = if old <= floor { new <= floor } else { new < old };
+        if !flip {
             return;
         }
         let (hal, har, hbl, hbr) = (self.half[al], self.half[ar], self.half[bl], self.half[br]);
         self.queue_remove(a0 / 3);
         self.queue_remove(b0 / 3);
-        let t0 = self.add_triangle([p0, p1, pl], [-1, hbl, hal], Some(a0));
-        let t1 = self.add_triangle([p1, p0, pr], [t0 as i32, har, hbr], Some(b0));
+        let t0 = self.add_triangle([p0, p1, pl], [-1, hbl, hal], Some(a0), Some(s0));
+        let t1 = self.add_triangle([p1, p0, pr], [t0 as i32, har, hbr], Some(b0), Some(s1));
         self.legalize(t0 + 1);
         self.legalize(t1 + 2);
     }
@@ -354,7 +392,7 @@ impl<'a> Mesher<'a> {
     // Indexed binary max-heap of triangles by key.
 
     fn less(&self, i: usize, j: usize) -> bool {
-        self.key[self.queue[i] as usize] > self.key[self.queue[j] as usize]
+        self.scans[self.queue[i] as usize].key > self.scans[self.queue[j] as usize].key
     }
 
     fn swap(&mut self, i: usize, j: usize) {
@@ -457,7 +495,8 @@ pub fn mesh_face(g: &Grid, inv: &[f32], max_error: f64, max_angle_deg: Option<f6
             g.pixel(p.0 as usize, p.1 as usize)
         }))
         .collect();
-    FaceMesh { triangles, errors: m.err, used, stats: m.stats }
+    let errors = m.scans.iter().map(|s| s.err).collect();
+    FaceMesh { triangles, errors, used, stats: m.stats }
 }
 
 #[cfg(test)]
