@@ -33,19 +33,30 @@ pub fn clean_inverse_depth(g: &Grid) -> Option<Vec<f32>> {
         return None;
     }
     let (w, h) = (g.w, g.h);
-    let mut out = vec![0.0f32; w * h];
-    let ok = out.par_chunks_mut(w).enumerate().all(|(y, row)| {
-        for (x, o) in row.iter_mut().enumerate() {
-            let l = g.lambda[y * w + x];
-            if !(l > 0.0 && l.is_finite()) {
-                return false;
-            }
+    // Joined ⟺ |a − b| ≤ ½·min(a, b), as [`Grid::bad_cell`] tests it in f64: the f32 difference is
+    // exact when the ratio is ≤ 2 (Sterbenz) and cannot round below ½·min otherwise, so this is the
+    // same test. NaN (an invalid vertex) fails it. Branch-free so that the row loops vectorise.
+    #[inline(always)]
+    fn joined(a: f32, b: f32) -> bool {
+        (a - b).abs() <= 0.5 * a.min(b)
+    }
+    let mut inv = vec![0.0f32; w * h];
+    let ok = inv.par_chunks_mut(w).enumerate().all(|(y, row)| {
+        for (o, &l) in row.iter_mut().zip(&g.lambda[y * w..(y + 1) * w]) {
             *o = 1.0 / l;
         }
-        // Cells of the row below (`y` is their top side).
-        y + 1 >= h || (0..w - 1).all(|x| !g.bad_cell(x, y))
+        let d = &g.depth[y * w..(y + 1) * w];
+        let mut ok = d.iter().fold(true, |ok, &v| ok & (v > 0.0));
+        ok &= d.windows(2).fold(true, |ok, p| ok & joined(p[0], p[1]));
+        if y + 1 < h {
+            let e = &g.depth[(y + 1) * w..(y + 2) * w];
+            ok &= d.iter().zip(e).fold(true, |ok, (&a, &b)| ok & joined(a, b));
+            ok &= d[..w - 1].iter().zip(&e[1..]).fold(true, |ok, (&a, &b)| ok & joined(a, b));
+            ok &= d[1..].iter().zip(&e[..w - 1]).fold(true, |ok, (&a, &b)| ok & joined(a, b));
+        }
+        ok
     });
-    ok.then_some(out)
+    ok.then_some(inv)
 }
 
 /// Edge function; positive for every triangle of the triangulation (its vertices `a, b, c` in order).
@@ -64,6 +75,41 @@ fn in_circle(a: P, b: P, c: P, p: P) -> bool {
     let bp = ex * ex + ey * ey;
     let cp = fx * fx + fy * fy;
     dx * (ey * cp - bp * fy) - dy * (ex * cp - bp * fx) + ap * (ex * fy - ey * fx) < 0
+}
+
+/// Largest relative error `|w − w_m| / w_m` along a row of `w = 1/λ` (`w_m = base + gx·k`) when it
+/// exceeds `best`: updates `best` and returns the position. Eight pixels at a time are tested for any
+/// improvement without a division (`|w − w_m| > best·w_m`, `w_m > 0`: a convex combination of positive
+/// vertex values); only a chunk that holds one is searched.
+#[inline]
+fn row_max(row: &[f32], base: f64, gx: f64, best: &mut f64) -> Option<usize> {
+    let mut found = None;
+    let mut exact = |k0: usize, chunk: &[f32], best: &mut f64| {
+        for (j, &v) in chunk.iter().enumerate() {
+            let wm = base + gx * (k0 + j) as f64;
+            let d = (v as f64 - wm).abs();
+            if d > *best * wm {
+                *best = d / wm;
+                found = Some(k0 + j);
+            }
+        }
+    };
+    let mut chunks = row.chunks_exact(8);
+    for (c, chunk) in chunks.by_ref().enumerate() {
+        let k0 = c * 8;
+        let b = *best;
+        let mut any = false;
+        for (j, &v) in chunk.iter().enumerate() {
+            let wm = base + gx * (k0 + j) as f64;
+            any |= (v as f64 - wm).abs() > b * wm;
+        }
+        if any {
+            exact(k0, chunk, best);
+        }
+    }
+    let rest = chunks.remainder();
+    exact(row.len() - rest.len(), rest, best);
+    found
 }
 
 /// Errors below this fraction of the tolerance count as flat: the Delaunay criterion picks diagonals.
@@ -91,6 +137,7 @@ pub struct GreedyStats {
 /// opposite half-edge of half-edge `e = 3t + k` (from vertex `k` to vertex `k + 1` of triangle `t`).
 struct Mesher<'a> {
     nw: usize,
+    /// `1/λ` per vertex.
     inv: &'a [f32],
     rays: &'a Rays,
     e: f64,
@@ -192,7 +239,7 @@ impl<'a> Mesher<'a> {
     /// Scan of triangle `t`, computed now if its slot changed since the last one.
     fn ensure_scanned(&mut self, t: usize) -> Scan {
         if !self.fresh[t] {
-            self.scans[t] = self.scan(self.vertices(t));
+            self.scans[t] = self.scan(self.vertices(t), f64::INFINITY);
             self.fresh[t] = true;
         }
         self.scans[t]
@@ -200,10 +247,12 @@ impl<'a> Mesher<'a> {
 
     /// Scan a lattice triangle: its worst pixel (relative error along the ray) and its queue key
     /// (error / tolerance, or the angle overshoot when that is larger).
-    fn scan(&mut self, [a, b, c]: [P; 3]) -> Scan {
+    /// Stops early, with `err = ∞`, once the error exceeds `limit`.
+    fn scan(&mut self, [a, b, c]: [P; 3], limit: f64) -> Scan {
         let at = |p: P| self.inv[p.1 as usize * self.nw + p.0 as usize] as f64;
         let (wa, wb, wc) = (at(a), at(b), at(c));
-        let (dx1, dy1, dx2, dy2) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64, (c.0 - a.0) as f64, (c.1 - a.1) as f64);
+        let (dx1, dy1, dx2, dy2) =
+            ((b.0 - a.0) as f64, (b.1 - a.1) as f64, (c.0 - a.0) as f64, (c.1 - a.1) as f64);
         let det = dx1 * dy2 - dx2 * dy1;
         let gx = ((wb - wa) * dy2 - (wc - wa) * dy1) / det;
         let gy = (dx1 * (wc - wa) - dx2 * (wb - wa)) / det;
@@ -211,23 +260,36 @@ impl<'a> Mesher<'a> {
         let mut best = 0.0f64;
         let mut best_at = a;
         let mut scanned = 0u64;
-        for y in y0..=y1 {
-            let Some((lo, hi)) = row_span([a, b, c], y) else { continue };
-            let row = &self.inv[y as usize * self.nw + lo as usize..=y as usize * self.nw + hi as usize];
-            scanned += row.len() as u64;
-            let base = wa + gx * (lo - a.0) as f64 + gy * (y - a.1) as f64;
-            // `|w − w_m| > best·w_m` tests the ratio without a division per pixel (w_m > 0: a convex
-            // combination of positive vertex values).
-            let mut found = usize::MAX;
-            for (k, &v) in row.iter().enumerate() {
-                let wm = base + gx * k as f64;
-                if (v as f64 - wm).abs() > best * wm {
-                    best = (v as f64 - wm).abs() / wm;
-                    found = k;
+        // Large triangles: every 4th row first, so that a scan that is going to exceed `limit`
+        // usually stops after a quarter of the work.
+        let passes: &[(i64, i64)] =
+            if y1 - y0 > 32 && limit.is_finite() { &[(0, 4), (1, 1)] } else { &[(0, 1)] };
+        for &(phase, stride) in passes {
+            let mut y = y0 + phase;
+            while y <= y1 {
+                let this = y;
+                y += if stride == 4 {
+                    4
+                } else if phase == 1 && (this - y0) % 4 == 3 {
+                    2
+                } else {
+                    1
+                };
+                if phase == 1 && (this - y0) % 4 == 0 {
+                    continue;
                 }
-            }
-            if found != usize::MAX {
-                best_at = (lo + found as i64, y);
+                let Some((lo, hi)) = row_span([a, b, c], this) else { continue };
+                let start = this as usize * self.nw;
+                let row = &self.inv[start + lo as usize..=start + hi as usize];
+                scanned += row.len() as u64;
+                let base = wa + gx * (lo - a.0) as f64 + gy * (this - a.1) as f64;
+                if let Some(k) = row_max(row, base, gx, &mut best) {
+                    best_at = (lo + k as i64, this);
+                }
+                if best > limit {
+                    self.stats.scanned += scanned;
+                    return Scan { err: f64::INFINITY, key: f64::INFINITY, cand: best_at };
+                }
             }
         }
         self.stats.scanned += scanned;
@@ -374,10 +436,14 @@ impl<'a> Mesher<'a> {
         if old <= floor && !delaunay {
             return;
         }
-        let (s0, s1) = (self.scan(n0), self.scan(n1));
-        let new = s0.err.max(s1.err);
-        let flip = if old <= floor { new <= floor } else { new < old };
-        if !flip {
+        // Only a strictly better pair flips, so each scan may stop as soon as it reaches `limit`.
+        let limit = if old <= floor { floor } else { old };
+        let s0 = self.scan(n0, limit);
+        if !(s0.err < limit || (old <= floor && s0.err <= floor)) {
+            return;
+        }
+        let s1 = self.scan(n1, limit);
+        if !(s1.err < limit || (old <= floor && s1.err <= floor)) {
             return;
         }
         let (hal, har, hbl, hbr) = (self.half[al], self.half[ar], self.half[bl], self.half[br]);
@@ -490,10 +556,12 @@ pub fn mesh_face(g: &Grid, inv: &[f32], max_error: f64, max_angle_deg: Option<f6
     let triangles = m
         .tri
         .chunks_exact(3)
-        .map(|t| [0, 1, 2].map(|k| {
-            let p = m.pts[t[k] as usize];
-            g.pixel(p.0 as usize, p.1 as usize)
-        }))
+        .map(|t| {
+            [0, 1, 2].map(|k| {
+                let p = m.pts[t[k] as usize];
+                g.pixel(p.0 as usize, p.1 as usize)
+            })
+        })
         .collect();
     let errors = m.scans.iter().map(|s| s.err).collect();
     FaceMesh { triangles, errors, used, stats: m.stats }

@@ -171,15 +171,26 @@ impl Grid {
         let (Some(z), a) = (image.depth(), image.coverage()) else {
             return Grid { ox, oy, w, h, canvas_w: image.width, rays, lambda, depth };
         };
+        // |r|² = 1 + s² + t² on a cube face (orthonormal frame); equirect rays are unit.
+        let (s2, t2): (Vec<f64>, Vec<f64>) = match &rays {
+            Rays::Face { n, .. } => {
+                let sq = |i: usize| (2.0 * (i as f64 + 0.5) / *n as f64 - 1.0).powi(2);
+                ((0..w).map(sq).collect(), (0..h).map(sq).collect())
+            }
+            Rays::Equirect { .. } => (vec![0.0; w], vec![0.0; h]),
+        };
         lambda.par_chunks_mut(w.max(1)).zip(depth.par_chunks_mut(w.max(1))).enumerate().for_each(
             |(y, (lrow, drow))| {
+                let start = (oy + y) * image.width + ox;
+                let zrow = &z[start..start + w];
+                let arow = a.map(|a| &a[start..start + w]);
                 for x in 0..w {
-                    let i = (oy + y) * image.width + ox + x;
-                    if let Sample::Surface(d) = classify(z[i], a.map(|a| a[i])) {
-                        if d > 0.0 && d.is_finite() {
-                            drow[x] = d;
-                            lrow[x] = (d as f64 / rays.ray(x, y).length()) as f32;
-                        }
+                    // `classify` gives a surface; meshing also needs it at a positive finite depth.
+                    let d = zrow[x];
+                    if d > 0.0 && d.is_finite() && arow.is_none_or(|a| a[x] > 0.0) {
+                        debug_assert!(matches!(classify(d, arow.map(|a| a[x])), Sample::Surface(_)));
+                        drow[x] = d;
+                        lrow[x] = (d as f64 / (1.0 + s2[x] + t2[y]).sqrt()) as f32;
                     }
                 }
             },

@@ -253,7 +253,8 @@ pub fn mesh_layer(
     let t = Instant::now();
     let (mesh, stats) = match &params.simplify {
         Some(sp) => {
-            let done: Vec<Option<Vec<f64>>> = greedy.iter().map(|f| f.as_ref().map(|f| f.errors.clone())).collect();
+            let done: Vec<Option<Vec<f64>>> =
+                greedy.iter().map(|f| f.as_ref().map(|f| f.errors.clone())).collect();
             let (m, s) = simplify::simplify(&mesh, &grids, mapping, sp, &done);
             (m, Some(s))
         }
@@ -289,7 +290,11 @@ fn build_trees(grids: &[Grid], image: &LayerImage, params: &MeshParams, skip: &[
 
 /// The quadtrees of a layer alone (what `.pomcmesh` stores, [`encode`]), e.g. when [`mesh_layer`]
 /// meshed some lattices by greedy insertion and did not build theirs.
-pub fn quadtrees(image: &LayerImage, mapping: &AnyMapping, params: &MeshParams) -> Result<Vec<Option<Tree>>, MeshError> {
+pub fn quadtrees(
+    image: &LayerImage,
+    mapping: &AnyMapping,
+    params: &MeshParams,
+) -> Result<Vec<Option<Tree>>, MeshError> {
     params.check()?;
     let grids = lattices(image, mapping)?;
     Ok(build_trees(&grids, image, params, &[]))

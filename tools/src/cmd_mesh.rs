@@ -223,9 +223,13 @@ fn report(
         }
     ));
     match (encoded, per_million) {
-        (Some(e), Some(p)) => out.say(format!("encoded: {e} bytes ({p:.0} bytes per million quadtree triangles)")),
+        (Some(e), Some(p)) => {
+            out.say(format!("encoded: {e} bytes ({p:.0} bytes per million quadtree triangles)"))
+        }
         (Some(e), None) => out.say(format!("encoded: {e} bytes (quadtree)")),
-        (None, _) => out.say("encoded: not computed (greedy faces build no quadtree; --store encodes it)".to_string()),
+        (None, _) => {
+            out.say("encoded: not computed (greedy faces build no quadtree; --store encodes it)".to_string())
+        }
     }
     if let Some((s, _)) = &stats {
         out.say(format!(
