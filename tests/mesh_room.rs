@@ -186,10 +186,15 @@ fn bad_inputs_are_typed_errors() {
 // ---- Second stage: error-bounded edge collapses (`pomc::mesh::simplify`). ----
 
 fn simplified(e: f64) -> MeshParams {
+    simplified_with(e, true)
+}
+
+/// `greedy: false` forces quadtree + collapses on every lattice.
+fn simplified_with(e: f64, greedy: bool) -> MeshParams {
     MeshParams {
         max_error: Some(e),
         max_angle_deg: None,
-        simplify: Some(SimplifyParams { max_error: e, max_angle_deg: None, greedy: true }),
+        simplify: Some(SimplifyParams { max_error: e, max_angle_deg: None, greedy }),
         ..MeshParams::default()
     }
 }
@@ -235,26 +240,39 @@ fn simplified_cube_background_is_closed_unflipped_and_within_bound() {
     let (bg, _) = room(&m);
     let e = 0.005;
     let raw = mesh::mesh_layer(&bg, &m, &MeshParams { simplify: None, ..simplified(e) }).unwrap();
-    let out = mesh::mesh_layer(&bg, &m, &simplified(e)).unwrap();
-    assert_eq!(out.quadtree_triangles, raw.mesh.triangles.len());
-    assert_closed(&out.mesh);
-    assert_no_flips(&out.mesh);
-    // Vertices are still pixel centres at their own samples.
-    let z = bg.depth().unwrap();
-    for (&id, p) in out.mesh.sources.iter().zip(&out.mesh.positions) {
-        assert!((p.length() - z[id as usize] as f64).abs() <= 1e-5 * p.length());
+    let mut counts = Vec::new();
+    for greedy in [false, true] {
+        let out = mesh::mesh_layer(&bg, &m, &simplified_with(e, greedy)).unwrap();
+        // The room's background is clean on every face: all six take greedy insertion when asked.
+        let greedy_faces = out.greedy.iter().filter(|g| g.is_some()).count();
+        assert_eq!(greedy_faces, if greedy { 6 } else { 0 });
+        if !greedy {
+            assert_eq!(out.quadtree_triangles, raw.mesh.triangles.len());
+        }
+        assert_closed(&out.mesh);
+        assert_no_flips(&out.mesh);
+        // Vertices are still pixel centres at their own samples.
+        let z = bg.depth().unwrap();
+        for (&id, p) in out.mesh.sources.iter().zip(&out.mesh.positions) {
+            assert!((p.length() - z[id as usize] as f64).abs() <= 1e-5 * p.length());
+        }
+        let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+        assert_eq!(s.unhit, 0, "{s:?}");
+        assert!(s.max_rel <= e * (1.0 + 1e-6), "{s:?}");
+        let (p99, max, unhit) = error_against_room(&out.mesh, &m);
+        assert_eq!(unhit, 0);
+        // The samples are f32: the analytic truth may differ from them by ~1e-7.
+        assert!(max <= e + 1e-6 && p99 <= e, "p99 {p99:e} max {max:e}");
+        let (nq, ns) = (raw.mesh.triangles.len(), out.mesh.triangles.len());
+        eprintln!(
+            "cube 6x96^2 (greedy {greedy}): {nq} -> {ns} triangles; {s:?}; room p99 {p99:e} max {max:e}"
+        );
+        // Measured on this canvas: 10,886 → 174 triangles (62×) by collapses; asserted with a 3× margin.
+        assert!(ns * 20 <= nq, "{nq} quadtree triangles simplified to only {ns}");
+        counts.push(ns);
     }
-    let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
-    assert_eq!(s.unhit, 0, "{s:?}");
-    assert!(s.max_rel <= e * (1.0 + 1e-6), "{s:?}");
-    let (p99, max, unhit) = error_against_room(&out.mesh, &m);
-    assert_eq!(unhit, 0);
-    // The samples are f32: the analytic truth may differ from them by ~1e-7.
-    assert!(max <= e + 1e-6 && p99 <= e, "p99 {p99:e} max {max:e}");
-    // Measured on this canvas: 10,886 → 174 triangles (62×); asserted with a 3× margin.
-    let (nq, ns) = (raw.mesh.triangles.len(), out.mesh.triangles.len());
-    eprintln!("cube 6x96^2: {nq} -> {ns} triangles; {s:?}; room p99 {p99:e} max {max:e}");
-    assert!(ns * 20 <= nq, "{nq} quadtree triangles simplified to only {ns}");
+    // Greedy insertion with data-dependent flips needs no more triangles than the collapses.
+    assert!(counts[1] <= counts[0], "greedy {} vs collapses {}", counts[1], counts[0]);
 }
 
 #[test]
@@ -325,8 +343,11 @@ fn simplification_is_deterministic_and_keeps_the_quadtree_encoding() {
             assert!(a.mesh == b.mesh, "two runs differ");
             let raw =
                 mesh::mesh_layer(layer, &m, &MeshParams { simplify: None, ..simplified(0.002) }).unwrap();
-            let bytes = encode::encode(&a.trees, &m).unwrap();
+            // Greedy faces build no tree; the stored encoding is the quadtrees' all the same.
+            let bytes = encode::encode(&mesh::quadtrees(layer, &m, &simplified(0.002)).unwrap(), &m).unwrap();
             assert_eq!(bytes, encode::encode(&raw.trees, &m).unwrap());
+            let forced = mesh::mesh_layer(layer, &m, &simplified_with(0.002, false)).unwrap();
+            assert_eq!(bytes, encode::encode(&forced.trees, &m).unwrap());
             assert!(encode::decode(&bytes, layer, &m).unwrap() == raw.mesh);
         }
     }

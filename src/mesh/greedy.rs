@@ -77,38 +77,40 @@ fn in_circle(a: P, b: P, c: P, p: P) -> bool {
     dx * (ey * cp - bp * fy) - dy * (ex * cp - bp * fx) + ap * (ex * fy - ey * fx) < 0
 }
 
-/// Largest relative error `|w − w_m| / w_m` along a row of `w = 1/λ` (`w_m = base + gx·k`) when it
-/// exceeds `best`: updates `best` and returns the position. Eight pixels at a time are tested for any
-/// improvement without a division (`|w − w_m| > best·w_m`, `w_m > 0`: a convex combination of positive
-/// vertex values); only a chunk that holds one is searched.
+/// Largest relative error `|w − w_m| / w_m` along a row (`w_m = base + gx·k`) when it exceeds `best`:
+/// updates `best` and returns the position. `inv` holds `1/λ` rounded to f32 and screens eight
+/// pixels at a time without a division (`|w − w_m| > b·w_m`, `w_m > 0`: a convex combination of
+/// positive vertex values), with a margin `SCREEN` far above that rounding (≤ 6e-8 relative); a
+/// chunk that may hold an improvement is measured exactly, from `λ` in f64.
 #[inline]
-fn row_max(row: &[f32], base: f64, gx: f64, best: &mut f64) -> Option<usize> {
+fn row_max(inv: &[f32], lambda: &[f32], base: f64, gx: f64, best: &mut f64) -> Option<usize> {
+    const SCREEN: f64 = 4e-7;
     let mut found = None;
-    let mut exact = |k0: usize, chunk: &[f32], best: &mut f64| {
-        for (j, &v) in chunk.iter().enumerate() {
-            let wm = base + gx * (k0 + j) as f64;
-            let d = (v as f64 - wm).abs();
+    let mut exact = |k0: usize, k1: usize, best: &mut f64| {
+        for (k, &l) in lambda.iter().enumerate().take(k1).skip(k0) {
+            let wm = base + gx * k as f64;
+            let d = (1.0 / l as f64 - wm).abs();
             if d > *best * wm {
                 *best = d / wm;
-                found = Some(k0 + j);
+                found = Some(k);
             }
         }
     };
-    let mut chunks = row.chunks_exact(8);
+    let mut chunks = inv.chunks_exact(8);
     for (c, chunk) in chunks.by_ref().enumerate() {
         let k0 = c * 8;
-        let b = *best;
+        let b = *best - SCREEN;
         let mut any = false;
         for (j, &v) in chunk.iter().enumerate() {
             let wm = base + gx * (k0 + j) as f64;
             any |= (v as f64 - wm).abs() > b * wm;
         }
         if any {
-            exact(k0, chunk, best);
+            exact(k0, k0 + 8, best);
         }
     }
-    let rest = chunks.remainder();
-    exact(row.len() - rest.len(), rest, best);
+    let rest = chunks.remainder().len();
+    exact(inv.len() - rest, inv.len(), best);
     found
 }
 
@@ -137,8 +139,9 @@ pub struct GreedyStats {
 /// opposite half-edge of half-edge `e = 3t + k` (from vertex `k` to vertex `k + 1` of triangle `t`).
 struct Mesher<'a> {
     nw: usize,
-    /// `1/λ` per vertex.
+    /// `1/λ` per vertex, rounded to f32 (screening), and `λ` (exact values).
     inv: &'a [f32],
+    lambda: &'a [f32],
     rays: &'a Rays,
     e: f64,
     /// Angle cap in radians.
@@ -160,6 +163,7 @@ impl<'a> Mesher<'a> {
         let mut m = Mesher {
             nw: g.w,
             inv,
+            lambda: &g.lambda,
             rays: &g.rays,
             e,
             cap,
@@ -249,7 +253,8 @@ impl<'a> Mesher<'a> {
     /// (error / tolerance, or the angle overshoot when that is larger).
     /// Stops early, with `err = ∞`, once the error exceeds `limit`.
     fn scan(&mut self, [a, b, c]: [P; 3], limit: f64) -> Scan {
-        let at = |p: P| self.inv[p.1 as usize * self.nw + p.0 as usize] as f64;
+        // Vertex values exact (f64 from λ): the plane is the 3D triangle's.
+        let at = |p: P| 1.0 / self.lambda[p.1 as usize * self.nw + p.0 as usize] as f64;
         let (wa, wb, wc) = (at(a), at(b), at(c));
         let (dx1, dy1, dx2, dy2) =
             ((b.0 - a.0) as f64, (b.1 - a.1) as f64, (c.0 - a.0) as f64, (c.1 - a.1) as f64);
@@ -280,10 +285,10 @@ impl<'a> Mesher<'a> {
                 }
                 let Some((lo, hi)) = row_span([a, b, c], this) else { continue };
                 let start = this as usize * self.nw;
-                let row = &self.inv[start + lo as usize..=start + hi as usize];
-                scanned += row.len() as u64;
+                let (i0, i1) = (start + lo as usize, start + hi as usize + 1);
+                scanned += (i1 - i0) as u64;
                 let base = wa + gx * (lo - a.0) as f64 + gy * (this - a.1) as f64;
-                if let Some(k) = row_max(row, base, gx, &mut best) {
+                if let Some(k) = row_max(&self.inv[i0..i1], &self.lambda[i0..i1], base, gx, &mut best) {
                     best_at = (lo + k as i64, this);
                 }
                 if best > limit {
@@ -570,15 +575,174 @@ pub fn mesh_face(g: &Grid, inv: &[f32], max_error: f64, max_angle_deg: Option<f6
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::layer::{LayerImage, SampleType};
+    use crate::mapping::CubeFace;
+    use glam::DVec3;
 
     #[test]
     fn in_circle_matches_geometry() {
-        // Unit-square corners in the triangulation's orientation; the centre is inside, far points not.
+        // Square corners in the triangulation's orientation; the centre is inside, far points not.
         let (a, b, c) = ((4, 4), (0, 0), (0, 4));
         assert!(edge(a, b, c) > 0);
         assert!(in_circle(a, b, c, (2, 2)));
         assert!(in_circle(a, b, c, (3, 1)));
         assert!(!in_circle(a, b, c, (4, 0))); // cocircular: not strictly inside
         assert!(!in_circle(a, b, c, (9, 9)));
+    }
+
+    /// One `n × n` face lattice whose depth along each ray is `depth(unit ray)`.
+    fn face_grid(face: CubeFace, n: usize, depth: impl Fn(DVec3) -> f64) -> Grid {
+        let rays = Rays::face(face, n);
+        let z: Vec<f32> = (0..n * n).map(|i| depth(rays.ray(i % n, i / n).normalize()) as f32).collect();
+        let mut img = LayerImage::new(n, n);
+        img.set_channel("Z", SampleType::F32, z);
+        Grid::new(&img, 0, 0, n, n, rays)
+    }
+
+    /// Largest relative error of the face mesh over every lattice point, by ray/plane intersection in
+    /// f64 (independent of the scan: barycentric location of each point, then the 3D plane).
+    fn brute_max_error(g: &Grid, f: &FaceMesh) -> f64 {
+        let lattice = |id: u32| ((id as usize % g.canvas_w) as i64, (id as usize / g.canvas_w) as i64);
+        let mut worst = 0.0f64;
+        for t in &f.triangles {
+            let v = t.map(lattice);
+            let p = v.map(|q| g.point(q.0 as usize, q.1 as usize));
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            let (y0, y1) = (v[0].1.min(v[1].1).min(v[2].1), v[0].1.max(v[1].1).max(v[2].1));
+            for y in y0..=y1 {
+                let Some((lo, hi)) = row_span(v, y) else { continue };
+                for x in lo..=hi {
+                    let r = g.rays.ray(x as usize, y as usize);
+                    let hit = n.dot(p[0]) / n.dot(r);
+                    let truth = g.lambda[y as usize * g.w + x as usize] as f64;
+                    worst = worst.max((hit - truth).abs() / truth);
+                }
+            }
+        }
+        worst
+    }
+
+    /// Each lattice point is covered by the triangles exactly once, or on shared edges.
+    fn assert_covers_lattice(g: &Grid, f: &FaceMesh) {
+        let lattice = |id: u32| ((id as usize % g.canvas_w) as i64, (id as usize / g.canvas_w) as i64);
+        let mut inside = vec![0u32; g.w * g.h];
+        let mut area2 = 0i64;
+        for t in &f.triangles {
+            let v = t.map(lattice);
+            assert!(edge(v[0], v[1], v[2]) > 0, "degenerate or flipped triangle {v:?}");
+            area2 += edge(v[0], v[1], v[2]);
+            let (y0, y1) = (v[0].1.min(v[1].1).min(v[2].1), v[0].1.max(v[1].1).max(v[2].1));
+            for y in y0..=y1 {
+                if let Some((lo, hi)) = row_span(v, y) {
+                    for x in lo..=hi {
+                        inside[y as usize * g.w + x as usize] += 1;
+                    }
+                }
+            }
+        }
+        // The triangles tile the lattice rectangle: areas add up and every point is covered.
+        assert_eq!(area2, 2 * (g.w as i64 - 1) * (g.h as i64 - 1));
+        assert!(inside.iter().all(|&c| c >= 1));
+    }
+
+    #[test]
+    fn a_plane_needs_two_triangles() {
+        // The floor z = −1.5 fills the whole bottom face: nothing to insert.
+        let g = face_grid(CubeFace::NegZ, 64, |d| -1.5 / d.z);
+        let inv = clean_inverse_depth(&g).expect("clean");
+        let f = mesh_face(&g, &inv, 1e-6, None);
+        assert_eq!((f.triangles.len(), f.stats.insertions), (2, 0));
+        assert!(brute_max_error(&g, &f) < 1e-6);
+        assert_covers_lattice(&g, &f);
+    }
+
+    #[test]
+    fn the_bound_holds_on_every_pixel_of_a_curved_surface() {
+        // A sphere of radius 3 centred off the origin: curved everywhere, seen from inside.
+        let c = DVec3::new(0.4, -0.3, 0.2);
+        let sphere = |d: DVec3| {
+            let b = d.dot(c);
+            b + (b * b - c.length_squared() + 9.0).sqrt()
+        };
+        for face in [CubeFace::PosX, CubeFace::NegY] {
+            let g = face_grid(face, 96, sphere);
+            let inv = clean_inverse_depth(&g).expect("clean");
+            let mut last = 0;
+            for e in [1e-2, 1e-3, 1e-4] {
+                let f = mesh_face(&g, &inv, e, None);
+                let worst = brute_max_error(&g, &f);
+                assert!(worst <= e * (1.0 + 1e-6), "{face:?} e {e}: {worst}");
+                // The reported errors are the brute-force ones.
+                let reported = f.errors.iter().cloned().fold(0.0, f64::max);
+                assert!(
+                    (reported - worst).abs() <= 1e-9 * worst.max(1e-6),
+                    "reported {reported} brute {worst}"
+                );
+                assert_covers_lattice(&g, &f);
+                assert!(f.triangles.len() >= last, "a tighter bound gave fewer triangles");
+                last = f.triangles.len();
+            }
+        }
+    }
+
+    #[test]
+    fn the_angle_cap_splits_large_flat_triangles() {
+        let g = face_grid(CubeFace::NegZ, 64, |d| -1.5 / d.z);
+        let inv = clean_inverse_depth(&g).expect("clean");
+        let cap = 20.0f64;
+        let f = mesh_face(&g, &inv, 0.01, Some(cap));
+        assert!(f.triangles.len() > 2);
+        let lattice = |id: u32| (id as usize % g.canvas_w, id as usize / g.canvas_w);
+        for t in &f.triangles {
+            let r = t.map(|id| {
+                let (x, y) = lattice(id);
+                g.rays.ray(x, y).normalize()
+            });
+            let cos = r[0].dot(r[1]).min(r[1].dot(r[2])).min(r[2].dot(r[0]));
+            assert!(cos.acos().to_degrees() <= cap + 1e-9, "{t:?} spans {}°", cos.acos().to_degrees());
+        }
+        assert_covers_lattice(&g, &f);
+    }
+
+    #[test]
+    fn unclean_lattices_are_refused() {
+        let plane = |d: DVec3| -1.5 / d.z;
+        // A 60 % step (a depth jump) in one corner, then one invalid pixel.
+        let g =
+            face_grid(CubeFace::NegZ, 32, |d| if d.x > 0.3 && d.y > 0.3 { 1.6 * plane(d) } else { plane(d) });
+        assert!(clean_inverse_depth(&g).is_none());
+        let mut g = face_grid(CubeFace::NegZ, 32, plane);
+        assert!(clean_inverse_depth(&g).is_some());
+        g.lambda[5 * 32 + 7] = f32::NAN;
+        g.depth[5 * 32 + 7] = f32::NAN;
+        assert!(clean_inverse_depth(&g).is_none());
+    }
+
+    /// The branch-free f32 join test of [`clean_inverse_depth`] is exactly [`Grid::bad_cell`]'s f64
+    /// test, also within an ulp of the 1.5 ratio.
+    #[test]
+    fn clean_check_agrees_with_bad_cell_at_the_threshold() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for _ in 0..20_000 {
+            let a = f32::from_bits(0x3e00_0000 + (next() % 0x0400_0000) as u32); // 0.125 … 32
+                                                                                 // b at a·1.5 give or take a few ulps, or random.
+            let b = match next() % 3 {
+                0 => f32::from_bits(((a * 1.5).to_bits() as i64 + (next() % 7) as i64 - 3) as u32),
+                1 => f32::from_bits(((a / 1.5).to_bits() as i64 + (next() % 7) as i64 - 3) as u32),
+                _ => a * (0.3 + (next() % 1000) as f32 / 400.0),
+            };
+            let mut img = LayerImage::new(2, 2);
+            img.set_channel("Z", SampleType::F32, vec![a, b, a, b]);
+            let g = Grid::new(&img, 0, 0, 2, 2, Rays::face(CubeFace::PosX, 2));
+            // Depths along the rays differ from Z only by the ray length: compare on the grid's own.
+            let clean = clean_inverse_depth(&g).is_some();
+            assert_eq!(clean, !g.bad_cell(0, 0), "a {a} b {b}");
+        }
     }
 }
