@@ -16,8 +16,8 @@
 //! integer arithmetic.
 //!
 //! `max_angle` (texture distortion, thesis 7.4.3): a triangle whose vertex rays span more than the cap
-//! is split at the lattice point nearest its centroid, so the output never has such a triangle unless
-//! it holds no lattice point to split at.
+//! is split at the lattice point nearest the middle of its longest edge, so the output never has such
+//! a triangle unless it holds no lattice point to split at.
 
 use super::criterion::row_span;
 use super::grid::{Grid, Rays};
@@ -57,6 +57,13 @@ pub fn clean_inverse_depth(g: &Grid) -> Option<Vec<f32>> {
         ok
     });
     ok.then_some(inv)
+}
+
+fn gcd(mut a: u64, mut b: u64) -> u64 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
 }
 
 /// Edge function; positive for every triangle of the triangulation (its vertices `a, b, c` in order).
@@ -307,7 +314,7 @@ impl<'a> Mesher<'a> {
         if let Some(cap) = self.cap {
             let over = self.extent(a, b, c) / cap;
             if over > 1.0 && over > key {
-                match self.centroid_point(a, b, c) {
+                match self.split_point(a, b, c) {
                     Some(p) => {
                         key = over;
                         cand = p;
@@ -327,9 +334,27 @@ impl<'a> Mesher<'a> {
         cos.clamp(-1.0, 1.0).acos()
     }
 
-    /// A lattice point of the triangle (not a vertex) near its centroid, if any.
-    fn centroid_point(&self, a: P, b: P, c: P) -> Option<P> {
-        let (cx, cy) = ((a.0 + b.0 + c.0) as f64 / 3.0, (a.1 + b.1 + c.1) as f64 / 3.0);
+    /// Where to split a triangle that spans too wide an angle: the lattice point of its longest edge
+    /// (in angle) nearest the edge's middle, so the split shortens that edge in both triangles
+    /// sharing it; when the edge holds none, the lattice point of the triangle nearest the middle.
+    fn split_point(&self, a: P, b: P, c: P) -> Option<P> {
+        let r = [a, b, c].map(|p| self.rays.ray(p.0 as usize, p.1 as usize).normalize());
+        let (p, q) = [(0, 1), (1, 2), (2, 0)]
+            .into_iter()
+            .min_by(|&(i, j), &(k, l)| r[i].dot(r[j]).total_cmp(&r[k].dot(r[l])))
+            .map(|(i, j)| ([a, b, c][i], [a, b, c][j]))
+            .expect("three edges");
+        let (dx, dy) = (q.0 - p.0, q.1 - p.1);
+        let g = gcd(dx.unsigned_abs(), dy.unsigned_abs()) as i64;
+        if g >= 2 {
+            let k = g / 2;
+            return Some((p.0 + k * dx / g, p.1 + k * dy / g));
+        }
+        self.nearest_point(a, b, c, ((p.0 + q.0) as f64 / 2.0, (p.1 + q.1) as f64 / 2.0))
+    }
+
+    /// The lattice point of the triangle (not a vertex) nearest `(cx, cy)`, if any.
+    fn nearest_point(&self, a: P, b: P, c: P, (cx, cy): (f64, f64)) -> Option<P> {
         let (y0, y1) = (a.1.min(b.1).min(c.1), a.1.max(b.1).max(c.1));
         let yc = (cy.round() as i64).clamp(y0, y1);
         let mut best: Option<(f64, P)> = None;

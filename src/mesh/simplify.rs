@@ -892,11 +892,7 @@ pub fn simplify(
             let tris: Vec<[u32; 3]> =
                 mesh.triangles.iter().filter(|t| grid_of_tri(t) == Some(g)).copied().collect();
             let own = tris.len();
-            if let Some(Some(errs)) = done.get(g as usize) {
-                if errs.len() == own {
-                    return (tris, errs.clone(), SimplifyStats::default());
-                }
-            }
+            let known = done.get(g as usize).and_then(Option::as_ref).filter(|e| e.len() == own);
             let mut all = tris;
             all.extend(mesh.triangles.iter().filter(|t| grid_of_tri(t).is_none() && touches(t, g)));
             let movable: Vec<bool> = (0..n)
@@ -907,7 +903,13 @@ pub fn simplify(
                 })
                 .collect();
             let seeds: Vec<u32> = (0..n as u32).filter(|&v| movable[v as usize]).collect();
-            let mut run = Run::new(shared_ref, all, None, movable);
+            // Known errors of the lattice's own triangles spare their scans.
+            let terr = known.map(|e| {
+                let mut terr = e.clone();
+                terr.extend(all[own..].iter().map(|t| shared_ref.max_error(*t, f64::INFINITY)));
+                terr
+            });
+            let mut run = Run::new(shared_ref, all, terr, movable);
             run.run(seeds.into_iter());
             let keep: Vec<usize> = (0..own).filter(|&i| run.alive[i]).collect();
             (
