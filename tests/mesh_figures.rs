@@ -88,10 +88,13 @@ fn simplified(e: f64, max_angle_deg: Option<f64>) -> MeshParams {
     }
 }
 
-/// Sweep of `--max-error` on the room background (6×N² cube map, N from `POMC_MESH_N`, default 1024),
-/// quadtree alone (`--no-simplify`) and simplified (the default): CSV lines
-/// `pomc|pomc-simplify,E,triangles,p99_rel,max_rel,seconds` for tools/bench/plot_mesh.py. Each timing
-/// is the best of `POMC_MESH_REPEAT` runs (default 3; the machine is shared).
+/// Sweep of `--max-error` on the room background (6×N² cube map, N from `POMC_MESH_N`, default 1024):
+/// the quadtree alone (`--no-simplify`), quadtree + collapses (`--no-greedy`) and the default (greedy
+/// insertion on clean faces, then collapses). CSV lines
+/// `pomc|pomc-collapse|pomc-simplify,E,triangles,p99_rel,max_rel,seconds,face_triangles,mesh_seconds`
+/// for tools/bench/plot_mesh.py: `face_triangles` leaves out the strips joining the faces (Delatin's
+/// meshes have none), `mesh_seconds` the sampling of the layer into lattices (Delatin is given its
+/// heightmap). Each timing is the best of `POMC_MESH_REPEAT` runs (default 3; the machine is shared).
 #[test]
 #[ignore]
 fn sweep_max_error() {
@@ -101,23 +104,46 @@ fn sweep_max_error() {
     let only = std::env::var("POMC_MESH_ONLY").unwrap_or_default();
     let es: Vec<f64> = std::env::var("POMC_MESH_E")
         .map(|v| v.split(',').filter_map(|e| e.parse().ok()).collect())
-        .unwrap_or_else(|_| vec![0.02, 0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002, 0.0001]);
+        .unwrap_or_else(|_| vec![0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002, 0.0001]);
     for e in es {
         let raw = MeshParams { max_error: Some(e), max_angle_deg: None, ..MeshParams::default() };
-        for (name, p) in [("pomc", raw), ("pomc-simplify", simplified(e, None))] {
-            if !only.is_empty() && only != name {
+        let mut collapse = simplified(e, None);
+        if let Some(s) = collapse.simplify.as_mut() {
+            s.greedy = false;
+        }
+        for (name, p) in [("pomc", raw), ("pomc-collapse", collapse), ("pomc-simplify", simplified(e, None))]
+        {
+            if !only.is_empty() && !only.split(',').any(|o| o == name) {
                 continue;
             }
-            let mut secs = f64::INFINITY;
+            let (mut secs, mut mesh_secs) = (f64::INFINITY, f64::INFINITY);
             let mut a = None;
             for _ in 0..repeat {
                 let t = Instant::now();
-                a = Some(mesh::mesh_layer(&bg, &m, &p).unwrap());
-                secs = secs.min(t.elapsed().as_secs_f64());
+                let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
+                let s = t.elapsed().as_secs_f64();
+                secs = secs.min(s);
+                mesh_secs = mesh_secs.min(s - out.times.sample_ms / 1e3);
+                a = Some(out);
             }
             let a = a.unwrap();
             let s = error::measure(&a.mesh.positions, &a.mesh.triangles, &bg, &m);
-            println!("CSV {name},{e},{},{},{},{secs}", a.mesh.triangles.len(), s.p99_rel, s.max_rel);
+            let face = |v: u32| {
+                let id = a.mesh.sources[v as usize] as usize;
+                (id % (3 * n) / n, id / (3 * n) / n)
+            };
+            let faces = a
+                .mesh
+                .triangles
+                .iter()
+                .filter(|t| face(t[0]) == face(t[1]) && face(t[1]) == face(t[2]))
+                .count();
+            println!(
+                "CSV {name},{e},{},{},{},{secs},{faces},{mesh_secs}",
+                a.mesh.triangles.len(),
+                s.p99_rel,
+                s.max_rel
+            );
             println!("  {:?} {:?} {:?}", a.times, a.simplify, a.greedy);
         }
     }

@@ -8,7 +8,9 @@ is |w - w_mesh| / w_mesh. The room is the fixture's box (fixtures/src/lib.rs, Sc
 min (-3, -2.5, -1.2), max (4, 3, 1.6), seen from the origin. Faces are meshed independently (no
 stitching strips: pomc's counts include its strips, which favours Delatin slightly).
 
-Prints CSV lines: delatin,max_error,triangles,p99_rel,max_rel,seconds
+Prints CSV lines: delatin,max_error,triangles,p99_rel,max_rel,seconds,face_triangles,seconds and, for
+the same meshes closed like pomc's (the strips pomc zips between faces: one triangle per vertex step
+on either side of each cube edge, one per cube corner), delatin+strips with the strips counted.
 Usage: mesh_vs_delatin.py [N]   (needs: pip install pydelatin numpy)
 """
 import sys
@@ -59,11 +61,27 @@ def interpolate(w_shape, vertices, triangles, heights):
     return out
 
 
+def side_keys(n, frame):
+    """Cube-edge key (its two cube corners, sorted) of each face side: 0 top, 1 right, 2 bottom, 3 left."""
+    c, r, d = frame
+    ends = [((-1, -1), (1, -1)), ((1, -1), (1, 1)), ((-1, 1), (1, 1)), ((-1, -1), (-1, 1))]
+    return [tuple(sorted(tuple(np.rint(c + s * r + t * d).astype(int)) for s, t in e)) for e in ends]
+
+
+def strip_triangles(n, sides):
+    """Triangles of pomc-style stitching: per cube edge, (vertices on side A − 1) + (on side B − 1); 8 corners."""
+    per_edge = {}
+    for f, frame in enumerate(FRAMES):
+        for k, key in enumerate(side_keys(n, frame)):
+            per_edge.setdefault(key, []).append(sides[f][k])
+    return sum(sum(c - 1 for c in counts) for counts in per_edge.values()) + 8
+
+
 def main():
     n = int(sys.argv[1]) if len(sys.argv) > 1 else 1024
     faces = [face_w(n, f) for f in FRAMES]
     for max_error in [2e-3, 1e-3, 5e-4, 2e-4, 1e-4, 5e-5]:
-        tris, rel, secs = 0, [], 0.0
+        tris, rel, secs, sides = 0, [], 0.0, []
         for w in faces:
             wf = w.astype(np.float32)
             best = float("inf")
@@ -74,6 +92,9 @@ def main():
             secs += best
             v, tr = tin.vertices[:, :2], tin.triangles
             tris += len(tr)
+            # Vertices on each side (y up in pydelatin: row 0 is y = n − 1).
+            x, y = v[:, 0].astype(int), v[:, 1].astype(int)
+            sides.append([np.sum(y == n - 1), np.sum(x == n - 1), np.sum(y == 0), np.sum(x == 0)])
             # pydelatin's y axis points up: its vertex (x, y) is row n-1-y of the input array.
             flipped = w[::-1]
             heights = flipped[v[:, 1].astype(int), v[:, 0].astype(int)]
@@ -82,7 +103,10 @@ def main():
             ok = ~np.isnan(wi)
             rel.append(np.abs(w_cmp[ok] - wi[ok]) / wi[ok])
         rel = np.concatenate(rel)
-        print(f"CSV delatin,{max_error},{tris},{np.percentile(rel, 99)},{rel.max()},{secs}", flush=True)
+        p99, mx = np.percentile(rel, 99), rel.max()
+        print(f"CSV delatin,{max_error},{tris},{p99},{mx},{secs},{tris},{secs}", flush=True)
+        closed = tris + strip_triangles(n, sides)
+        print(f"CSV delatin+strips,{max_error},{closed},{p99},{mx},{secs},{tris},{secs}", flush=True)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Plot triangles against 3D p99 relative error for the CSVs of mesh_vs_delatin.sh.
 
-Rows are `name,max_error,triangles,p99_rel,max_rel,seconds`; one series per name.
+Rows are `name,max_error,triangles,p99_rel,max_rel,seconds[,...]`; one series per name.
 Usage: plot_mesh.py A.csv [B.csv ...] OUT.png
 """
 import csv
@@ -14,8 +14,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 LABELS = {
     "pomc": "pomc quadtree (--no-simplify)",
-    "pomc-simplify": "pomc quadtree + simplify (default)",
+    "pomc-collapse": "pomc quadtree + collapses (--no-greedy)",
+    "pomc-simplify": "pomc greedy insertion + collapses (default)",
     "delatin": "Delatin (per face, unstitched)",
+    "delatin+strips": "Delatin + pomc's face-joining strips",
 }
 
 
