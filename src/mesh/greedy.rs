@@ -228,7 +228,8 @@ impl<'a> Mesher<'a> {
 
     fn run(&mut self) {
         while let Some(&t) = self.queue.first() {
-            if !(self.scans[t as usize].key > 1.0) {
+            // NaN keys cannot occur (errors of positive samples); `<= 1` stops.
+            if self.scans[t as usize].key <= 1.0 {
                 break;
             }
             self.step();
@@ -372,7 +373,7 @@ impl<'a> Mesher<'a> {
                         continue;
                     }
                     let dist = (x as f64 - cx).powi(2) + (y as f64 - cy).powi(2);
-                    if best.is_none_or(|(bd, _)| dist < bd) {
+                    if best.map_or(true, |(bd, _)| dist < bd) {
                         best = Some((dist, p));
                     }
                 }

@@ -227,9 +227,7 @@ fn report(
             out.say(format!("encoded: {e} bytes ({p:.0} bytes per million quadtree triangles)"))
         }
         (Some(e), None) => out.say(format!("encoded: {e} bytes (quadtree)")),
-        (None, _) => {
-            out.say("encoded: not computed (greedy faces build no quadtree; --store encodes it)".to_string())
-        }
+        (None, _) => out.say("encoded: not computed (greedy faces build no quadtree; --store encodes it)"),
     }
     if let Some((s, _)) = &stats {
         out.say(format!(
