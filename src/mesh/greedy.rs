@@ -25,12 +25,13 @@ use super::grid::{Grid, Rays};
 /// A lattice point.
 type P = (i64, i64);
 
-/// `1/λ` per vertex when every vertex is valid and no two neighbours (sides and diagonals of every
-/// cell) differ by a depth jump; `None` otherwise (the quadtree handles domain borders and jumps).
-pub fn clean_inverse_depth(g: &Grid) -> Option<Vec<f32>> {
+/// `true` when every vertex is valid and no two neighbours (sides and diagonals of every cell) differ
+/// by a depth jump (the quadtree handles domain borders and jumps). Reads the lattice once, allocates
+/// nothing.
+pub fn is_clean(g: &Grid) -> bool {
     use rayon::prelude::*;
     if g.w < 2 || g.h < 2 || !matches!(g.rays, Rays::Face { .. }) {
-        return None;
+        return false;
     }
     let (w, h) = (g.w, g.h);
     // Joined ⟺ |a − b| ≤ ½·min(a, b), as [`Grid::bad_cell`] tests it in f64: the f32 difference is
@@ -40,11 +41,7 @@ pub fn clean_inverse_depth(g: &Grid) -> Option<Vec<f32>> {
     fn joined(a: f32, b: f32) -> bool {
         (a - b).abs() <= 0.5 * a.min(b)
     }
-    let mut inv = vec![0.0f32; w * h];
-    let ok = inv.par_chunks_mut(w).enumerate().all(|(y, row)| {
-        for (o, &l) in row.iter_mut().zip(&g.lambda[y * w..(y + 1) * w]) {
-            *o = 1.0 / l;
-        }
+    (0..h).into_par_iter().all(|y| {
         let d = &g.depth[y * w..(y + 1) * w];
         let mut ok = d.iter().fold(true, |ok, &v| ok & (v > 0.0));
         ok &= d.windows(2).fold(true, |ok, p| ok & joined(p[0], p[1]));
@@ -55,8 +52,7 @@ pub fn clean_inverse_depth(g: &Grid) -> Option<Vec<f32>> {
             ok &= d[1..].iter().zip(&e[..w - 1]).fold(true, |ok, (&a, &b)| ok & joined(a, b));
         }
         ok
-    });
-    ok.then_some(inv)
+    })
 }
 
 fn gcd(mut a: u64, mut b: u64) -> u64 {
@@ -84,40 +80,39 @@ fn in_circle(a: P, b: P, c: P, p: P) -> bool {
     dx * (ey * cp - bp * fy) - dy * (ex * cp - bp * fx) + ap * (ex * fy - ey * fx) < 0
 }
 
-/// Largest relative error `|w − w_m| / w_m` along a row (`w_m = base + gx·k`) when it exceeds `best`:
-/// updates `best` and returns the position. `inv` holds `1/λ` rounded to f32 and screens eight
-/// pixels at a time without a division (`|w − w_m| > b·w_m`, `w_m > 0`: a convex combination of
-/// positive vertex values), with a margin `SCREEN` far above that rounding (≤ 6e-8 relative); a
-/// chunk that may hold an improvement is measured exactly, from `λ` in f64.
+/// Largest relative error `|w − w_m| / w_m` along a row (`w = 1/λ`, `w_m = base + gx·k`) when it
+/// exceeds `best`: updates `best` and returns the position. With `t = w_m·λ` the error is
+/// `|1 − t| / t` (`t > 0`: `w_m` is a convex combination of positive vertex values), so eight pixels at
+/// a time are screened without a division (`|1 − t| > best·t`); only a chunk that holds an
+/// improvement is searched.
 #[inline]
-fn row_max(inv: &[f32], lambda: &[f32], base: f64, gx: f64, best: &mut f64) -> Option<usize> {
-    const SCREEN: f64 = 4e-7;
+fn row_max(lambda: &[f32], base: f64, gx: f64, best: &mut f64) -> Option<usize> {
     let mut found = None;
     let mut exact = |k0: usize, k1: usize, best: &mut f64| {
         for (k, &l) in lambda.iter().enumerate().take(k1).skip(k0) {
-            let wm = base + gx * k as f64;
-            let d = (1.0 / l as f64 - wm).abs();
-            if d > *best * wm {
-                *best = d / wm;
+            let t = (base + gx * k as f64) * l as f64;
+            let d = (1.0 - t).abs();
+            if d > *best * t {
+                *best = d / t;
                 found = Some(k);
             }
         }
     };
-    let mut chunks = inv.chunks_exact(8);
+    let mut chunks = lambda.chunks_exact(8);
     for (c, chunk) in chunks.by_ref().enumerate() {
         let k0 = c * 8;
-        let b = *best - SCREEN;
+        let b = *best;
         let mut any = false;
-        for (j, &v) in chunk.iter().enumerate() {
-            let wm = base + gx * (k0 + j) as f64;
-            any |= (v as f64 - wm).abs() > b * wm;
+        for (j, &l) in chunk.iter().enumerate() {
+            let t = (base + gx * (k0 + j) as f64) * l as f64;
+            any |= (1.0 - t).abs() > b * t;
         }
         if any {
             exact(k0, k0 + 8, best);
         }
     }
     let rest = chunks.remainder().len();
-    exact(inv.len() - rest, inv.len(), best);
+    exact(lambda.len() - rest, lambda.len(), best);
     found
 }
 
@@ -146,8 +141,7 @@ pub struct GreedyStats {
 /// opposite half-edge of half-edge `e = 3t + k` (from vertex `k` to vertex `k + 1` of triangle `t`).
 struct Mesher<'a> {
     nw: usize,
-    /// `1/λ` per vertex, rounded to f32 (screening), and `λ` (exact values).
-    inv: &'a [f32],
+    /// `λ` per vertex.
     lambda: &'a [f32],
     rays: &'a Rays,
     e: f64,
@@ -166,10 +160,9 @@ struct Mesher<'a> {
 }
 
 impl<'a> Mesher<'a> {
-    fn new(g: &'a Grid, inv: &'a [f32], e: f64, cap: Option<f64>) -> Self {
+    fn new(g: &'a Grid, e: f64, cap: Option<f64>) -> Self {
         let mut m = Mesher {
             nw: g.w,
-            inv,
             lambda: &g.lambda,
             rays: &g.rays,
             e,
@@ -296,7 +289,7 @@ impl<'a> Mesher<'a> {
                 let (i0, i1) = (start + lo as usize, start + hi as usize + 1);
                 scanned += (i1 - i0) as u64;
                 let base = wa + gx * (lo - a.0) as f64 + gy * (this - a.1) as f64;
-                if let Some(k) = row_max(&self.inv[i0..i1], &self.lambda[i0..i1], base, gx, &mut best) {
+                if let Some(k) = row_max(&self.lambda[i0..i1], base, gx, &mut best) {
                     best_at = (lo + k as i64, this);
                 }
                 if best > limit {
@@ -575,10 +568,10 @@ pub struct FaceMesh {
     pub stats: GreedyStats,
 }
 
-/// Mesh a clean lattice (`inv` from [`clean_inverse_depth`]) so that every pixel lies within relative
-/// distance `max_error` of the mesh along its ray.
-pub fn mesh_face(g: &Grid, inv: &[f32], max_error: f64, max_angle_deg: Option<f64>) -> FaceMesh {
-    let mut m = Mesher::new(g, inv, max_error, max_angle_deg.map(f64::to_radians));
+/// Mesh a clean lattice ([`is_clean`]) so that every pixel lies within relative distance `max_error`
+/// of the mesh along its ray.
+pub fn mesh_face(g: &Grid, max_error: f64, max_angle_deg: Option<f64>) -> FaceMesh {
+    let mut m = Mesher::new(g, max_error, max_angle_deg.map(f64::to_radians));
     m.run();
     let mut used = vec![false; g.w * g.h];
     for p in &m.pts {
@@ -675,8 +668,8 @@ mod tests {
     fn a_plane_needs_two_triangles() {
         // The floor z = −1.5 fills the whole bottom face: nothing to insert.
         let g = face_grid(CubeFace::NegZ, 64, |d| -1.5 / d.z);
-        let inv = clean_inverse_depth(&g).expect("clean");
-        let f = mesh_face(&g, &inv, 1e-6, None);
+        assert!(is_clean(&g));
+        let f = mesh_face(&g, 1e-6, None);
         assert_eq!((f.triangles.len(), f.stats.insertions), (2, 0));
         assert!(brute_max_error(&g, &f) < 1e-6);
         assert_covers_lattice(&g, &f);
@@ -692,10 +685,10 @@ mod tests {
         };
         for face in [CubeFace::PosX, CubeFace::NegY] {
             let g = face_grid(face, 96, sphere);
-            let inv = clean_inverse_depth(&g).expect("clean");
+            assert!(is_clean(&g));
             let mut last = 0;
             for e in [1e-2, 1e-3, 1e-4] {
-                let f = mesh_face(&g, &inv, e, None);
+                let f = mesh_face(&g, e, None);
                 let worst = brute_max_error(&g, &f);
                 assert!(worst <= e * (1.0 + 1e-6), "{face:?} e {e}: {worst}");
                 // The reported errors are the brute-force ones.
@@ -714,9 +707,9 @@ mod tests {
     #[test]
     fn the_angle_cap_splits_large_flat_triangles() {
         let g = face_grid(CubeFace::NegZ, 64, |d| -1.5 / d.z);
-        let inv = clean_inverse_depth(&g).expect("clean");
+        assert!(is_clean(&g));
         let cap = 20.0f64;
-        let f = mesh_face(&g, &inv, 0.01, Some(cap));
+        let f = mesh_face(&g, 0.01, Some(cap));
         assert!(f.triangles.len() > 2);
         let lattice = |id: u32| (id as usize % g.canvas_w, id as usize / g.canvas_w);
         for t in &f.triangles {
@@ -736,15 +729,15 @@ mod tests {
         // A 60 % step (a depth jump) in one corner, then one invalid pixel.
         let g =
             face_grid(CubeFace::NegZ, 32, |d| if d.x > 0.3 && d.y > 0.3 { 1.6 * plane(d) } else { plane(d) });
-        assert!(clean_inverse_depth(&g).is_none());
+        assert!(!is_clean(&g));
         let mut g = face_grid(CubeFace::NegZ, 32, plane);
-        assert!(clean_inverse_depth(&g).is_some());
+        assert!(is_clean(&g));
         g.lambda[5 * 32 + 7] = f32::NAN;
         g.depth[5 * 32 + 7] = f32::NAN;
-        assert!(clean_inverse_depth(&g).is_none());
+        assert!(!is_clean(&g));
     }
 
-    /// The branch-free f32 join test of [`clean_inverse_depth`] is exactly [`Grid::bad_cell`]'s f64
+    /// The branch-free f32 join test of [`is_clean`] is exactly [`Grid::bad_cell`]'s f64
     /// test, also within an ulp of the 1.5 ratio.
     #[test]
     fn clean_check_agrees_with_bad_cell_at_the_threshold() {
@@ -767,7 +760,7 @@ mod tests {
             img.set_channel("Z", SampleType::F32, vec![a, b, a, b]);
             let g = Grid::new(&img, 0, 0, 2, 2, Rays::face(CubeFace::PosX, 2));
             // Depths along the rays differ from Z only by the ray length: compare on the grid's own.
-            let clean = clean_inverse_depth(&g).is_some();
+            let clean = is_clean(&g);
             assert_eq!(clean, !g.bad_cell(0, 0), "a {a} b {b}");
         }
     }

@@ -166,11 +166,14 @@ impl Grid {
     /// Sample the lattice `w × h` at canvas origin `(ox, oy)` from a full-canvas layer image.
     pub fn new(image: &LayerImage, ox: usize, oy: usize, w: usize, h: usize, rays: Rays) -> Grid {
         use rayon::prelude::*;
-        let mut lambda = vec![f32::NAN; w * h];
-        let mut depth = vec![f32::NAN; w * h];
         let (Some(z), a) = (image.depth(), image.coverage()) else {
+            let (lambda, depth) = (vec![f32::NAN; w * h], vec![f32::NAN; w * h]);
             return Grid { ox, oy, w, h, canvas_w: image.width, rays, lambda, depth };
         };
+        // Zeroed allocations come lazily from the OS: the pages are first touched (and zeroed by the
+        // kernel) by the parallel loop below, which writes every element, instead of by one thread.
+        let mut lambda = vec![0.0f32; w * h];
+        let mut depth = vec![0.0f32; w * h];
         // |r|² = 1 + s² + t² on a cube face (orthonormal frame); equirect rays are unit.
         let (s2, t2): (Vec<f64>, Vec<f64>) = match &rays {
             Rays::Face { n, .. } => {
@@ -191,6 +194,9 @@ impl Grid {
                         debug_assert!(matches!(classify(d, arow.map(|a| a[x])), Sample::Surface(_)));
                         drow[x] = d;
                         lrow[x] = (d as f64 / (1.0 + s2[x] + t2[y]).sqrt()) as f32;
+                    } else {
+                        drow[x] = f32::NAN;
+                        lrow[x] = f32::NAN;
                     }
                 }
             },

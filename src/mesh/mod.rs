@@ -228,8 +228,7 @@ pub fn mesh_layer(
         .par_iter()
         .map(|g| {
             let sp = greedy_params?;
-            let inv = greedy::clean_inverse_depth(g)?;
-            Some(greedy::mesh_face(g, &inv, sp.max_error, sp.max_angle_deg))
+            greedy::is_clean(g).then(|| greedy::mesh_face(g, sp.max_error, sp.max_angle_deg))
         })
         .collect();
     let greedy_ms = if greedy_params.is_some() { ms(t) } else { 0.0 };
