@@ -705,6 +705,29 @@ mod tests {
     }
 
     #[test]
+    fn tiny_and_huge_depths_mesh_alike() {
+        // The same curved surface at 1e-6 m and at 1e9 m: relative errors are scale-free, so the
+        // meshes are the same and within the bound (no overflow, no NaN in the plane or the scan).
+        let c = DVec3::new(0.4, -0.3, 0.2);
+        let sphere = |d: DVec3| {
+            let b = d.dot(c);
+            b + (b * b - c.length_squared() + 9.0).sqrt()
+        };
+        let mut counts = Vec::new();
+        for scale in [1e-6, 1.0, 1e9] {
+            let g = face_grid(CubeFace::PosY, 64, |d| scale * sphere(d));
+            assert!(is_clean(&g));
+            let f = mesh_face(&g, 1e-3, None);
+            let worst = brute_max_error(&g, &f);
+            assert!(worst.is_finite() && worst <= 1e-3 * (1.0 + 1e-6), "scale {scale}: {worst}");
+            assert_covers_lattice(&g, &f);
+            counts.push(f.triangles.len());
+        }
+        // f32 samples round differently at each scale; the meshes agree to a few triangles.
+        assert!(counts.iter().max().unwrap() - counts.iter().min().unwrap() <= 4, "{counts:?}");
+    }
+
+    #[test]
     fn the_angle_cap_splits_large_flat_triangles() {
         let g = face_grid(CubeFace::NegZ, 64, |d| -1.5 / d.z);
         assert!(is_clean(&g));
