@@ -267,35 +267,22 @@ impl<'a> Mesher<'a> {
         let mut best_at = a;
         let mut scanned = 0u64;
         // Large triangles: every 4th row first, so that a scan that is going to exceed `limit`
-        // usually stops after a quarter of the work.
-        let passes: &[(i64, i64)] =
-            if y1 - y0 > 32 && limit.is_finite() { &[(0, 4), (1, 1)] } else { &[(0, 1)] };
-        for &(phase, stride) in passes {
-            let mut y = y0 + phase;
-            while y <= y1 {
-                let this = y;
-                y += if stride == 4 {
-                    4
-                } else if phase == 1 && (this - y0) % 4 == 3 {
-                    2
-                } else {
-                    1
-                };
-                if phase == 1 && (this - y0) % 4 == 0 {
-                    continue;
-                }
-                let Some((lo, hi)) = row_span([a, b, c], this) else { continue };
-                let start = this as usize * self.nw;
-                let (i0, i1) = (start + lo as usize, start + hi as usize + 1);
-                scanned += (i1 - i0) as u64;
-                let base = wa + gx * (lo - a.0) as f64 + gy * (this - a.1) as f64;
-                if let Some(k) = row_max(&self.lambda[i0..i1], base, gx, &mut best) {
-                    best_at = (lo + k as i64, this);
-                }
-                if best > limit {
-                    self.stats.scanned += scanned;
-                    return Scan { err: f64::INFINITY, key: f64::INFINITY, cand: best_at };
-                }
+        // usually stops after a quarter of the work; then the other rows.
+        let coarse = y1 - y0 > 32 && limit.is_finite();
+        let first = (y0..=y1).step_by(if coarse { 4 } else { 1 });
+        let rest = (y0..=y1).filter(move |y| coarse && (y - y0) % 4 != 0);
+        for y in first.chain(rest) {
+            let Some((lo, hi)) = row_span([a, b, c], y) else { continue };
+            let start = y as usize * self.nw;
+            let (i0, i1) = (start + lo as usize, start + hi as usize + 1);
+            scanned += (i1 - i0) as u64;
+            let base = wa + gx * (lo - a.0) as f64 + gy * (y - a.1) as f64;
+            if let Some(k) = row_max(&self.lambda[i0..i1], base, gx, &mut best) {
+                best_at = (lo + k as i64, y);
+            }
+            if best > limit {
+                self.stats.scanned += scanned;
+                return Scan { err: f64::INFINITY, key: f64::INFINITY, cand: best_at };
             }
         }
         self.stats.scanned += scanned;
