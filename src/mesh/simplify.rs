@@ -812,6 +812,68 @@ impl<'a, 'b> Run<'a, 'b> {
     }
 }
 
+/// A part of phase 1: lattice `g`, columns `x0..=x1`; its interior vertices (strictly between) are
+/// simplified independently of the other parts'.
+struct PhasePart {
+    g: u8,
+    x0: u32,
+    x1: u32,
+}
+
+/// Vertical bands of the equirect simplified in parallel (at most).
+const EQUIRECT_BANDS: usize = 4;
+
+/// Phase-1 parts: each lattice whole, except a lone lattice (the equirect), which is cut into up to
+/// [`EQUIRECT_BANDS`] vertical bands at columns no lattice triangle crosses (the quadtree's split columns
+/// usually are such), chosen nearest to even spacing.
+fn phase_parts(mesh: &LayerMesh, shared: &Shared, grids: &[Grid]) -> Vec<PhasePart> {
+    let whole = |g: usize| PhasePart { g: g as u8, x0: 0, x1: grids[g].w as u32 - 1 };
+    if grids.len() != 1 || grids[0].w < 64 {
+        return (0..grids.len()).map(whole).collect();
+    }
+    let w = grids[0].w;
+    // crossed[c] > 0 when some lattice triangle has vertices strictly on both sides of column c.
+    // Triangles joining the first and last columns (the equirect seam strip) and pole fans are not
+    // lattice triangles of any band.
+    let mut diff = vec![0i64; w + 1];
+    for t in &mesh.triangles {
+        let xs = t.map(|v| match shared.loc[v as usize] {
+            Loc::Lattice { x, .. } => Some(x as usize),
+            Loc::Pole => None,
+        });
+        let [Some(a), Some(b), Some(c)] = xs else { continue };
+        let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+        if lo == 0 && hi == w - 1 {
+            continue;
+        }
+        if hi > lo + 1 {
+            diff[lo + 1] += 1;
+            diff[hi] -= 1;
+        }
+    }
+    let mut crossed = vec![false; w];
+    let mut run = 0i64;
+    for c in 0..w {
+        run += diff[c];
+        crossed[c] = run > 0;
+    }
+    // A fixed count, not the thread count: the output must not depend on the machine.
+    let k = EQUIRECT_BANDS;
+    let mut cuts = vec![0usize];
+    for i in 1..k {
+        let ideal = i * (w - 1) / k;
+        let window = w / (4 * k);
+        let found = (0..=window)
+            .flat_map(|d| [ideal.saturating_sub(d), ideal + d])
+            .find(|&c| c > *cuts.last().expect("non-empty") + 1 && c + 1 < w - 1 && !crossed[c]);
+        if let Some(c) = found {
+            cuts.push(c);
+        }
+    }
+    cuts.push(w - 1);
+    cuts.windows(2).map(|p| PhasePart { g: 0, x0: p[0] as u32, x1: p[1] as u32 }).collect()
+}
+
 /// Simplify a mesh made by [`super::mesh_layer`] from `grids` (its lattices) on `mapping`. Lattices
 /// with `done[g]` (already meshed to the tolerance by [`super::greedy`]: the exact error of each of
 /// the lattice's triangles, in mesh order) skip the per-lattice phase; their side vertices still take
@@ -869,39 +931,52 @@ pub fn simplify(
     let mut stats = SimplifyStats::default();
     let clock = std::time::Instant::now();
 
-    // Phase 1: each lattice's interior vertices, lattices in parallel. A lattice's run holds every
-    // triangle touching the lattice; only its own interior stars ever change.
-    let grid_of_tri = |t: &[u32; 3]| -> Option<u8> {
-        let g = t.map(|v| match shared.loc[v as usize] {
-            Loc::Lattice { g, .. } => Some(g),
-            Loc::Pole => None,
-        });
-        match g {
-            [Some(a), Some(b), Some(c)] if a == b && b == c => Some(a),
-            _ => None,
-        }
+    // Phase 1: interior vertices of independent parts, in parallel — each cube face; the equirect in
+    // vertical bands split at columns that no lattice triangle crosses (so a band's interior stars never
+    // leave it). A part's run holds every triangle touching the part; only its interior stars change.
+    let parts = phase_parts(mesh, &shared, grids);
+    let lattice_x = |v: u32| match shared.loc[v as usize] {
+        Loc::Lattice { g, x, .. } => Some((g, x)),
+        Loc::Pole => None,
     };
-    let touches = |t: &[u32; 3], g: u8| {
-        t.iter().any(|&v| matches!(shared.loc[v as usize], Loc::Lattice { g: k, .. } if k == g))
+    let part_of_tri = |t: &[u32; 3]| -> Option<usize> {
+        let l = t.map(lattice_x);
+        let [Some(a), Some(b), Some(c)] = l else { return None };
+        parts.iter().position(|p| [a, b, c].iter().all(|&(g, x)| g == p.g && x >= p.x0 && x <= p.x1))
     };
+    let touches = |t: &[u32; 3], p: &PhasePart| {
+        t.iter().any(|&v| lattice_x(v).is_some_and(|(g, x)| g == p.g && x >= p.x0 && x <= p.x1))
+    };
+    let interior = |v: usize, p: &PhasePart| {
+        !fixed[v]
+            && shared.sides[v] == 0
+            && lattice_x(v as u32).is_some_and(|(g, x)| g == p.g && x > p.x0 && x < p.x1)
+    };
+    let tri_parts: Vec<Option<usize>> = mesh.triangles.iter().map(part_of_tri).collect();
     let shared_ref = &shared;
     type Part = (Vec<[u32; 3]>, Vec<f64>, SimplifyStats);
-    let results: Vec<Part> = (0..grids.len() as u8)
-        .into_par_iter()
-        .map(|g| {
-            let tris: Vec<[u32; 3]> =
-                mesh.triangles.iter().filter(|t| grid_of_tri(t) == Some(g)).copied().collect();
-            let own = tris.len();
-            let known = done.get(g as usize).and_then(Option::as_ref).filter(|e| e.len() == own);
-            let mut all = tris;
-            all.extend(mesh.triangles.iter().filter(|t| grid_of_tri(t).is_none() && touches(t, g)));
-            let movable: Vec<bool> = (0..n)
-                .map(|v| {
-                    !fixed[v]
-                        && shared_ref.sides[v] == 0
-                        && matches!(shared_ref.loc[v], Loc::Lattice { g: k, .. } if k == g)
-                })
+    let results: Vec<Part> = parts
+        .par_iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let tris: Vec<[u32; 3]> = mesh
+                .triangles
+                .iter()
+                .zip(&tri_parts)
+                .filter(|(_, q)| **q == Some(k))
+                .map(|(t, _)| *t)
                 .collect();
+            let own = tris.len();
+            let known = done.get(p.g as usize).and_then(Option::as_ref).filter(|e| e.len() == own);
+            let mut all = tris;
+            all.extend(
+                mesh.triangles
+                    .iter()
+                    .zip(&tri_parts)
+                    .filter(|(t, q)| q.is_none() && touches(t, p))
+                    .map(|(t, _)| *t),
+            );
+            let movable: Vec<bool> = (0..n).map(|v| interior(v, p)).collect();
             let seeds: Vec<u32> = (0..n as u32).filter(|&v| movable[v as usize]).collect();
             // Known errors of the lattice's own triangles spare their scans.
             let terr = known.map(|e| {
@@ -927,17 +1002,19 @@ pub fn simplify(
         stats.tested += s.tested;
         stats.planar += s.planar;
     }
-    for t in mesh.triangles.iter().filter(|t| grid_of_tri(t).is_none()) {
+    for (t, _) in mesh.triangles.iter().zip(&tri_parts).filter(|(_, q)| q.is_none()) {
         tris.push(*t);
         terr.push(shared.max_error(*t, f64::INFINITY));
     }
+    // Phase 2 starts from every movable vertex that no part could move (sides, band boundaries).
+    let phase2_seed: Vec<bool> = (0..n).map(|v| !fixed[v] && !parts.iter().any(|p| interior(v, p))).collect();
 
     stats.lattice_ms = clock.elapsed().as_secs_f64() * 1e3;
     let clock = std::time::Instant::now();
-    // Phase 2: the whole mesh, from the side vertices (their stars span lattices).
+    // Phase 2: the whole mesh, from the vertices phase 1 left (their stars span parts).
     let movable: Vec<bool> = (0..n).map(|v| !fixed[v]).collect();
     let mut run = Run::new(&shared, tris, Some(terr), movable);
-    let seeds: Vec<u32> = (0..n as u32).filter(|&v| shared.sides[v as usize] != 0).collect();
+    let seeds: Vec<u32> = (0..n as u32).filter(|&v| phase2_seed[v as usize]).collect();
     run.run(seeds.into_iter());
     stats.collapses += run.stats.collapses;
     stats.tested += run.stats.tested;
