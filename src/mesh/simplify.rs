@@ -33,8 +33,9 @@
 //!   (domain border, depth jump) only collapses along the boundary onto a neighbour in a straight lattice
 //!   line with it (a meridian on the equirect), so the covered region never changes.
 //!
-//! Cube faces are simplified in parallel first (face-interior vertices only; a face's collapses never
-//! touch another face's triangles), then the whole mesh once more from the side vertices.
+//! Cube faces — or four vertical bands of the equirect, cut at columns no triangle crosses — are
+//! simplified in parallel first (interior vertices only; a part's collapses never touch another part's
+//! triangles), then the whole mesh once more from the vertices left (sides, band boundaries).
 
 // `!(x <= limit)` is deliberate throughout: a NaN (an invalid pixel, a degenerate plane) must fail.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
