@@ -427,6 +427,15 @@ impl<'a> Mesher<'a> {
     /// criterion decides, so flat regions keep well-shaped triangles. A quad that is not strictly
     /// convex is never flipped.
     fn legalize(&mut self, a: usize) {
+        // Depth-first like the recursive formulation, with an explicit stack (cascades can be long).
+        let mut stack = vec![a];
+        while let Some(a) = stack.pop() {
+            self.legalize_one(a, &mut stack);
+        }
+    }
+
+    /// One edge of [`Self::legalize`]; pushes the edges a flip exposes.
+    fn legalize_one(&mut self, a: usize, stack: &mut Vec<usize>) {
         let b = self.half[a];
         if b < 0 {
             return;
@@ -462,8 +471,8 @@ impl<'a> Mesher<'a> {
         self.queue_remove(b0 / 3);
         let t0 = self.add_triangle([p0, p1, pl], [-1, hbl, hal], Some(a0), Some(s0));
         let t1 = self.add_triangle([p1, p0, pr], [t0 as i32, har, hbr], Some(b0), Some(s1));
-        self.legalize(t0 + 1);
-        self.legalize(t1 + 2);
+        stack.push(t1 + 2);
+        stack.push(t0 + 1);
     }
 
     // Indexed binary max-heap of triangles by key.
