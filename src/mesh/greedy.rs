@@ -701,6 +701,33 @@ mod tests {
     }
 
     #[test]
+    fn noise_below_the_tolerance_refines_down_to_pixels_and_stays_exact() {
+        // ±0.1 % pseudo-random noise on a plane, tolerance 1e-4: most pixels must become vertices.
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut noise = vec![0.0; 48 * 48];
+        for v in &mut noise {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            *v = (seed % 2001) as f64 / 1e6 - 1e-3;
+        }
+        let rays = Rays::face(CubeFace::NegZ, 48);
+        let mut z = vec![0.0f32; 48 * 48];
+        for (i, zi) in z.iter_mut().enumerate() {
+            let d = rays.ray(i % 48, i / 48).normalize();
+            *zi = (-1.5 / d.z * (1.0 + noise[i])) as f32;
+        }
+        let mut img = LayerImage::new(48, 48);
+        img.set_channel("Z", SampleType::F32, z);
+        let g = Grid::new(&img, 0, 0, 48, 48, rays);
+        assert!(is_clean(&g));
+        let f = mesh_face(&g, 1e-4, None);
+        assert!(f.stats.insertions > 48 * 48 / 2, "{:?}", f.stats);
+        assert!(brute_max_error(&g, &f) <= 1e-4 * (1.0 + 1e-6));
+        assert_covers_lattice(&g, &f);
+    }
+
+    #[test]
     fn tiny_and_huge_depths_mesh_alike() {
         // The same curved surface at 1e-6 m and at 1e9 m: relative errors are scale-free, so the
         // meshes are the same and within the bound (no overflow, no NaN in the plane or the scan).
