@@ -352,3 +352,28 @@ fn simplification_is_deterministic_and_keeps_the_quadtree_encoding() {
         }
     }
 }
+
+/// With the `pomc mesh` defaults (20° cap), no triangle's vertex rays are more than 20° apart —
+/// greedy faces or quadtree + collapses alike — on the cube and on the equirect.
+#[test]
+fn default_meshes_respect_the_angle_cap() {
+    for m in [cube(96), equirect(96)] {
+        let (bg, _) = room(&m);
+        let p = MeshParams {
+            simplify: Some(SimplifyParams { max_error: 0.005, max_angle_deg: Some(20.0), greedy: true }),
+            ..MeshParams::default()
+        };
+        let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
+        assert_closed(&out.mesh);
+        let widest = out
+            .mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                let d = t.map(|v| out.mesh.positions[v as usize].normalize());
+                d[0].dot(d[1]).min(d[1].dot(d[2])).min(d[2].dot(d[0])).clamp(-1.0, 1.0).acos().to_degrees()
+            })
+            .fold(0.0, f64::max);
+        assert!(widest <= 20.0 + 1e-9, "a triangle spans {widest}°");
+    }
+}

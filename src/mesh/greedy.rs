@@ -127,12 +127,17 @@ struct Scan {
     /// Queue priority: > 1 means the triangle must be split (at `cand`).
     key: f64,
     cand: P,
+    /// A cap split beside (not on) the triangle's widest edge: that edge, to be flipped away.
+    away: Option<(P, P)>,
 }
 
 /// Counters of one face.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct GreedyStats {
     pub insertions: usize,
+    /// Triangles left wider than the angle cap (slivers no split or flip could narrow); a lattice
+    /// with any is meshed by the quadtree instead ([`super::mesh_layer`]).
+    pub over_cap: usize,
     /// Lattice points scanned (the cost of the method).
     pub scanned: u64,
 }
@@ -221,8 +226,9 @@ impl<'a> Mesher<'a> {
 
     fn run(&mut self) {
         while let Some(&t) = self.queue.first() {
-            // NaN keys cannot occur (errors of positive samples); `<= 1` stops.
-            if self.scans[t as usize].key <= 1.0 {
+            // `!(key > 1)`: a NaN key stops too.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            if !(self.scans[t as usize].key > 1.0) {
                 break;
             }
             self.step();
@@ -282,7 +288,7 @@ impl<'a> Mesher<'a> {
             }
             if best > limit {
                 self.stats.scanned += scanned;
-                return Scan { err: f64::INFINITY, key: f64::INFINITY, cand: best_at };
+                return Scan { err: f64::INFINITY, key: f64::INFINITY, cand: best_at, away: None };
             }
         }
         self.stats.scanned += scanned;
@@ -292,20 +298,22 @@ impl<'a> Mesher<'a> {
         }
         let mut key = best / self.e;
         let mut cand = best_at;
+        let mut away = None;
         if let Some(cap) = self.cap {
             let over = self.extent(a, b, c) / cap;
             if over > 1.0 && over > key {
                 match self.split_point(a, b, c) {
-                    Some(p) => {
+                    Some((p, edge)) => {
                         key = over;
                         cand = p;
+                        away = edge;
                     }
                     None if key <= 1.0 => key = 0.0,
                     None => {}
                 }
             }
         }
-        Scan { err, key, cand }
+        Scan { err, key, cand, away }
     }
 
     /// Largest angle between two of the vertex rays, radians.
@@ -317,8 +325,9 @@ impl<'a> Mesher<'a> {
 
     /// Where to split a triangle that spans too wide an angle: the lattice point of its longest edge
     /// (in angle) nearest the edge's middle, so the split shortens that edge in both triangles
-    /// sharing it; when the edge holds none, the lattice point of the triangle nearest the middle.
-    fn split_point(&self, a: P, b: P, c: P) -> Option<P> {
+    /// sharing it; when the edge holds none, the lattice point of the triangle nearest the middle,
+    /// with the edge to flip away after the split.
+    fn split_point(&self, a: P, b: P, c: P) -> Option<(P, Option<(P, P)>)> {
         let r = [a, b, c].map(|p| self.rays.ray(p.0 as usize, p.1 as usize).normalize());
         let (p, q) = [(0, 1), (1, 2), (2, 0)]
             .into_iter()
@@ -329,9 +338,11 @@ impl<'a> Mesher<'a> {
         let g = gcd(dx.unsigned_abs(), dy.unsigned_abs()) as i64;
         if g >= 2 {
             let k = g / 2;
-            return Some((p.0 + k * dx / g, p.1 + k * dy / g));
+            return Some(((p.0 + k * dx / g, p.1 + k * dy / g), None));
         }
+        // No lattice point on the edge: split beside it, then flip it away ([`Self::step`]).
         self.nearest_point(a, b, c, ((p.0 + q.0) as f64 / 2.0, (p.1 + q.1) as f64 / 2.0))
+            .map(|x| (x, Some((p, q))))
     }
 
     /// The lattice point of the triangle (not a vertex) nearest `(cx, cy)`, if any.
@@ -370,7 +381,7 @@ impl<'a> Mesher<'a> {
         let (e0, e1, e2) = (3 * t, 3 * t + 1, 3 * t + 2);
         let [p0, p1, p2] = [self.tri[e0], self.tri[e1], self.tri[e2]];
         let [a, b, c] = self.vertices(t);
-        let p = self.scans[t].cand;
+        let (p, away) = (self.scans[t].cand, self.scans[t].away);
         let pn = self.add_point(p);
         self.stats.insertions += 1;
         if edge(a, b, p) == 0 {
@@ -384,10 +395,48 @@ impl<'a> Mesher<'a> {
             let t0 = self.add_triangle([p0, p1, pn], [h0, -1, -1], Some(e0), None);
             let t1 = self.add_triangle([p1, p2, pn], [h1, -1, t0 as i32 + 1], None, None);
             let t2 = self.add_triangle([p2, p0, pn], [h2, t0 as i32 + 2, t1 as i32 + 1], None, None);
-            self.legalize(t0);
-            self.legalize(t1);
-            self.legalize(t2);
+            let mut edges = vec![t0, t1, t2];
+            // A cap split beside a too-wide edge with no lattice point: flip that edge away (its
+            // new triangles are refined by error like any other), so it is not split again and again.
+            if let Some((u, v)) = away {
+                let wide = [t0, t1, t2].into_iter().find(|&h| {
+                    let (x, y) = (self.pts[self.tri[h] as usize], self.pts[self.tri[h + 1] as usize]);
+                    (x, y) == (u, v) || (x, y) == (v, u)
+                });
+                if let Some((f0, f1)) = wide.and_then(|h| self.flip(h, None)) {
+                    edges = vec![f0 + 1, f0 + 2, f1 + 1, f1 + 2];
+                }
+            }
+            for h in edges {
+                self.legalize(h);
+            }
         }
+    }
+
+    /// Flip half-edge `a` (with the new triangles' scans when known) when it has a twin and its quad
+    /// is strictly convex; returns the new triangles' first half-edges. The new diagonal is half-edge
+    /// 0 of the first, whose outer edges are 1 and 2 (likewise the second's).
+    fn flip(&mut self, a: usize, scans: Option<(Scan, Scan)>) -> Option<(usize, usize)> {
+        let b = self.half[a];
+        if b < 0 {
+            return None;
+        }
+        let b = b as usize;
+        let (a0, b0) = (a - a % 3, b - b % 3);
+        let (al, ar) = (a0 + (a + 1) % 3, a0 + (a + 2) % 3);
+        let (bl, br) = (b0 + (b + 2) % 3, b0 + (b + 1) % 3);
+        let (p0, pr, pl, p1) = (self.tri[ar], self.tri[a], self.tri[al], self.tri[bl]);
+        let q = |v: u32| self.pts[v as usize];
+        if edge(q(p0), q(p1), q(pl)) <= 0 || edge(q(p1), q(p0), q(pr)) <= 0 {
+            return None;
+        }
+        let (hal, har, hbl, hbr) = (self.half[al], self.half[ar], self.half[bl], self.half[br]);
+        self.queue_remove(a0 / 3);
+        self.queue_remove(b0 / 3);
+        let (s0, s1) = (scans.map(|s| s.0), scans.map(|s| s.1));
+        let t0 = self.add_triangle([p0, p1, pl], [-1, hbl, hal], Some(a0), s0);
+        let t1 = self.add_triangle([p1, p0, pr], [t0 as i32, har, hbr], Some(b0), s1);
+        Some((t0, t1))
     }
 
     /// The new point `pn` lies on half-edge `a` of the (popped) triangle: split it and its twin.
@@ -429,7 +478,13 @@ impl<'a> Mesher<'a> {
     fn legalize(&mut self, a: usize) {
         // Depth-first like the recursive formulation, with an explicit stack (cascades can be long).
         let mut stack = vec![a];
+        // Each flip improves its pair (error, then width), so cascades end; the budget is a backstop.
+        let mut budget = 64 + 4 * self.tri.len();
         while let Some(a) = stack.pop() {
+            if budget == 0 {
+                break;
+            }
+            budget -= 1;
             self.legalize_one(a, &mut stack);
         }
     }
@@ -443,7 +498,7 @@ impl<'a> Mesher<'a> {
         let b = b as usize;
         let (a0, b0) = (a - a % 3, b - b % 3);
         let (al, ar) = (a0 + (a + 1) % 3, a0 + (a + 2) % 3);
-        let (bl, br) = (b0 + (b + 2) % 3, b0 + (b + 1) % 3);
+        let bl = b0 + (b + 2) % 3;
         let (p0, pr, pl, p1) = (self.tri[ar], self.tri[a], self.tri[al], self.tri[bl]);
         let q = |v: u32| self.pts[v as usize];
         let (n0, n1) = ([q(p0), q(p1), q(pl)], [q(p1), q(p0), q(pr)]);
@@ -451,26 +506,55 @@ impl<'a> Mesher<'a> {
             return;
         }
         let delaunay = in_circle(q(p0), q(pr), q(pl), q(p1));
+        let (qa, qb) = ([q(p0), q(pr), q(pl)], [q(p1), q(pl), q(pr)]);
         let old = self.ensure_scanned(a0 / 3).err.max(self.ensure_scanned(b0 / 3).err);
-        let floor = FLAT * self.e;
-        if old <= floor && !delaunay {
+        let (e, floor) = (self.e, FLAT * self.e);
+        // With an angle cap: the error rule may not flip into a pair wider than the cap unless it is
+        // narrower than the current pair and splittable; a pair over the cap flips to a narrower one
+        // whenever both new triangles stay within the tolerance; and a triangle over the cap that
+        // holds no lattice point to split at (a sliver along a long edge) is flipped away whatever
+        // the error — so no output triangle exceeds the cap while a flip can narrow it.
+        let (mut err_rule, mut cap_rule) = (old > floor || delaunay, false);
+        if let Some(cap) = self.cap {
+            let wide = |t: [P; 3]| self.extent(t[0], t[1], t[2]);
+            let was = wide(qa).max(wide(qb));
+            let now = wide(n0).max(wide(n1));
+            // A triangle over the cap with no lattice point to split at can only go by a flip.
+            let stuck = |t: [P; 3]| wide(t) > cap && self.split_point(t[0], t[1], t[2]).is_none();
+            if now < was && (stuck(qa) || stuck(qb)) {
+                // Flipped regardless of the error: the new triangles are refined like any other.
+                if let Some((t0, t1)) = self.flip(a, None) {
+                    stack.push(t1 + 2);
+                    stack.push(t0 + 1);
+                }
+                return;
+            }
+            err_rule &= now <= cap || (now <= was && !stuck(n0) && !stuck(n1));
+            cap_rule = was > cap && now < was;
+        }
+        if !err_rule && !cap_rule {
             return;
         }
-        // Only a strictly better pair flips, so each scan may stop as soon as it reaches `limit`.
-        let limit = if old <= floor { floor } else { old };
+        // Scans stop as soon as they exceed what any applicable rule accepts.
+        let err_limit = if old <= floor { floor } else { old };
+        let limit = match (err_rule, cap_rule) {
+            (true, true) => err_limit.max(e),
+            (true, false) => err_limit,
+            _ => e,
+        };
+        let by_err = |x: f64| err_rule && (x < err_limit || (old <= floor && x <= floor));
+        let by_cap = |x: f64| cap_rule && x <= e;
         let s0 = self.scan(n0, limit);
-        if !(s0.err < limit || (old <= floor && s0.err <= floor)) {
+        if !(by_err(s0.err) || by_cap(s0.err)) {
             return;
         }
         let s1 = self.scan(n1, limit);
-        if !(s1.err < limit || (old <= floor && s1.err <= floor)) {
+        let both_err = by_err(s0.err) && by_err(s1.err);
+        let both_cap = by_cap(s0.err) && by_cap(s1.err);
+        if !(both_err || both_cap) {
             return;
         }
-        let (hal, har, hbl, hbr) = (self.half[al], self.half[ar], self.half[bl], self.half[br]);
-        self.queue_remove(a0 / 3);
-        self.queue_remove(b0 / 3);
-        let t0 = self.add_triangle([p0, p1, pl], [-1, hbl, hal], Some(a0), Some(s0));
-        let t1 = self.add_triangle([p1, p0, pr], [t0 as i32, har, hbr], Some(b0), Some(s1));
+        let (t0, t1) = self.flip(a, Some((s0, s1))).expect("a convex quad with a twin");
         stack.push(t1 + 2);
         stack.push(t0 + 1);
     }
@@ -566,7 +650,11 @@ pub struct FaceMesh {
 
 /// Mesh a clean lattice ([`is_clean`]) so that every pixel lies within relative distance `max_error`
 /// of the mesh along its ray.
+///
+/// # Panics
+/// When `max_error` is not a positive finite number ([`super::MeshParams::check`] rejects those).
 pub fn mesh_face(g: &Grid, max_error: f64, max_angle_deg: Option<f64>) -> FaceMesh {
+    assert!(max_error.is_finite() && max_error > 0.0, "max_error must be positive");
     let mut m = Mesher::new(g, max_error, max_angle_deg.map(f64::to_radians));
     m.run();
     let mut used = vec![false; g.w * g.h];
@@ -583,6 +671,14 @@ pub fn mesh_face(g: &Grid, max_error: f64, max_angle_deg: Option<f64>) -> FaceMe
             })
         })
         .collect();
+    if let Some(cap) = m.cap {
+        m.stats.over_cap = (0..m.tri.len() / 3)
+            .filter(|&t| {
+                let [a, b, c] = m.vertices(t);
+                m.extent(a, b, c) > cap
+            })
+            .count();
+    }
     let errors = m.scans.iter().map(|s| s.err).collect();
     FaceMesh { triangles, errors, used, stats: m.stats }
 }
@@ -757,6 +853,7 @@ mod tests {
         let cap = 20.0f64;
         let f = mesh_face(&g, 0.01, Some(cap));
         assert!(f.triangles.len() > 2);
+        assert_eq!(f.stats.over_cap, 0);
         let lattice = |id: u32| (id as usize % g.canvas_w, id as usize / g.canvas_w);
         for t in &f.triangles {
             let r = t.map(|id| {
@@ -767,6 +864,44 @@ mod tests {
             assert!(cos.acos().to_degrees() <= cap + 1e-9, "{t:?} spans {}°", cos.acos().to_degrees());
         }
         assert_covers_lattice(&g, &f);
+    }
+
+    /// Triangles of `f` whose vertex rays span more than `cap` degrees, and slivers (lattice area ½).
+    fn over_cap(g: &Grid, f: &FaceMesh, cap: f64) -> (usize, usize) {
+        let lattice = |id: u32| ((id as usize % g.canvas_w) as i64, (id as usize / g.canvas_w) as i64);
+        let mut over = 0;
+        let mut slivers = 0;
+        for t in &f.triangles {
+            let v = t.map(lattice);
+            let r = v.map(|p| g.rays.ray(p.0 as usize, p.1 as usize).normalize());
+            let cos = r[0].dot(r[1]).min(r[1].dot(r[2])).min(r[2].dot(r[0]));
+            over += (cos.clamp(-1.0, 1.0).acos().to_degrees() > cap + 1e-9) as usize;
+            slivers += (edge(v[0], v[1], v[2]) == 1) as usize;
+        }
+        (over, slivers)
+    }
+
+    #[test]
+    fn triangles_left_over_the_angle_cap_are_reported() {
+        // A wavy wall: its long edges often hold no lattice point, so cap splits must flip them away.
+        let wavy = |d: DVec3| (2.0 + 0.05 * (9.0 * d.y).sin() * (7.0 * d.z).cos()) / d.x;
+        let g = face_grid(CubeFace::PosX, 128, wavy);
+        assert!(is_clean(&g));
+        for cap in [10.0, 20.0] {
+            let free = mesh_face(&g, 1e-3, None);
+            let f = mesh_face(&g, 1e-3, Some(cap));
+            let (over, slivers) = over_cap(&g, &f, cap);
+            let (_, free_slivers) = over_cap(&g, &free, 180.0);
+            eprintln!(
+                "cap {cap}: {} triangles ({} free), {over} over the cap, {slivers} slivers ({free_slivers} free)",
+                f.triangles.len(),
+                free.triangles.len()
+            );
+            // What is left over the cap is reported, so that `mesh_layer` can use the quadtree.
+            assert_eq!(over, f.stats.over_cap, "cap {cap}");
+            assert!(brute_max_error(&g, &f) <= 1e-3 * (1.0 + 1e-6));
+            assert_covers_lattice(&g, &f);
+        }
     }
 
     #[test]

@@ -228,7 +228,10 @@ pub fn mesh_layer(
         .par_iter()
         .map(|g| {
             let sp = greedy_params?;
-            greedy::is_clean(g).then(|| greedy::mesh_face(g, sp.max_error, sp.max_angle_deg))
+            // A face left with triangles over the angle cap takes the quadtree, which keeps it.
+            greedy::is_clean(g)
+                .then(|| greedy::mesh_face(g, sp.max_error, sp.max_angle_deg))
+                .filter(|f| f.stats.over_cap == 0)
         })
         .collect();
     let greedy_ms = if greedy_params.is_some() { ms(t) } else { 0.0 };

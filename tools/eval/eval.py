@@ -811,13 +811,24 @@ def main():
     os.makedirs(work, exist_ok=True)
     t0 = time.perf_counter()
     results = {"mode": mode, "config": cfg, "machine": machine(), "notes": []}
+    stages = a.only.split(",")
+    prev_path = os.path.join(DOCS, "eval-results.json")
+    if set(stages) != {"main", "sweeps", "convert", "mesh"} and os.path.exists(prev_path):
+        # A partial re-run keeps the other stages' results from the last run of the same mode.
+        with open(prev_path) as f:
+            prev = json.load(f)
+        if prev.get("mode") == mode:
+            kept = {k: v for k, v in prev.items() if k not in ("machine", "seconds", "issues")}
+            kept["notes"] = [n for n in prev.get("notes", []) if not n.startswith("Partial re-run")]
+            kept["notes"].append(f"Partial re-run of stage(s) {', '.join(stages)} on {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; "
+                                 "the other figures are from the previous full run")
+            results = {**kept, "machine": results["machine"]}
     has_mesh = mesh_render_supported()
     results["mesh_render"] = has_mesh
     if not has_mesh:
         results["notes"].append("`pomc render` has no `--method mesh` in this build: the layered-mesh system is "
                                 "skipped (mesh figures below come from `pomc mesh` alone)")
     log(f"mode {mode}, work {work}, mesh render {'yes' if has_mesh else 'no'}")
-    stages = a.only.split(",")
     try:
         if "main" in stages:
             main_eval(cfg, work, has_mesh, results)
