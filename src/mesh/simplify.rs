@@ -875,10 +875,9 @@ fn phase_parts(mesh: &LayerMesh, shared: &Shared, grids: &[Grid]) -> Vec<PhasePa
     cuts.windows(2).map(|p| PhasePart { g: 0, x0: p[0] as u32, x1: p[1] as u32 }).collect()
 }
 
-/// Simplify a mesh made by [`super::mesh_layer`] from `grids` (its lattices) on `mapping`. Lattices
-/// with `done[g]` (already meshed to the tolerance by [`super::greedy`]: the exact error of each of
-/// the lattice's triangles, in mesh order) skip the per-lattice phase; their side vertices still take
-/// part in the whole-mesh phase.
+/// Simplify a mesh made by [`super::mesh_layer`] from `grids` (its lattices) on `mapping`. `done[g]`,
+/// when set, holds the exact error of each of lattice `g`'s own triangles, in mesh order (a lattice
+/// meshed by [`super::greedy`]), which spares their first scans.
 pub fn simplify(
     mesh: &LayerMesh,
     grids: &[Grid],
@@ -1008,7 +1007,24 @@ pub fn simplify(
         terr.push(shared.max_error(*t, f64::INFINITY));
     }
     // Phase 2 starts from every movable vertex that no part could move (sides, band boundaries).
-    let phase2_seed: Vec<bool> = (0..n).map(|v| !fixed[v] && !parts.iter().any(|p| interior(v, p))).collect();
+    let mut phase2_seed: Vec<bool> =
+        (0..n).map(|v| !fixed[v] && !parts.iter().any(|p| interior(v, p))).collect();
+    // A band's run sees only one side of its cut columns, so collapses onto a cut-column vertex may
+    // have been refused there: their neighbours get another chance in phase 2.
+    if parts.len() > 1 && grids.len() == 1 {
+        let on_cut = |v: u32| {
+            lattice_x(v).is_some_and(|(_, x)| {
+                parts.iter().any(|p| (x == p.x0 && x > 0) || (x == p.x1 && x + 1 < grids[0].w as u32))
+            })
+        };
+        for t in &mesh.triangles {
+            if t.iter().any(|&v| on_cut(v)) {
+                for &v in t {
+                    phase2_seed[v as usize] |= !fixed[v as usize];
+                }
+            }
+        }
+    }
 
     stats.lattice_ms = clock.elapsed().as_secs_f64() * 1e3;
     let clock = std::time::Instant::now();
