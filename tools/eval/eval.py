@@ -168,6 +168,12 @@ def layer_count(pano):
     return len(info.get("layers", []))
 
 
+def encoded_sum(layers):
+    """Total encoded bytes, or a dash when a layer's quadtree was not built (greedy faces, no --store)."""
+    enc = [l.get("encoded_bytes") for l in layers]
+    return f"{sum(enc):,}" if enc and all(e is not None for e in enc) else "—"
+
+
 def mesh_layers(pano, max_error, store=False, metric=True):
     """`pomc mesh` on every layer; returns per-layer figures (errors of layers that cannot be meshed)."""
     out = []
@@ -185,7 +191,8 @@ def mesh_layers(pano, max_error, store=False, metric=True):
         t = r["times_ms"]
         out.append({
             "layer": k, "triangles": r["triangles"], "encoded_bytes": r["encoded_bytes"], "wall_s": wall,
-            "mesh_s": (t["sample"] + t["quadtree"] + t["triangulate"] + t["assemble"] + t.get("simplify", 0)) / 1e3,
+            "mesh_s": (t["sample"] + t.get("greedy", 0) + t["quadtree"] + t["triangulate"] + t["assemble"]
+                       + t.get("simplify", 0)) / 1e3,
             "p99_rel": (r.get("error") or {}).get("p99_rel"), "max_rel": (r.get("error") or {}).get("max_rel"),
             "rms_abs": (r.get("error") or {}).get("rms_abs"),
         })
@@ -727,7 +734,7 @@ def report(results, mode, cfg):
             row = (f"| {r['max_error']:g} | {sum(l['triangles'] for l in ls):,} | "
                    f"{fmt(max((l['p99_rel'] or 0) for l in ls) if ls else None, '.2e')} | "
                    f"{fmt(max((l['max_rel'] or 0) for l in ls) if ls else None, '.2e')} | "
-                   f"{sum(l['mesh_s'] for l in ls):.3f} | {sum(l['encoded_bytes'] for l in ls):,} |")
+                   f"{sum(l['mesh_s'] for l in ls):.3f} | {encoded_sum(ls)} |")
             if "jobs" in r:
                 a = agg(r["jobs"], lambda j: True)
                 row += f" {fmt(a['psnr_mean'])} | {fmt(None if a['holes_mean'] is None else 100 * a['holes_mean'], '.3f')} |"
