@@ -215,6 +215,12 @@ fn report(
         tris,
         m.positions.len(),
         match &meshed.simplify {
+            Some(s) if greedy_faces > 0 => format!(
+                " (greedy insertion on {greedy_faces} of {} faces; {} triangles before {} collapses)",
+                meshed.greedy.len(),
+                meshed.quadtree_triangles,
+                s.collapses
+            ),
             Some(s) => format!(
                 " (simplified from {} quadtree triangles, {} collapses)",
                 meshed.quadtree_triangles, s.collapses
