@@ -240,14 +240,30 @@ pub fn mesh_layer(
     let trees = build_trees(&grids, image, params, &skip);
     let quadtree_ms = ms(t);
     let t = Instant::now();
+    // Greedy faces hand over their triangles and used flags (moved, not copied); their exact errors
+    // go to the collapses and their counters to the report.
+    let mut done: Vec<Option<Vec<f64>>> = Vec::with_capacity(grids.len());
+    let mut greedy_stats = Vec::with_capacity(grids.len());
+    let mut face_parts = Vec::with_capacity(grids.len());
+    for f in greedy {
+        match f {
+            Some(f) => {
+                done.push(Some(f.errors));
+                greedy_stats.push(Some(f.stats));
+                face_parts.push(Some((f.triangles, f.used)));
+            }
+            None => {
+                done.push(None);
+                greedy_stats.push(None);
+                face_parts.push(None);
+            }
+        }
+    }
     let parts: Vec<(Vec<[u32; 3]>, Vec<bool>)> = grids
         .par_iter()
         .zip(trees.par_iter())
-        .zip(greedy.par_iter())
-        .map(|((g, tree), done)| match done {
-            Some(f) => (f.triangles.clone(), f.used.clone()),
-            None => tree_part(g, tree.as_ref()),
-        })
+        .zip(face_parts.into_par_iter())
+        .map(|((g, tree), face)| face.unwrap_or_else(|| tree_part(g, tree.as_ref())))
         .collect();
     let (mesh, _, assemble_ms) = mesh_from_parts(&grids, parts, mapping);
     let triangulate_ms = ms(t) - assemble_ms;
@@ -255,8 +271,6 @@ pub fn mesh_layer(
     let t = Instant::now();
     let (mesh, stats) = match &params.simplify {
         Some(sp) => {
-            let done: Vec<Option<Vec<f64>>> =
-                greedy.iter().map(|f| f.as_ref().map(|f| f.errors.clone())).collect();
             let (m, s) = simplify::simplify(&mesh, &grids, mapping, sp, &done);
             (m, Some(s))
         }
@@ -268,7 +282,7 @@ pub fn mesh_layer(
         quadtree_triangles,
         simplify: stats,
         trees,
-        greedy: greedy.into_iter().map(|f| f.map(|f| f.stats)).collect(),
+        greedy: greedy_stats,
         times: StageTimes { sample_ms, quadtree_ms, triangulate_ms, assemble_ms, simplify_ms, greedy_ms },
     })
 }
