@@ -268,3 +268,53 @@ fn grazing_ground_under_the_sky_leaves_no_holes() {
         assert_eq!(holes, 0, "eye {eye} looking {dir}: {holes} holes");
     }
 }
+
+/// A floor (`z = −1`, red) under a grey dome of radius 4, seen horizontally from an eye 0.85 m off the
+/// centre: the floor right below the eye lies in the camera plane, where projection diverges (its
+/// pixels and their neighbours land up to millions of pixels apart). Those pixels must cost a few
+/// tests and paint nothing: before the footprint refinement their splats were widened to cover the
+/// screen and, nearer than the dome, painted the floor's red over the middle of the view.
+#[test]
+fn surfaces_beside_the_eye_never_make_screen_filling_splats() {
+    let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
+    let (w, h) = (m.width(), m.height());
+    let mut img = LayerImage::new(w, h);
+    let (mut z, mut r, mut g) = (vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]);
+    for y in 0..h {
+        for x in 0..w {
+            let d = m.pixel_dir(x, y);
+            let floor = if d.z < 0.0 { -1.0 / d.z } else { f64::INFINITY };
+            let i = y * w + x;
+            z[i] = floor.min(4.0) as f32;
+            (r[i], g[i]) = if floor < 4.0 { (0.8, 0.05) } else { (0.3, 0.3) };
+        }
+    }
+    img.set_channel("R", pomc::layer::SampleType::F32, r);
+    img.set_channel("G", pomc::layer::SampleType::F32, g.clone());
+    img.set_channel("B", pomc::layer::SampleType::F32, g);
+    img.set_channel("Z", pomc::layer::SampleType::F32, z);
+    for (eye, dir) in [
+        (DVec3::new(-0.6, 0.6, 0.0), DVec3::Y),
+        (DVec3::new(-0.6, 0.6, 0.0), DVec3::NEG_X),
+        (DVec3::new(0.85, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.05)),
+    ] {
+        let cam = Camera::Perspective(Perspective::new(eye, eye + dir, DVec3::Z, 90.0, 320, 180).unwrap());
+        let layers = [RenderLayer { image: &img, mapping: m }];
+        let out = render::render(&layers, DMat4::IDENTITY, &cam, &SplatOptions::default()).unwrap();
+        let f = &out.frame;
+        // The row through the horizon sees the dome (the floor meets it 14° below the horizon).
+        let row = f.height / 2 * f.width;
+        for x in 0..f.width {
+            let (red, green) = (f.rgb[0][row + x], f.rgb[1][row + x]);
+            assert!(
+                (red - 0.3).abs() < 0.02 && (green - 0.3).abs() < 0.02,
+                "eye {eye} dir {dir}: pixel {x} of the horizon is ({red}, {green}), not the dome"
+            );
+        }
+        // Work follows the output: a few samples per output pixel and layer pixel, not a screen per
+        // pixel beside the eye.
+        let samples = out.stats.counts.samples as f64;
+        assert!(samples < 8.0 * (w * h) as f64, "eye {eye} dir {dir}: {samples} samples");
+        assert_eq!(f.holes(), 0, "eye {eye} dir {dir}");
+    }
+}

@@ -157,6 +157,19 @@ impl Camera {
         }
     }
 
+    /// Whether every camera-space point lies outside one side of the view frustum widened by
+    /// `margin` output pixels — then so does their convex hull, which is never seen (points behind
+    /// the eye included). Always `false` for equirect outputs, which see every direction.
+    pub fn hull_outside(&self, pts: &[DVec3], margin: f64) -> bool {
+        let Camera::Perspective(c) = self else { return false };
+        let (hw, hh) = (c.width as f64 / 2.0 + margin, c.height as f64 / 2.0 + margin);
+        let all = |f: &dyn Fn(DVec3) -> f64| pts.iter().all(|&p| f(p) > 0.0);
+        all(&|p| c.focal * p.x - hw * p.z)
+            || all(&|p| -c.focal * p.x - hw * p.z)
+            || all(&|p| c.focal * p.y - hh * p.z)
+            || all(&|p| -c.focal * p.y - hh * p.z)
+    }
+
     /// Whether output columns wrap around (the equirect seam).
     pub fn wraps(&self) -> bool {
         matches!(self, Camera::Equirect(_))

@@ -437,11 +437,21 @@ impl LayerCtx<'_> {
                 }
             }
         }
-        let count = |s: f64| ((s / self.o.spacing).ceil() as usize).clamp(1, self.o.max_subsamples.max(1));
+        let cap = self.o.max_subsamples.max(1);
+        if sx.max(sy) > self.o.spacing * cap as f64 {
+            // Past the uniform grid's reach: the footprint is very large on screen (the surface is
+            // near the eye, or near the camera plane where projection diverges). Refine it where
+            // it lands on the output only, so work and sample size follow what is visible.
+            let mut done = 0;
+            for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+                let sq = Square { x0: 0.0f64.min(sx * 0.5), y0: 0.0f64.min(sy * 0.5), size: 0.5 };
+                done += self.refine(c, &linked, &own, sq, 1, acc);
+            }
+            return done;
+        }
+        let count = |s: f64| ((s / self.o.spacing).ceil() as usize).clamp(1, cap);
         let (nx, ny) = (count(sx), count(sy));
-        // Past the sub-sample cap, widen the filter so the sparser samples still overlap.
-        let stretch = (sx / nx as f64).max(sy / ny as f64) / self.o.spacing;
-        let radius = self.o.radius * stretch.max(1.0);
+        let radius = self.o.radius;
         if !self.camera.wraps() && self.off_screen(c.q, sx.max(sy) + radius) {
             return 0;
         }
@@ -455,13 +465,72 @@ impl LayerCtx<'_> {
             let oy = (b as f64 + 0.5) / ny as f64 - 0.5;
             for a in 0..nx {
                 let ox = (a as f64 + 0.5) / nx as f64 - 0.5;
-                let (cam, rgb) = interpolate(c, &linked, &own, ox, oy);
-                if let Some(q) = self.camera.project(cam) {
-                    let dist = if c.dist.is_infinite() { f32::INFINITY } else { cam.length() as f32 };
-                    splat(self.camera, self.scales, radius, &Splat { q, dist, rgb, layer: self.index }, acc);
-                    done += 1;
-                }
+                done += self.emit(c, &linked, &own, ox, oy, radius, acc);
             }
+        }
+        done
+    }
+
+    /// Filter the footprint point at offset `(ox, oy)` into the output; returns 1 if it projects.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn emit(
+        &self,
+        c: &Pt,
+        linked: &[Option<&Pt>; 8],
+        own: &[Option<DVec3>; 8],
+        ox: f64,
+        oy: f64,
+        radius: f64,
+        acc: &mut Accum,
+    ) -> u64 {
+        let (cam, rgb) = interpolate(c, linked, own, ox, oy);
+        let Some(q) = self.camera.project(cam) else { return 0 };
+        let dist = if c.dist.is_infinite() { f32::INFINITY } else { cam.length() as f32 };
+        splat(self.camera, self.scales, radius, &Splat { q, dist, rgb, layer: self.index }, acc);
+        1
+    }
+
+    /// Adaptive resampling of one square of a pixel's footprint (inside one quadrant, where the
+    /// surface is one bilinear patch, inside the hull of its corners): a square whose hull lies
+    /// outside the view frustum is dropped, one whose projected sides are at most
+    /// [`SplatOptions::spacing`] long is one sample, any other is split in four.
+    fn refine(
+        &self,
+        c: &Pt,
+        linked: &[Option<&Pt>; 8],
+        own: &[Option<DVec3>; 8],
+        sq: Square,
+        depth: u32,
+        acc: &mut Accum,
+    ) -> u64 {
+        let cams = sq.corners().map(|(ox, oy)| interpolate(c, linked, own, ox, oy).0);
+        if self.camera.hull_outside(&cams, self.o.radius + 1.0) {
+            return 0;
+        }
+        let (cx, cy) = (sq.x0 + sq.size / 2.0, sq.y0 + sq.size / 2.0);
+        let q = cams.map(|p| self.camera.project(p));
+        let side = match q {
+            [Some(a), Some(b), Some(d), Some(e)] => {
+                self.gap(a, b).max(self.gap(b, d)).max(self.gap(d, e)).max(self.gap(e, a))
+            }
+            // Straddles the camera plane: split until what projects is sampled finely.
+            _ => f64::INFINITY,
+        };
+        if side <= self.o.spacing {
+            return self.emit(c, linked, own, cx, cy, self.o.radius, acc);
+        }
+        if depth >= MAX_REFINE {
+            // Only a surface touching the eye gets here (one layer pixel wider than 2^16 samples
+            // at the spacing); its samples grow so the footprint stays covered.
+            let grow = if side.is_finite() { side / self.o.spacing } else { 1.0 };
+            return self.emit(c, linked, own, cx, cy, self.o.radius * grow, acc);
+        }
+        let half = sq.size / 2.0;
+        let mut done = 0;
+        for (dx, dy) in [(0.0, 0.0), (half, 0.0), (0.0, half), (half, half)] {
+            let child = Square { x0: sq.x0 + dx, y0: sq.y0 + dy, size: half };
+            done += self.refine(c, linked, own, child, depth + 1, acc);
         }
         done
     }
@@ -516,6 +585,25 @@ fn interpolate(
     }
     (cam, rgb)
 }
+
+/// A square `[x0, x0 + size] × [y0, y0 + size]` of a pixel's footprint, in offsets from its centre.
+#[derive(Clone, Copy, Debug)]
+struct Square {
+    x0: f64,
+    y0: f64,
+    size: f64,
+}
+
+impl Square {
+    /// Corners in cyclic order.
+    fn corners(&self) -> [(f64, f64); 4] {
+        let (x1, y1) = (self.x0 + self.size, self.y0 + self.size);
+        [(self.x0, self.y0), (x1, self.y0), (x1, y1), (self.x0, y1)]
+    }
+}
+
+/// Deepest subdivision of a footprint: squares of `2^-16` of a layer pixel.
+const MAX_REFINE: u32 = 16;
 
 /// One sample ready to filter into the output.
 #[derive(Clone, Copy, Debug)]
