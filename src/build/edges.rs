@@ -4,7 +4,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::graph::Neighbours;
+use crate::continuity::continuous;
+use crate::mapping::{opposite, Neighbours};
 
 /// Tuning of the discontinuity tests.
 #[derive(Clone, Copy, Debug)]
@@ -118,56 +119,14 @@ fn depth_link(nb: &Neighbours, depth: &[f32], x: usize, y: usize, k: usize, o: &
     if !usable(a) || !usable(b) {
         return None;
     }
-    if a.is_infinite() || b.is_infinite() {
-        return Some(if a == b { Link::Smooth } else { Link::Jump });
-    }
+    let behind_a = nb.get_at(x, y, opposite(k)).map(|i| depth[i] as f64);
+    let beyond_b = nb.get2_at(x, y, k).map(|i| depth[i] as f64);
     let (a, b) = (a as f64, b as f64);
-    let rel = (a - b).abs() / a.min(b);
-    if rel > o.jump && !smooth_by_extrapolation(nb, depth, x, y, k, a, b, o.extrapolation) {
-        return Some(Link::Jump);
-    }
-    Some(Link::Smooth)
-}
-
-/// Does the depth continue smoothly from either side? The surface through `p` and the pixel
-/// behind it is extrapolated one step to `q` (or the other way round). Extrapolation is linear
-/// in inverse depth, which is what a plane does (`1/d = n·dir / h`), so a floor seen at a grazing
-/// angle is followed exactly, up to its last row. One side suffices: the last row of a grazing
-/// plane has the surface it occludes on its far side, and only the near side continues.
-#[allow(clippy::too_many_arguments)]
-fn smooth_by_extrapolation(
-    nb: &Neighbours,
-    depth: &[f32],
-    x: usize,
-    y: usize,
-    k: usize,
-    a: f64,
-    b: f64,
-    tol: f64,
-) -> bool {
-    let behind_p = nb.get_at(x, y, opposite(k)).map(|i| depth[i] as f64);
-    let beyond_q = nb.get2_at(x, y, k).map(|i| depth[i] as f64);
-    let usable = |d: &f64| *d > 0.0 && d.is_finite();
-    let from_p = behind_p.filter(usable).is_some_and(|d| continues_plane(a, b, d, tol));
-    let from_q = beyond_q.filter(usable).is_some_and(|d| continues_plane(b, a, d, tol));
-    from_p || from_q
-}
-
-/// Whether three depths along a line of pixels — `back`, `mid`, `next` — lie on one plane: inverse
-/// depth is linear along a plane (`1/d = n·dir / h`), so `1/next` is extrapolated from `1/back` and
-/// `1/mid` and compared relative to the nearer of `mid`, `next` (the scale at which a plane's `1/d`
-/// is smooth). Build's jump test (spec §7.2), the splat's continuity (§9.3) and the mesh
-/// rasteriser's edge walk (§9.4b) share it.
-#[inline]
-pub fn continues_plane(mid: f64, next: f64, back: f64, tol: f64) -> bool {
-    let extrapolated = 2.0 / mid - 1.0 / back;
-    extrapolated.is_finite() && (extrapolated - 1.0 / next).abs() * mid.min(next) <= tol
-}
-
-/// Index of the opposite offset in [`OFFSETS`] (pairs are adjacent: 0↔1, 2↔3, 4↔7, 5↔6).
-#[inline]
-pub fn opposite(k: usize) -> usize {
-    [1, 0, 3, 2, 7, 6, 5, 4][k]
+    Some(if continuous(a, b, behind_a, beyond_b, o.jump, o.extrapolation) {
+        Link::Smooth
+    } else {
+        Link::Jump
+    })
 }
 
 /// Unit normals estimated from depth (facing the centre). Each tangent is a one-sided difference
@@ -243,8 +202,8 @@ pub fn points(dirs: &[Vec3], depth: &[f32]) -> Vec<Vec3> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::graph::OFFSETS;
     use super::*;
+    use crate::mapping::OFFSETS;
     use crate::mapping::{AnyMapping, Mapping, MappingKind};
 
     #[test]

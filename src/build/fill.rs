@@ -13,7 +13,10 @@ use std::collections::{HashMap, VecDeque};
 use glam::Vec3;
 
 use super::edges::Links;
-use super::graph::Neighbours;
+use rayon::prelude::*;
+
+use crate::continuity::continuous;
+use crate::mapping::{opposite, Neighbours};
 
 /// The fill of one layer: extra pixels with their depth and the pixel whose colour they take.
 #[derive(Clone, Debug, Default)]
@@ -41,6 +44,10 @@ pub struct FillContext<'a> {
     pub links: &'a Links,
     /// Surface (segment) id per pixel: seeds on different surfaces compete behind an occluder.
     pub surface: &'a [u32],
+    /// The continuity rule's relative step and plane tolerance ([`crate::continuity::continuous`]):
+    /// a fill never leaves its layer discontinuous by it.
+    pub jump: f64,
+    pub plane_tol: f64,
 }
 
 /// Largest angle (radians) a camera within `r` of the centre can open between an occluding
@@ -213,7 +220,61 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
         fill.pixels.push((q, d, c));
         fill.max_angle = fill.max_angle.max(angle_of[q]);
     }
+    keep_continuous(cx, k, &mut fill);
     fill
+}
+
+/// Drop the fill pixels that would leave layer `k` discontinuous: where the fills of two surfaces
+/// meet behind an occluder with a step between them (a far building's edge and the ground behind
+/// it, both hidden by a tree), or a fill runs into another surface of the layer. Of a pair that is
+/// not one surface, the nearer pixel goes when it is filled — the farther surface then shows
+/// through where the nearer stops, so no hole opens — else the filled one. A layer is continuous
+/// inside its domain (spec §1); every step lies on its border.
+fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
+    let n = cx.nb.len();
+    let mut d: Vec<f32> = (0..n)
+        .into_par_iter()
+        .map(|p| if cx.layer_of[p] == k && cx.depth[p] > 0.0 { cx.depth[p] } else { f32::NAN })
+        .collect();
+    let mut filled = vec![false; n];
+    for &(q, dq, _) in &fill.pixels {
+        d[q] = dq;
+        filled[q] = true;
+    }
+    let w = cx.nb.width();
+    let at = |d: &[f32], i: Option<usize>| i.map(|i| d[i] as f64).filter(|v| *v > 0.0);
+    // Each pass only removes pixels; one that removes none ends it. A removal can take away the
+    // plane another pair was continued by, hence the passes (few: 1–3 on realistic scenes).
+    for _ in 0..64 {
+        let mut drop: Vec<usize> = fill
+            .pixels
+            .par_iter()
+            .flat_map_iter(|&(q, _, _)| {
+                let (x, y) = (q % w, q / w);
+                let (d, filled) = (&d, &filled);
+                (0..8).filter_map(move |j| {
+                    let r = cx.nb.get_at(x, y, j)?;
+                    let (a, b) = (d[q] as f64, at(d, Some(r))?);
+                    let behind = at(d, cx.nb.get_at(x, y, opposite(j)));
+                    let beyond = at(d, cx.nb.get2_at(x, y, j));
+                    if continuous(a, b, behind, beyond, cx.jump, cx.plane_tol) {
+                        return None;
+                    }
+                    Some(if b < a && filled[r] { r } else { q })
+                })
+            })
+            .collect();
+        if drop.is_empty() {
+            break;
+        }
+        drop.sort_unstable();
+        drop.dedup();
+        for &p in &drop {
+            d[p] = f32::NAN;
+            filled[p] = false;
+        }
+        fill.pixels.retain(|&(q, _, _)| filled[q]);
+    }
 }
 
 /// The surface the ray through `q` meets, starting from the nearest seed `own` and weighing each

@@ -8,7 +8,6 @@
 
 pub mod edges;
 pub mod fill;
-pub mod graph;
 pub mod input;
 pub mod segment;
 
@@ -20,9 +19,9 @@ use serde::Serialize;
 
 use crate::layer::{LayerImage, SampleType, OUTSIDE_DEPTH};
 use crate::manifest::{LayerDecl, Manifest, MappingDecl, MappingKind as DeclKind, Role, Transform};
+use crate::mapping::Neighbours;
 use crate::mapping::{AnyMapping, Mapping, MappingKind};
 use fill::{fill_layer, FillContext};
-use graph::Neighbours;
 use segment::{segment, SegmentOptions, NO_SEGMENT};
 
 /// A plain RGB-D panorama: one surface per ray.
@@ -374,6 +373,8 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         margin: o.margin_px * alpha,
         links: &links,
         surface: &seg.id,
+        jump: o.segment.edges.jump,
+        plane_tol: o.segment.edges.extrapolation,
     };
     let fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(&cx, k)).collect();
     lap("fill", &mut stages);

@@ -8,7 +8,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::edges::{EdgeOptions, Link, Links};
-use super::graph::Neighbours;
+use crate::mapping::Neighbours;
 
 /// Union-find with path halving and union by size.
 struct Dsu {

@@ -12,11 +12,15 @@
 use glam::{DVec2, DVec3};
 
 mod cube;
+mod dirs;
 mod equirect;
 pub mod layout;
+mod neighbours;
 
 pub use cube::{Cube3x2, CubeFace, FacePoint};
+pub use dirs::DirTable;
 pub use equirect::Equirect;
+pub use neighbours::{opposite, Neighbours, OFFSETS};
 
 /// A parametrisation of the sphere by a `width × height` canvas.
 /// Continuous pixel coordinates: pixel `(i, j)` covers `[i, i+1) × [j, j+1)`, centre `(i+0.5, j+0.5)`.

@@ -7,9 +7,10 @@
 //! nearest hit counts, as a renderer would show it. Pixels no triangle covers are counted, not scored.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::layer::{classify, LayerImage, Sample};
-use crate::mapping::{AnyMapping, CubeFace, Equirect, FacePoint, Mapping};
+use crate::mapping::{AnyMapping, CubeFace, DirTable, Equirect, FacePoint, Mapping};
 
 /// Error figures over the valid pixels that the mesh covers.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -154,24 +155,38 @@ fn equirect_candidates(e: &Equirect, p: [DVec3; 3]) -> Vec<[usize; 4]> {
     }
 }
 
-/// Nearest hit distance along every canvas pixel's ray (`+∞` where the mesh is missed).
+/// Nearest hit distance along every canvas pixel's ray (`+∞` where the mesh is missed). Triangles are
+/// cast in parallel chunks, each into its own buffer, merged by minimum (exact: the result does not
+/// depend on the split).
 pub fn hit_distances(positions: &[DVec3], triangles: &[[u32; 3]], mapping: &AnyMapping) -> Vec<f64> {
     let (w, h) = (mapping.width(), mapping.height());
-    let mut hits = vec![f64::INFINITY; w * h];
-    for t in triangles {
-        let p = t.map(|i| positions[i as usize]);
-        for [x0, y0, x1, y1] in candidates(mapping, p) {
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    if let Some(d) = ray_hit(mapping.pixel_dir(x, y), p) {
-                        let slot = &mut hits[y * w + x];
-                        *slot = slot.min(d);
+    let dirs = DirTable::new(*mapping);
+    let chunk = triangles.len().div_ceil(rayon::current_num_threads().max(1)).max(1);
+    let cast = |tris: &[[u32; 3]]| {
+        let mut hits = vec![f64::INFINITY; w * h];
+        for t in tris {
+            let p = t.map(|i| positions[i as usize]);
+            for [x0, y0, x1, y1] in candidates(mapping, p) {
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        if let Some(d) = ray_hit(dirs.get(x, y), p) {
+                            let slot = &mut hits[y * w + x];
+                            *slot = slot.min(d);
+                        }
                     }
                 }
             }
         }
-    }
-    hits
+        hits
+    };
+    triangles
+        .par_chunks(chunk)
+        .map(cast)
+        .reduce_with(|mut a, b| {
+            a.iter_mut().zip(&b).for_each(|(x, y)| *x = x.min(*y));
+            a
+        })
+        .unwrap_or_else(|| vec![f64::INFINITY; w * h])
 }
 
 fn percentile(v: &mut [f64], q: f64) -> f64 {

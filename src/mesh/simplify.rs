@@ -49,7 +49,7 @@ use rayon::prelude::*;
 use super::error::{candidates, ray_hit};
 use super::grid::{is_jump, Grid, PlaneDot};
 use super::{is_pole, LayerMesh};
-use crate::mapping::{AnyMapping, Mapping};
+use crate::mapping::{AnyMapping, DirTable};
 
 /// Tolerances of the simplification stage.
 #[derive(Clone, Debug, PartialEq)]
@@ -154,6 +154,7 @@ impl Ord for Cand {
 struct Shared<'a> {
     grids: &'a [Grid],
     mapping: &'a AnyMapping,
+    dirs: DirTable,
     cube: bool,
     e: f64,
     cos_cap: Option<f64>,
@@ -335,7 +336,7 @@ impl Shared<'_> {
         for [x0, y0, x1, y1] in candidates(self.mapping, p) {
             for y in y0..=y1 {
                 for x in x0..=x1 {
-                    let Some(t) = ray_hit(self.mapping.pixel_dir(x, y), p) else { continue };
+                    let Some(t) = ray_hit(self.dirs.get(x, y), p) else { continue };
                     let Some((k, lx, ly)) = self.grid_of(x, y) else { return f64::INFINITY };
                     let d = self.grids[k].depth_at(lx, ly);
                     let e = (t - d).abs() / d;
@@ -890,6 +891,7 @@ pub fn simplify(
     let mut shared = Shared {
         grids,
         mapping,
+        dirs: DirTable::new(*mapping),
         cube,
         e: params.max_error,
         cos_cap: params.max_angle_deg.map(|d| d.to_radians().cos()),

@@ -34,9 +34,9 @@ use serde::Serialize;
 use super::camera::Camera;
 use super::image::Frame;
 use super::{RenderError, RenderLayer, Stage};
-use crate::build::edges::continues_plane;
-use crate::build::graph::Neighbours;
+use crate::continuity::{continues_plane, PLANAR};
 use crate::layer::{classify, LayerImage, Sample, OUTSIDE_DEPTH};
+use crate::mapping::Neighbours;
 use crate::mapping::{AnyMapping, Mapping};
 use crate::mesh::{self, LayerMesh, MeshParams};
 use crate::panorama::Panorama;
@@ -348,7 +348,7 @@ impl Lattice<'_> {
             (!d.is_nan()).then_some(d as f64)
         };
         let planar = |mid: f64, one: f64, other: Option<f64>| {
-            other.is_some_and(|o| continues_plane(mid, one, o, super::splat::PLANAR))
+            other.is_some_and(|o| continues_plane(mid, one, o, PLANAR))
         };
         for k in 0..steps {
             let (Some(p), Some(q)) = (at(k), at(k + 1)) else { return false };

@@ -22,10 +22,10 @@ use serde::Serialize;
 
 use super::accum::Accum;
 use super::camera::Camera;
-use crate::build::edges::continues_plane;
-use crate::build::graph::{Neighbours, OFFSETS};
+use crate::continuity;
 use crate::layer::{classify, LayerImage, Sample};
 use crate::mapping::{AnyMapping, Mapping};
+use crate::mapping::{DirTable, Neighbours, OFFSETS};
 
 /// Tuning of the splatting renderer.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -48,10 +48,6 @@ impl Default for SplatOptions {
         SplatOptions { radius: 0.75, jump: 0.1, tolerance: 0.01, spacing: 0.75, max_subsamples: 32 }
     }
 }
-
-/// Tolerance of the three-pixel plane test of [`LayerCtx::continuous`], relative to the nearer
-/// inverse depth (build's extrapolation tolerance).
-pub const PLANAR: f64 = 0.05;
 
 /// Side of the square tiles of layer pixels processed as a unit.
 const TILE: usize = 32;
@@ -97,41 +93,6 @@ impl<'a> LayerPlanes<'a> {
             coverage: image.coverage(),
             rgb: [get("R")?, get("G")?, get("B")?],
         })
-    }
-}
-
-/// Pixel-centre directions of a canvas, with a separable table for the equirect canvas (no
-/// trigonometry per pixel).
-enum Dirs {
-    Equirect { rows: Vec<(f64, f64)>, cols: Vec<(f64, f64)> },
-    Generic(AnyMapping),
-}
-
-impl Dirs {
-    fn new(m: AnyMapping) -> Dirs {
-        match m {
-            AnyMapping::Equirect(_) => {
-                let (w, h) = (m.width(), m.height());
-                let rows = (0..h).map(|j| (std::f64::consts::PI * (j as f64 + 0.5) / h as f64).sin_cos());
-                let cols = (0..w).map(|i| {
-                    let (s, c) = (std::f64::consts::TAU * (i as f64 + 0.5) / w as f64).sin_cos();
-                    (c, s)
-                });
-                Dirs::Equirect { rows: rows.collect(), cols: cols.collect() }
-            }
-            AnyMapping::Cube(_) => Dirs::Generic(m),
-        }
-    }
-
-    #[inline]
-    fn get(&self, i: usize, j: usize) -> DVec3 {
-        match self {
-            Dirs::Equirect { rows, cols } => {
-                let ((st, ct), (cp, sp)) = (rows[j], cols[i]);
-                DVec3::new(st * cp, st * sp, ct)
-            }
-            Dirs::Generic(m) => m.pixel_dir(i, j),
-        }
     }
 }
 
@@ -259,7 +220,7 @@ struct LayerCtx<'a> {
     /// Index of the layer (its samples never blend with another layer's).
     index: u32,
     planes: LayerPlanes<'a>,
-    dirs: Dirs,
+    dirs: DirTable,
     nb: Neighbours,
     camera: &'a Camera,
     /// [`Camera::x_scale`] of each output row's centre (no trigonometry in the inner loops).
@@ -387,20 +348,12 @@ impl LayerCtx<'_> {
         (dx * row_scale(self.scales, a.y)).hypot(b.y - a.y)
     }
 
-    /// Whether the centre pixel `c` and its neighbour `n` are one surface: a relative depth step
-    /// within `jump`, or `c` on the plane through `n` and the opposite neighbour `o` (inverse
-    /// depth linear across the three, as build's test, spec §7.2): ground seen at a grazing angle
-    /// near the horizon changes depth by more than `jump` a row, smoothly.
+    /// Whether the centre pixel `c` and its neighbour `n` are one surface by the shared rule
+    /// ([`continuity::continuous`]); the tile's one-pixel apron holds the opposite neighbour `o`
+    /// (behind `c`) but not the pixel beyond `n`, so the plane is followed from `c`'s side only.
     fn continuous(&self, c: f32, n: f32, o: &Pt) -> bool {
-        if c.is_infinite() || n.is_infinite() {
-            return c == n;
-        }
-        let (c, n) = (c as f64, n as f64);
-        if (c - n).abs() <= self.o.jump * c.min(n) {
-            return true;
-        }
-        let z = o.z as f64;
-        o.ok && z > 0.0 && z.is_finite() && continues_plane(c, n, z, PLANAR)
+        let behind = o.ok.then_some(o.z as f64);
+        continuity::continuous(c as f64, n as f64, behind, None, self.o.jump, continuity::PLANAR)
     }
 
     /// Splat one pixel and its sub-samples; returns the number of samples.
@@ -673,7 +626,7 @@ pub fn splat_layers(
         .map(|(index, &planes)| LayerCtx {
             index: index as u32,
             planes,
-            dirs: Dirs::new(planes.mapping),
+            dirs: DirTable::new(planes.mapping),
             nb: Neighbours::new(planes.mapping),
             camera,
             scales: &scales,

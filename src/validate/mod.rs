@@ -12,10 +12,11 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
+use crate::continuity;
 use crate::layer::{LayerImage, Sample, SampleType};
 use crate::layer_io::{self, ReadLimits};
 use crate::manifest::{self, LayerDecl, LayerSource, MappingKind as DeclKind};
-use crate::mapping::{AnyMapping, Mapping, MappingKind};
+use crate::mapping::{opposite, AnyMapping, Mapping, MappingKind, Neighbours};
 use crate::pack;
 use crate::panorama::{self, Panorama};
 
@@ -371,8 +372,9 @@ fn check_normals(image: &LayerImage, options: &ValidateOptions, loc: &str, issue
     );
 }
 
-/// Depth continuity inside the layer: 4-neighbours (wrapping across the equirect seam; within
-/// each cube face) whose finite depths jump by more than the relative threshold.
+/// Depth continuity inside the layer: 4-neighbours (across the equirect seam, over the poles and
+/// across cube-face edges) that are not one surface by the rule build splits layers with
+/// ([`continuity::continuous`], with the relative step `jump_threshold`).
 fn check_continuity(
     image: &LayerImage,
     mapping: &AnyMapping,
@@ -381,17 +383,11 @@ fn check_continuity(
     issues: &mut Vec<Issue>,
 ) {
     let (w, h) = (image.width, image.height);
-    let face = match mapping {
-        AnyMapping::Cube(_) => h / 2,
-        AnyMapping::Equirect(_) => 0,
-    };
-    let finite = |i: usize| match image.sample(i) {
+    let nb = Neighbours::new(*mapping);
+    let depth = |i: usize| match image.sample(i) {
         Sample::Surface(d) if d > 0.0 => Some(d as f64),
+        Sample::Infinite => Some(f64::INFINITY),
         _ => None,
-    };
-    let jump = |a: usize, b: usize| match (finite(a), finite(b)) {
-        (Some(x), Some(y)) => (x - y).abs() / x.min(y) > options.jump_threshold,
-        _ => false,
     };
     let rows: Vec<(usize, usize)> = (0..h)
         .into_par_iter()
@@ -400,14 +396,20 @@ fn check_continuity(
             let mut first = usize::MAX;
             for x in 0..w {
                 let i = y * w + x;
-                let right = if x + 1 < w {
-                    (face == 0 || (x + 1) % face != 0).then_some(i + 1)
-                } else {
-                    (face == 0).then_some(y * w) // equirect seam
-                };
-                let down = (y + 1 < h && (face == 0 || (y + 1) % face != 0)).then_some(i + w);
-                for j in [right, down].into_iter().flatten() {
-                    if jump(i, j) {
+                let Some(a) = depth(i) else { continue };
+                // Right and down: every 4-neighbour pair once.
+                for k in [0, 2] {
+                    let Some(b) = nb.get_at(x, y, k).and_then(depth) else { continue };
+                    let behind = nb.get_at(x, y, opposite(k)).and_then(depth);
+                    let beyond = nb.get2_at(x, y, k).and_then(depth);
+                    if !continuity::continuous(
+                        a,
+                        b,
+                        behind,
+                        beyond,
+                        options.jump_threshold,
+                        continuity::PLANAR,
+                    ) {
                         count += 1;
                         first = first.min(i);
                     }
@@ -423,7 +425,7 @@ fn check_continuity(
         issues.push(issue(
             "DEPTH_DISCONTINUITY",
             format!(
-                "{count} neighbour pair(s) jump by more than {:.0}% in depth inside the layer (first at ({x},{y})); a layer must be continuous in depth: split it at the discontinuity",
+                "{count} neighbour pair(s) inside the layer are not one surface: their depths step by more than {:.0}% and no plane through the pixels beside them continues (first at ({x},{y})); a layer must be continuous in depth: split it at the discontinuity",
                 options.jump_threshold * 100.0
             ),
             format!("{loc} channel Z pixel ({x},{y})"),

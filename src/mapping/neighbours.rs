@@ -9,6 +9,12 @@ use crate::mapping::{AnyMapping, Mapping};
 /// Offsets of the 8 neighbours, `(dx, dy)`; the first four are the 4-neighbours.
 pub const OFFSETS: [(i32, i32); 8] = [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)];
 
+/// Index of the opposite offset in [`OFFSETS`] (pairs are adjacent: 0↔1, 2↔3, 4↔7, 5↔6).
+#[inline]
+pub fn opposite(k: usize) -> usize {
+    [1, 0, 3, 2, 7, 6, 5, 4][k]
+}
+
 /// Neighbour lookup for one canvas.
 #[derive(Clone, Debug)]
 pub struct Neighbours {

@@ -1,0 +1,40 @@
+//! Pixel-centre direction tables.
+
+use glam::DVec3;
+
+use super::{AnyMapping, Mapping};
+
+/// Pixel-centre directions of a canvas ([`Mapping::pixel_dir`], bit for bit), with a separable
+/// table for the equirect canvas: no trigonometry per pixel in the loops that visit every pixel.
+pub enum DirTable {
+    Equirect { rows: Vec<(f64, f64)>, cols: Vec<(f64, f64)> },
+    Generic(AnyMapping),
+}
+
+impl DirTable {
+    pub fn new(m: AnyMapping) -> DirTable {
+        match m {
+            AnyMapping::Equirect(_) => {
+                let (w, h) = (m.width(), m.height());
+                let rows = (0..h).map(|j| (std::f64::consts::PI * (j as f64 + 0.5) / h as f64).sin_cos());
+                let cols = (0..w).map(|i| {
+                    let (s, c) = (std::f64::consts::TAU * (i as f64 + 0.5) / w as f64).sin_cos();
+                    (c, s)
+                });
+                DirTable::Equirect { rows: rows.collect(), cols: cols.collect() }
+            }
+            AnyMapping::Cube(_) => DirTable::Generic(m),
+        }
+    }
+
+    #[inline]
+    pub fn get(&self, i: usize, j: usize) -> DVec3 {
+        match self {
+            DirTable::Equirect { rows, cols } => {
+                let ((st, ct), (cp, sp)) = (rows[j], cols[i]);
+                DVec3::new(st * cp, st * sp, ct)
+            }
+            DirTable::Generic(m) => m.pixel_dir(i, j),
+        }
+    }
+}
