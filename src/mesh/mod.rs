@@ -167,14 +167,15 @@ pub fn has_sky(image: &LayerImage) -> bool {
 }
 
 /// The sky dome's layer (spec §8.9): `image` with its infinitely far samples (`Z = +∞`) at distance
-/// `radius`, so that [`mesh_layer`] meshes them as a sphere; `None` when the layer has none.
+/// `radius`, so that [`mesh_layer`] meshes them as a sphere; `None` when the layer has none (whatever
+/// `radius`).
 pub fn sky_at(image: &LayerImage, radius: f64) -> Result<Option<LayerImage>, MeshError> {
-    if !(radius > 0.0 && (radius as f32).is_finite()) {
-        return Err(MeshError::Params("sky radius must be a positive finite number".into()));
-    }
     let infinite: Vec<bool> = samples(image).map(|s| s == Sample::Infinite).collect();
     if !infinite.contains(&true) {
         return Ok(None);
+    }
+    if !(radius > 0.0 && (radius as f32).is_finite()) {
+        return Err(MeshError::Params("sky radius must be a positive finite number".into()));
     }
     let mut out = image.clone();
     if let Some(z) = out.channel_mut("Z") {
