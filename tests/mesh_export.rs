@@ -98,3 +98,52 @@ fn every_exported_triangle_samples_one_region_of_the_texture() {
         }
     }
 }
+
+#[test]
+fn a_scene_leaves_empty_layers_out_and_fails_only_when_all_are() {
+    let mut all = meshes();
+    let (_, img, m) = all.remove(3);
+    let empty = mesh::LayerMesh { triangles: Vec::new(), ..m.clone() };
+    let layer = |name: &str, mesh| export::SceneLayer {
+        name: name.into(),
+        index: 0,
+        mesh,
+        image: &img,
+        sky_radius: None,
+    };
+    let (files, vertices) =
+        export::scene_files(&[layer("empty", &empty), layer("full", &m)], None, Format::Obj, "s").unwrap();
+    let obj = String::from_utf8(files[0].1.clone()).unwrap();
+    assert!(obj.contains("o full\n") && !obj.contains("o empty"), "{obj}");
+    assert_eq!(vertices[0], 0);
+    assert_eq!(obj.lines().filter(|l| l.starts_with("v ")).count(), vertices[1]);
+    assert_eq!(files.iter().map(|f| f.0.as_str()).collect::<Vec<_>>(), ["s.obj", "s.mtl", "s_full.png"]);
+    for format in [Format::Ply, Format::Obj, Format::Glb] {
+        let e = export::scene_files(&[layer("empty", &empty)], None, format, "s").unwrap_err();
+        assert_eq!(e.code(), "MESH_EXPORT_FAILED");
+    }
+}
+
+#[test]
+fn the_sky_goes_on_a_dome_of_the_given_radius() {
+    let m = AnyMapping::Equirect(Equirect::new(64, 32).unwrap());
+    let mut img = pomc::layer::LayerImage::new(64, 32);
+    let z: Vec<f32> = (0..64 * 32).map(|i| if i < 64 * 16 { f32::INFINITY } else { -1.0 }).collect();
+    img.set_channel("Z", pomc::layer::SampleType::F32, z);
+    assert!(mesh::has_sky(&img));
+    assert_eq!(mesh::default_sky_radius([&img]), mesh::SKY_RADIUS_FALLBACK);
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e300] {
+        assert_eq!(mesh::sky_at(&img, bad).unwrap_err().code(), "MESH_PARAMS_INVALID");
+    }
+    let dome = mesh::sky_at(&img, 250.0).unwrap().unwrap();
+    let out = mesh::mesh_layer(&dome, &m, &MeshParams::default()).unwrap().mesh;
+    assert!(!out.triangles.is_empty());
+    for p in &out.positions {
+        assert!((p.length() - 250.0).abs() < 1e-9 && p.z >= 0.0, "{p}");
+    }
+    // Without an infinite sample there is no dome; finite depths set the default radius.
+    let (_, room, _) = &meshes()[0];
+    assert!(mesh::sky_at(room, 250.0).unwrap().is_none());
+    let far = room.depth().unwrap().iter().copied().filter(|d| d.is_finite()).fold(0.0f32, f32::max);
+    assert_eq!(mesh::default_sky_radius([room, &img]), 10.0 * far as f64);
+}

@@ -197,6 +197,14 @@ impl Manifest {
         transform::compose(&self.transforms)
     }
 
+    /// Layer indices in painter's order (spec §2: smaller `order` first, i.e. farthest first; layers
+    /// without `order` after those with one, in document order).
+    pub fn painter_order(&self) -> Vec<usize> {
+        let mut k: Vec<usize> = (0..self.layers.len()).collect();
+        k.sort_by_key(|&i| self.layers[i].order.unwrap_or(u32::MAX));
+        k
+    }
+
     /// Serialise as POMC 1 XML (UTF-8, `version="1"`); thesis-form layers stay `<Textures>`.
     pub fn to_xml(&self) -> String {
         write::to_xml(self)

@@ -5,7 +5,8 @@
 //! ([`sat`], [`normals`], [`criterion`], [`quadtree`]), balance it 2:1 ([`balance`]), triangulate the
 //! leaves without cracks ([`triangulate`]), close the gaps between lattices ([`stitch`]). [`error`]
 //! measures a mesh against the layer by casting every pixel's ray; [`encode`] stores the quadtrees as a
-//! bit string; [`export`] writes PLY, OBJ and glTF binary.
+//! bit string; [`export`] writes PLY, OBJ and glTF binary, one layer or a whole scene, with the
+//! infinitely far samples (the sky) on a dome ([`sky_at`]).
 
 pub mod balance;
 pub mod criterion;
@@ -26,7 +27,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::layer::LayerImage;
+use crate::layer::{classify, LayerImage, Sample};
 use crate::mapping::{AnyMapping, CubeFace, Mapping};
 use grid::{Grid, Rays};
 use quadtree::Tree;
@@ -129,6 +130,60 @@ impl MeshParams {
         }
         Ok(())
     }
+}
+
+/// Default sky-dome radius: this many times the farthest finite depth of the panorama (spec §8.9).
+pub const SKY_RADIUS_FACTOR: f64 = 10.0;
+/// Default sky-dome radius (m) of a panorama without any finite depth.
+pub const SKY_RADIUS_FALLBACK: f64 = 1000.0;
+
+/// The state (spec §4.3) of every pixel of `image` (none without a depth channel).
+fn samples(image: &LayerImage) -> impl Iterator<Item = Sample> + '_ {
+    let (z, a) = (image.depth().unwrap_or(&[]), image.coverage());
+    (0..z.len()).map(move |i| classify(z[i], a.map(|a| a[i])))
+}
+
+/// The default sky-dome radius of a panorama of these layers: [`SKY_RADIUS_FACTOR`] times their
+/// farthest finite depth, or [`SKY_RADIUS_FALLBACK`] when they have none.
+pub fn default_sky_radius<'a>(images: impl IntoIterator<Item = &'a LayerImage>) -> f64 {
+    let far = images
+        .into_iter()
+        .flat_map(samples)
+        .filter_map(|s| match s {
+            Sample::Surface(d) => Some(d as f64),
+            _ => None,
+        })
+        .fold(0.0, f64::max);
+    if far > 0.0 {
+        SKY_RADIUS_FACTOR * far
+    } else {
+        SKY_RADIUS_FALLBACK
+    }
+}
+
+/// Whether `image` has infinitely far samples (`Z = +∞` inside its domain, spec §4.3): the sky.
+pub fn has_sky(image: &LayerImage) -> bool {
+    samples(image).any(|s| s == Sample::Infinite)
+}
+
+/// The sky dome's layer (spec §8.9): `image` with its infinitely far samples (`Z = +∞`) at distance
+/// `radius`, so that [`mesh_layer`] meshes them as a sphere; `None` when the layer has none (whatever
+/// `radius`).
+pub fn sky_at(image: &LayerImage, radius: f64) -> Result<Option<LayerImage>, MeshError> {
+    let infinite: Vec<bool> = samples(image).map(|s| s == Sample::Infinite).collect();
+    if !infinite.contains(&true) {
+        return Ok(None);
+    }
+    if !(radius > 0.0 && (radius as f32).is_finite()) {
+        return Err(MeshError::Params("sky radius must be a positive finite number".into()));
+    }
+    let mut out = image.clone();
+    if let Some(z) = out.channel_mut("Z") {
+        for (d, _) in z.data.iter_mut().zip(&infinite).filter(|(_, &inf)| inf) {
+            *d = radius as f32;
+        }
+    }
+    Ok(Some(out))
 }
 
 /// A vertex's origin: a canvas pixel (its centre, at its depth) or, on the equirect, a pole.

@@ -1,9 +1,11 @@
-//! `pomc mesh PANO [--layer K] -o OUT.{ply,obj,glb}`: adaptive quadtree mesh of one layer, its 3D
-//! error against the layer, its encoded size, and per-stage times.
+//! `pomc mesh PANO [--layer K] -o OUT.{ply,obj,glb}`: adaptive quadtree meshes of every layer (one
+//! scene, the sky on a dome) or of layer K, their 3D error against the layers, encoded sizes, and
+//! per-stage times.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
+use pomc::layer::LayerImage;
 use pomc::layer_io::ReadLimits;
 use pomc::mapping::{AnyMapping, MappingKind};
 use pomc::mesh::{self, encode, error, export, MeshParams};
@@ -16,12 +18,18 @@ use crate::Failure;
 pub struct Args {
     /// Panorama directory or panorama.xml.
     pano: PathBuf,
-    /// Layer index (manifest order).
-    #[arg(long, default_value_t = 0)]
-    layer: usize,
-    /// Output mesh: .ply (binary), .obj or .glb (glTF 2.0 binary with the colour as a PNG texture).
+    /// Mesh only this layer (manifest index); by default every layer, exported as one scene in
+    /// painter's order.
+    #[arg(long, value_name = "K")]
+    layer: Option<usize>,
+    /// Output mesh: .ply (binary, vertex colours), .obj (+ .mtl + PNG textures beside it) or .glb
+    /// (glTF 2.0 binary, sRGB PNG textures embedded); one node/object per layer, named after it.
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// Radius (m, panorama-local) of the sky dome the infinitely far samples (the infinity layer) are
+    /// meshed on; default 10 × the panorama's farthest finite depth (1000 m when it has none).
+    #[arg(long, value_name = "R")]
+    sky_radius: Option<f64>,
     /// Maximum relative distance along each pixel's ray between mesh and depth (0 disables).
     #[arg(long, default_value_t = 0.005)]
     max_error: f64,
@@ -46,8 +54,9 @@ pub struct Args {
     /// Skip the 3D error measurement (it ray-casts every pixel).
     #[arg(long)]
     no_metric: bool,
-    /// Store the encoded mesh next to the layer and reference it from the manifest (`<Mesh file=…/>`).
-    /// The stored encoding is always the quadtree's (spec §8), simplified or not.
+    /// Store each meshed layer's encoding beside the manifest and reference it from the layer
+    /// (`<Mesh file=…/>`). The stored encoding is always the quadtree's of the layer itself (spec §8),
+    /// simplified or not, without the sky dome.
     #[arg(long)]
     store: bool,
     /// Output the raw quadtree mesh: skip the error-bounded edge-collapse stage (which runs by default
@@ -97,90 +106,202 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
-pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
-    let params = params(&args);
-    let spin = out.spinner("reading layer");
-    let t = Instant::now();
-    let pano = Panorama::open(&args.pano)?;
-    let image = pano.read_layer(args.layer, &ReadLimits::default())?;
+/// One meshed layer.
+struct Layer {
+    index: usize,
+    name: String,
+    role: Option<&'static str>,
+    /// The meshed pixels: the layer, or its sky-dome version.
+    image: LayerImage,
+    sky: bool,
+    meshed: mesh::Meshed,
+    encoded: Option<Vec<u8>>,
+    stats: Option<(error::ErrorStats, f64)>,
+    /// Read and encode times (ms).
+    times: [f64; 2],
+}
+
+fn mapping_of(pano: &Panorama, image: &LayerImage) -> Result<AnyMapping, Failure> {
     let kind = match pano.manifest.mapping.kind {
         pomc::manifest::MappingKind::LatLong => MappingKind::Equirect,
         pomc::manifest::MappingKind::Cube => MappingKind::Cube3x2,
     };
-    let mapping = AnyMapping::new(kind, image.width, image.height)
-        .map_err(|e| fail("MESH_CANVAS_MISMATCH", e.to_string()))?;
-    let read_ms = ms(t);
-    spin.set_message("meshing");
-    let meshed = mesh::mesh_layer(&image, &mapping, &params)?;
-    spin.set_message("encoding");
+    AnyMapping::new(kind, image.width, image.height).map_err(|e| fail("MESH_CANVAS_MISMATCH", e.to_string()))
+}
+
+pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
+    let params = params(&args);
+    params.check()?;
+    let spin = out.spinner("reading layers");
+    let pano = Panorama::open(&args.pano)?;
+    let limits = ReadLimits::default();
+    let order = match args.layer {
+        Some(k) => vec![k],
+        None => pano.manifest.painter_order(),
+    };
+    let mut images = Vec::with_capacity(order.len());
+    for &k in &order {
+        let t = Instant::now();
+        images.push((pano.read_layer(k, &limits)?, ms(t)));
+    }
+    // The default radius depends on every layer's depths, also when one layer is meshed.
+    let sky_radius = match args.sky_radius {
+        Some(r) => r,
+        None if args.layer.is_some() && images.iter().any(|(im, _)| mesh::has_sky(im)) => {
+            let others = (0..pano.manifest.layers.len()).filter(|k| !order.contains(k));
+            let others = others.map(|k| pano.read_layer(k, &limits)).collect::<Result<Vec<_>, _>>()?;
+            mesh::default_sky_radius(images.iter().map(|i| &i.0).chain(&others))
+        }
+        None => mesh::default_sky_radius(images.iter().map(|i| &i.0)),
+    };
+    let mut layers = Vec::with_capacity(order.len());
+    for (&k, (image, read_ms)) in order.iter().zip(images) {
+        spin.set_message(format!("meshing layer {k}"));
+        let decl = &pano.manifest.layers[k];
+        let mut l = mesh_one(&args, &params, &pano, image, sky_radius)?;
+        l.name = decl.name.clone().unwrap_or_else(|| format!("layer{k}"));
+        (l.index, l.role, l.times[0]) = (k, decl.role.map(|r| r.as_str()), read_ms);
+        layers.push(l);
+    }
+    let mut export_ms = 0.0;
+    let mut exported = export::Exported::default();
+    if let Some(path) = &args.output {
+        spin.set_message("exporting");
+        let t = Instant::now();
+        let scene: Vec<export::SceneLayer> = layers
+            .iter()
+            .map(|l| export::SceneLayer {
+                name: l.name.clone(),
+                index: l.index,
+                mesh: &l.meshed.mesh,
+                image: &l.image,
+                sky_radius: l.sky.then_some(sky_radius),
+            })
+            .collect();
+        let transform = (!args.local).then(|| pano.manifest.local_to_world());
+        exported = export::export_scene(path, &scene, transform)?;
+        export_ms = ms(t);
+    }
+    if args.store {
+        store(&pano, &layers)?;
+    }
+    spin.finish_and_clear();
+    let sky = Some(sky_radius).filter(|_| layers.iter().any(|l| l.sky));
+    let mut reports: Vec<serde_json::Value> = layers.iter().map(|l| report(&args, out, l, sky)).collect();
+    for (r, v) in reports.iter_mut().zip(&exported.vertices) {
+        r["exported_vertices"] = serde_json::json!(v);
+    }
+    let files = &exported.files;
+    let skipped: Vec<&str> =
+        layers.iter().filter(|l| l.meshed.mesh.triangles.is_empty()).map(|l| l.name.as_str()).collect();
+    if args.output.is_some() && !skipped.is_empty() {
+        out.say(format!("note: left out of the scene (no triangles): {}", skipped.join(", ")));
+    }
+    if args.layer.is_some() {
+        let mut v = reports.swap_remove(0);
+        v["times_ms"]["export"] = serde_json::json!(export_ms);
+        v["files"] = serde_json::json!(files);
+        out.json(&v);
+        out.say(format!("times (ms): export {export_ms:.0}"));
+        return Ok(0);
+    }
+    let count =
+        |f: &dyn Fn(&mesh::LayerMesh) -> usize| layers.iter().map(|l| f(&l.meshed.mesh)).sum::<usize>();
+    let (tris, verts) = (count(&|m| m.triangles.len()), count(&|m| m.positions.len()));
+    let sum = |f: &dyn Fn(&Layer) -> f64| layers.iter().map(f).sum::<f64>();
+    let read_ms = sum(&|l| l.times[0]);
+    let mesh_ms = sum(&|l| {
+        let t = &l.meshed.times;
+        t.sample_ms + t.greedy_ms + t.quadtree_ms + t.triangulate_ms + t.assemble_ms + t.simplify_ms
+    });
+    let metric_ms = sum(&|l| l.stats.as_ref().map_or(0.0, |s| s.1));
+    out.json(&serde_json::json!({
+        "layers": reports,
+        "triangles": tris, "vertices": verts,
+        "exported_vertices": args.output.as_ref().map(|_| exported.vertices.iter().sum::<usize>()),
+        "skipped": skipped,
+        "sky_radius": sky,
+        "times_ms": {
+            "read": read_ms, "mesh": mesh_ms, "encode": sum(&|l| l.times[1]), "metric": metric_ms,
+            "export": export_ms,
+        },
+        "output": args.output, "files": files,
+    }));
+    out.say(format!(
+        "scene: {} layers, {tris} triangles, {verts} vertices{}; times (ms): read {read_ms:.0}, mesh {mesh_ms:.0}, metric {metric_ms:.0}, export {export_ms:.0}",
+        layers.len(),
+        sky.map_or(String::new(), |r| format!(", sky dome radius {r:.2} m")),
+    ));
+    Ok(0)
+}
+
+/// Mesh one layer (its sky on the dome of `sky_radius`), encode and measure it.
+fn mesh_one(
+    args: &Args,
+    params: &MeshParams,
+    pano: &Panorama,
+    image: LayerImage,
+    sky_radius: f64,
+) -> Result<Layer, Failure> {
+    let mapping = mapping_of(pano, &image)?;
+    let dome = mesh::sky_at(&image, sky_radius)?;
+    let meshed = mesh::mesh_layer(dome.as_ref().unwrap_or(&image), &mapping, params)?;
     let t = Instant::now();
-    // The encoding stores the quadtrees; lattices meshed by greedy insertion have none yet, so they
-    // are built only when the encoding is to be stored.
+    // The encoding stores the quadtrees of the layer itself (the dome is not part of it); lattices
+    // meshed by greedy insertion have none yet, so they are built only when the encoding is stored.
     let greedy = meshed.greedy.iter().any(Option::is_some);
-    let encoded = if !greedy {
+    let encoded = if !greedy && dome.is_none() {
         Some(encode::encode(&meshed.trees, &mapping)?)
     } else if args.store {
-        Some(encode::encode(&mesh::quadtrees(&image, &mapping, &params)?, &mapping)?)
+        Some(encode::encode(&mesh::quadtrees(&image, &mapping, params)?, &mapping)?)
     } else {
         None
     };
     let encode_ms = ms(t);
+    let sky = dome.is_some();
+    let image = dome.unwrap_or(image);
     let m = &meshed.mesh;
-    let stats = if args.no_metric {
-        None
-    } else {
-        spin.set_message("measuring 3D error");
+    let stats = (!args.no_metric).then(|| {
         let t = Instant::now();
-        Some((error::measure(&m.positions, &m.triangles, &image, &mapping), ms(t)))
-    };
-    let mut export_ms = 0.0;
-    if let Some(path) = &args.output {
-        spin.set_message("exporting");
-        let t = Instant::now();
-        let format = export::Format::from_path(path)?;
-        let transform = (!args.local).then(|| pano.manifest.local_to_world());
-        let bytes = export::to_bytes(m, &image, transform, format)?;
-        pomc::fsutil::write_bytes_atomic(path, &bytes)?;
-        export_ms = ms(t);
-    }
-    if let (true, Some(bytes)) = (args.store, &encoded) {
-        store(&pano, args.layer, bytes)?;
-    }
-    spin.finish_and_clear();
-    report(&args, out, &meshed, encoded.map(|e| e.len()), stats, [read_ms, encode_ms, export_ms]);
-    Ok(0)
+        (error::measure(&m.positions, &m.triangles, &image, &mapping), ms(t))
+    });
+    Ok(Layer {
+        index: 0,
+        name: String::new(),
+        role: None,
+        image,
+        sky,
+        meshed,
+        encoded,
+        stats,
+        times: [0.0, encode_ms],
+    })
 }
 
-/// Write `NAME.pomcmesh` beside the manifest and reference it from the layer (replacing an older one).
-fn store(pano: &Panorama, layer: usize, bytes: &[u8]) -> Result<(), Failure> {
+/// Write `NAME.pomcmesh` beside the manifest for each layer with an encoding and reference it from the
+/// layer (replacing an older one); names are made file-safe and unique over the manifest.
+fn store(pano: &Panorama, layers: &[Layer]) -> Result<(), Failure> {
     let mut manifest = pano.manifest.clone();
-    let decl = manifest
-        .layers
-        .get_mut(layer)
-        .ok_or_else(|| fail("MESH_NO_SUCH_LAYER", format!("no layer {layer}")))?;
-    let stem: String = decl
-        .name
-        .clone()
-        .unwrap_or_else(|| format!("layer{layer}"))
-        .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+    let names: Vec<String> = (manifest.layers.iter().enumerate())
+        .map(|(k, d)| d.name.clone().unwrap_or_else(|| format!("layer{k}")))
         .collect();
-    let file = format!("{stem}.{}", encode::EXTENSION);
-    pomc::fsutil::write_bytes_atomic(&pano.dir.join(&file), bytes)?;
-    decl.extra.retain(|e| !e.trim_start().starts_with("<Mesh"));
-    decl.extra.push(format!("<Mesh file=\"{file}\" encoding=\"quadtree-bfs-zstd\" version=\"1\"/>"));
+    let stems = export::safe_names(&names);
+    for l in layers {
+        let (Some(bytes), Some(decl)) = (&l.encoded, manifest.layers.get_mut(l.index)) else { continue };
+        let file = format!("{}.{}", stems[l.index], encode::EXTENSION);
+        pomc::fsutil::write_bytes_atomic(&pano.dir.join(&file), bytes)?;
+        decl.extra.retain(|e| !e.trim_start().starts_with("<Mesh"));
+        decl.extra.push(format!("<Mesh file=\"{file}\" encoding=\"quadtree-bfs-zstd\" version=\"1\"/>"));
+    }
     pomc::fsutil::write_bytes_atomic(&pano.manifest_path, manifest.to_xml().as_bytes())?;
     Ok(())
 }
 
-fn report(
-    args: &Args,
-    out: Output,
-    meshed: &mesh::Meshed,
-    encoded: Option<usize>,
-    stats: Option<(error::ErrorStats, f64)>,
-    [read_ms, encode_ms, export_ms]: [f64; 3],
-) {
+/// Print one layer's lines and return its JSON (`sky`: the dome's radius, when the scene has one).
+fn report(args: &Args, out: Output, l: &Layer, sky: Option<f64>) -> serde_json::Value {
+    let (meshed, stats) = (&l.meshed, &l.stats);
+    let [read_ms, encode_ms] = l.times;
+    let encoded = l.encoded.as_ref().map(Vec::len);
     let m = &meshed.mesh;
     let tris = m.triangles.len();
     // The encoding stores the quadtree, so its density is per quadtree triangle (thesis 7.4.4); that
@@ -189,8 +310,9 @@ fn report(
     let qt = meshed.quadtree_triangles;
     let per_million = encoded.filter(|_| qt > 0 && greedy_faces == 0).map(|e| e as f64 * 1e6 / qt as f64);
     let t = &meshed.times;
-    out.json(&serde_json::json!({
-        "layer": args.layer,
+    let json = serde_json::json!({
+        "layer": l.index, "name": l.name, "role": l.role,
+        "sky_radius": sky.filter(|_| l.sky),
         "width": m.width, "height": m.height,
         "triangles": tris, "vertices": m.positions.len(),
         "quadtree_triangles": (greedy_faces == 0).then_some(qt),
@@ -203,15 +325,17 @@ fn report(
             "read": read_ms, "sample": t.sample_ms, "quadtree": t.quadtree_ms,
             "greedy": t.greedy_ms, "triangulate": t.triangulate_ms, "assemble": t.assemble_ms,
             "simplify": t.simplify_ms,
-            "encode": encode_ms, "metric": stats.as_ref().map(|s| s.1), "export": export_ms,
+            "encode": encode_ms, "metric": stats.as_ref().map(|s| s.1),
         },
         "output": args.output,
-    }));
+    });
     out.say(format!(
-        "layer {} ({}x{}): {} triangles, {} vertices{}",
-        args.layer,
+        "layer {} {} ({}x{}{}): {} triangles, {} vertices{}",
+        l.index,
+        l.name,
         m.width,
         m.height,
+        sky.filter(|_| l.sky).map_or(String::new(), |r| format!(", sky dome at {r:.2} m")),
         tris,
         m.positions.len(),
         match &meshed.simplify {
@@ -229,6 +353,9 @@ fn report(
         }
     ));
     match (encoded, per_million) {
+        (None, _) if l.sky => {
+            out.say("encoded: not computed (the sky dome is no part of the layer's mesh, spec §8.9)")
+        }
         (Some(e), Some(p)) => {
             out.say(format!("encoded: {e} bytes ({p:.0} bytes per million quadtree triangles)"))
         }
@@ -242,7 +369,7 @@ fn report(
         ));
     }
     out.say(format!(
-        "times (ms): read {read_ms:.0}, sample {:.0}, greedy {:.0}, quadtree {:.0}, triangulate {:.0}, assemble {:.0}, simplify {:.0}, encode {encode_ms:.0}, metric {}, export {export_ms:.0}",
+        "times (ms): read {read_ms:.0}, sample {:.0}, greedy {:.0}, quadtree {:.0}, triangulate {:.0}, assemble {:.0}, simplify {:.0}, encode {encode_ms:.0}, metric {}",
         t.sample_ms,
         t.greedy_ms,
         t.quadtree_ms,
@@ -251,4 +378,5 @@ fn report(
         t.simplify_ms,
         stats.as_ref().map_or("-".to_string(), |s| format!("{:.0}", s.1))
     ));
+    json
 }

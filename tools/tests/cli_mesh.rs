@@ -1,9 +1,13 @@
-//! `pomc mesh` end to end on the room fixture: JSON figures, the three export formats, `--store`.
+//! `pomc mesh` end to end on the room fixture: JSON figures, the three export formats, `--store`; and on
+//! an outdoor panorama (infinity layer 0): every layer in one scene, the sky on a dome.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use pomc::manifest::Role;
 use pomc::mapping::{AnyMapping, MappingKind};
+use pomc::panorama::Panorama;
+use serde_json::Value;
 
 fn pomc(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_pomc")).args(args).output().expect("pomc runs")
@@ -46,15 +50,21 @@ fn store_references_the_mesh_from_the_manifest() {
     let dir = tempfile::tempdir().unwrap();
     room(dir.path(), MappingKind::Equirect, 128, 64);
     let d = dir.path().to_str().unwrap();
+    // Without --layer every layer is meshed and stored.
     let out = pomc(&["mesh", d, "--store", "--no-metric", "--quiet"]);
     assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
     let xml = std::fs::read_to_string(dir.path().join("panorama.xml")).unwrap();
-    assert!(xml.contains("<Mesh file=\"room.pomcmesh\""), "{xml}");
-    assert!(dir.path().join("room.pomcmesh").is_file());
+    for name in ["room", "objects"] {
+        assert!(xml.contains(&format!("<Mesh file=\"{name}.pomcmesh\"")), "{xml}");
+        assert!(dir.path().join(format!("{name}.pomcmesh")).is_file());
+    }
     // Storing again replaces the reference instead of adding a second one.
-    assert_eq!(pomc(&["mesh", d, "--store", "--no-metric", "--quiet"]).status.code(), Some(0));
+    assert_eq!(
+        pomc(&["mesh", d, "--layer", "0", "--store", "--no-metric", "--quiet"]).status.code(),
+        Some(0)
+    );
     let xml = std::fs::read_to_string(dir.path().join("panorama.xml")).unwrap();
-    assert_eq!(xml.matches("<Mesh").count(), 1);
+    assert_eq!(xml.matches("<Mesh").count(), 2);
 }
 
 #[test]
@@ -72,7 +82,7 @@ fn simplification_is_the_default_and_never_changes_the_stored_encoding() {
     room(dir.path(), MappingKind::Cube3x2, 192, 128);
     let d = dir.path().to_str().unwrap();
     let run = |extra: &[&str]| -> serde_json::Value {
-        let mut args = vec!["mesh", d, "--json", "--store"];
+        let mut args = vec!["mesh", d, "--layer", "0", "--json", "--store"];
         args.extend_from_slice(extra);
         let out = pomc(&args);
         assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
@@ -101,4 +111,185 @@ fn simplification_is_the_default_and_never_changes_the_stored_encoding() {
         assert_eq!(v["error"]["unhit"].as_u64().unwrap(), 0);
         assert!(v["error"]["max_rel"].as_f64().unwrap() <= 0.005 * (1.0 + 1e-6), "{v}");
     }
+}
+
+/// `pomc build` of the outdoor fixture (ground, objects, a building, sky at infinity): layer 0 is the
+/// infinity layer.
+fn sky_pano(dir: &Path, width: usize) -> PathBuf {
+    let m = AnyMapping::new(MappingKind::Equirect, width, width / 2).unwrap();
+    let input = dir.join("rgbd");
+    pomc_fixtures::layers::write_scene_rgbd(&input, &m, &pomc_fixtures::Scene::open_sky()).unwrap();
+    let pano = dir.join("pano");
+    let (colour, depth) = (input.join("colour.png"), input.join("depth.exr"));
+    let out = pomc(&[
+        "build",
+        "--colour",
+        colour.to_str().unwrap(),
+        "--depth",
+        depth.to_str().unwrap(),
+        "-o",
+        pano.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let manifest = Panorama::open(&pano).unwrap().manifest;
+    assert_eq!(manifest.layers[0].role, Some(Role::Infinity));
+    assert!(manifest.layers.len() >= 2);
+    pano
+}
+
+fn mesh_json(pano: &Path, out_path: &Path) -> Value {
+    let out =
+        pomc(&["mesh", pano.to_str().unwrap(), "-o", out_path.to_str().unwrap(), "--json", "--no-metric"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// The manifest's layer names in painter's order.
+fn painter_names(pano: &Path) -> Vec<String> {
+    let m = Panorama::open(pano).unwrap().manifest;
+    m.painter_order().into_iter().map(|k| m.layers[k].name.clone().unwrap()).collect()
+}
+
+/// sRGB transfer function to 8 bits, written independently of the exporter's.
+fn srgb_byte(v: f32) -> u8 {
+    let v = v.clamp(0.0, 1.0) as f64;
+    let s = if v <= 0.0031308 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0).round() as u8
+}
+
+#[test]
+fn outdoor_scene_glb_has_every_layer_and_a_sky_dome() {
+    let dir = tempfile::tempdir().unwrap();
+    let pano = sky_pano(dir.path(), 512);
+    let glb_path = dir.path().join("scene.glb");
+    let v = mesh_json(&pano, &glb_path);
+    let names = painter_names(&pano);
+    let layers = v["layers"].as_array().unwrap();
+    assert_eq!(layers.iter().map(|l| l["name"].as_str().unwrap()).collect::<Vec<_>>(), names);
+    let sum: u64 = layers.iter().map(|l| l["triangles"].as_u64().unwrap()).sum();
+    assert_eq!(v["triangles"].as_u64(), Some(sum));
+    assert!(layers.iter().all(|l| l["triangles"].as_u64().unwrap() > 0), "{v}");
+    // The documented default radius: 10 × the farthest finite depth (the layers' depth ranges).
+    let manifest = Panorama::open(&pano).unwrap().manifest;
+    let far = manifest.layers.iter().filter_map(|l| l.depth_range).map(|r| r.1 as f64).fold(0.0, f64::max);
+    let radius = v["sky_radius"].as_f64().unwrap();
+    assert!((radius - 10.0 * far).abs() <= 1e-6 * radius, "{radius} vs 10 × {far}");
+
+    let glb = std::fs::read(&glb_path).unwrap();
+    assert_eq!(&glb[..4], b"glTF");
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let doc: Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    let bin = &glb[20 + json_len + 8..];
+    let nodes = doc["nodes"].as_array().unwrap();
+    assert_eq!(nodes.iter().map(|n| n["name"].as_str().unwrap()).collect::<Vec<_>>(), names);
+    assert_eq!(doc["scenes"][0]["nodes"], serde_json::json!((0..names.len()).collect::<Vec<_>>()));
+    let view = |index: &Value| -> &[u8] {
+        let bv = &doc["bufferViews"][index.as_u64().unwrap() as usize];
+        let off = bv["byteOffset"].as_u64().unwrap() as usize;
+        &bin[off..off + bv["byteLength"].as_u64().unwrap() as usize]
+    };
+    // Node 0 is the sky dome: every vertex at the radius from the centre (identity LocalToWorld).
+    assert_eq!(nodes[0]["extras"]["sky_radius"].as_f64(), Some(radius));
+    let prim = &doc["meshes"][nodes[0]["mesh"].as_u64().unwrap() as usize]["primitives"][0];
+    let pos = &doc["accessors"][prim["attributes"]["POSITION"].as_u64().unwrap() as usize];
+    let data = view(&pos["bufferView"]);
+    let n = pos["count"].as_u64().unwrap() as usize;
+    let mut top = f64::NEG_INFINITY;
+    for p in data[..n * 12].chunks(12) {
+        let c: Vec<f64> = p.chunks(4).map(|b| f32::from_le_bytes(b.try_into().unwrap()) as f64).collect();
+        let r = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        assert!((r - radius).abs() <= 1e-5 * radius, "dome vertex at {r}, radius {radius}");
+        top = top.max(c[1]);
+    }
+    assert!(top > 0.99 * radius, "the dome reaches the zenith (glTF +Y)");
+    // Its texture is the infinity layer's colour, sRGB-encoded.
+    let material = &doc["materials"][prim["material"].as_u64().unwrap() as usize];
+    let texture = &doc["textures"]
+        [material["pbrMetallicRoughness"]["baseColorTexture"]["index"].as_u64().unwrap() as usize];
+    let png = view(&doc["images"][texture["source"].as_u64().unwrap() as usize]["bufferView"]);
+    let tex = image::load_from_memory(png).unwrap().to_rgb8();
+    let sky = Panorama::open(&pano).unwrap().read_layer(0, &Default::default()).unwrap();
+    assert_eq!((tex.width() as usize, tex.height() as usize), (sky.width, sky.height));
+    let red = &sky.channel("R").unwrap().data;
+    let mut distinct = 0;
+    for i in (0..red.len()).step_by(97) {
+        let (x, y) = ((i % sky.width) as u32, (i / sky.width) as u32);
+        assert_eq!(tex.get_pixel(x, y)[0], srgb_byte(red[i]), "pixel {x},{y}: linear {}", red[i]);
+        distinct += (srgb_byte(red[i]) as i32 - (red[i].clamp(0.0, 1.0) * 255.0).round() as i32).abs().min(1);
+    }
+    assert!(distinct > 10, "the sample checks the transfer function, not only 0 and 1");
+
+    let Ok(modules) = std::env::var("POMC_GLTF_VALIDATOR") else { return };
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/../tools/gltf_validate.mjs");
+    let out = Command::new("node")
+        .arg(script)
+        .arg(&glb_path)
+        .env("POMC_GLTF_VALIDATOR", &modules)
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&out.stdout);
+    eprintln!("glTF-Validator on the outdoor scene: {report}");
+    assert!(
+        out.status.success(),
+        "glTF-Validator reports errors:\n{report}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: Value = serde_json::from_str(&report).unwrap();
+    assert_eq!(r["numErrors"].as_u64(), Some(0));
+}
+
+#[test]
+fn outdoor_scene_obj_and_ply_hold_every_layer() {
+    let dir = tempfile::tempdir().unwrap();
+    let pano = sky_pano(dir.path(), 256);
+    let names = painter_names(&pano);
+    let count = |v: &Value, k: &str| v[k].as_u64().unwrap() as usize;
+
+    let obj_path = dir.path().join("scene.obj");
+    let v = mesh_json(&pano, &obj_path);
+    let obj = std::fs::read_to_string(&obj_path).unwrap();
+    let lines = |prefix: &str| obj.lines().filter(|l| l.starts_with(prefix)).count();
+    assert_eq!(lines("v "), count(&v, "exported_vertices"));
+    assert_eq!(lines("vt "), count(&v, "exported_vertices"));
+    assert_eq!(lines("f "), count(&v, "triangles"));
+    let objects: Vec<&str> = obj.lines().filter_map(|l| l.strip_prefix("o ")).collect();
+    assert_eq!(objects, names);
+    assert_eq!(lines("usemtl "), names.len());
+    let mtllib = obj.lines().find_map(|l| l.strip_prefix("mtllib ")).unwrap();
+    let mtl = std::fs::read_to_string(dir.path().join(mtllib)).unwrap();
+    let textures: Vec<&str> = mtl.lines().filter_map(|l| l.strip_prefix("map_Kd ")).collect();
+    assert_eq!(textures.len(), names.len());
+    for t in textures {
+        let img = image::open(dir.path().join(t)).unwrap();
+        assert_eq!((img.width(), img.height()), (256, 128));
+    }
+    // Every face index is within its file's vertices.
+    let nv = count(&v, "exported_vertices");
+    for l in obj.lines().filter_map(|l| l.strip_prefix("f ")) {
+        for c in l.split(' ') {
+            let i: usize = c.split('/').next().unwrap().parse().unwrap();
+            assert!((1..=nv).contains(&i));
+        }
+    }
+
+    let ply_path = dir.path().join("scene.ply");
+    let v = mesh_json(&pano, &ply_path);
+    let ply = std::fs::read(&ply_path).unwrap();
+    let end = ply.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    let head = String::from_utf8_lossy(&ply[..end]).to_string();
+    let element = |what: &str| -> usize {
+        head.split(&format!("element {what} ")).nth(1).unwrap().split('\n').next().unwrap().parse().unwrap()
+    };
+    let (nv, nf) = (element("vertex"), element("face"));
+    assert_eq!(nv, count(&v, "exported_vertices"));
+    assert_eq!(nf, count(&v, "triangles"));
+    assert!(head.contains("property int layer\n"), "{head}");
+    assert_eq!(ply.len(), end + nv * 27 + nf * 13);
+    let mut seen = std::collections::BTreeSet::new();
+    for k in 0..nv {
+        let o = end + k * 27 + 23;
+        seen.insert(i32::from_le_bytes(ply[o..o + 4].try_into().unwrap()));
+    }
+    assert_eq!(seen.len(), names.len(), "vertices of every layer");
 }

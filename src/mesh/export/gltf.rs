@@ -1,5 +1,7 @@
-//! glTF 2.0 binary (`.glb`): one mesh, positions + `TEXCOORD_0` + `u32` indices, the layer colour as an
-//! embedded PNG base-colour texture (unlit, double-sided).
+//! glTF 2.0 binary (`.glb`): one node and one mesh per layer, named after it, the nodes in painter's
+//! order (farthest first) under one scene; each mesh has positions + `TEXCOORD_0` + `u32` indices and its
+//! layer's colour as an embedded sRGB PNG base-colour texture (unlit; double-sided, except a sky dome,
+//! whose triangles face the centre). Node `extras`: `layer` (manifest index), `sky_radius` for a dome.
 //!
 //! glTF is Y-up; POMC world space is Z-up (the thesis translates the panorama to `z = 1.15`), so callers
 //! compose [`z_up_to_y_up`] with LocalToWorld.
@@ -8,7 +10,7 @@ use glam::DMat4;
 use serde_json::json;
 
 use super::super::MeshError;
-use super::ExportMesh;
+use super::{ExportMesh, SceneLayer};
 
 /// `(x, y, z) ↦ (x, z, −y)`: Z-up right-handed to glTF's Y-up right-handed.
 pub fn z_up_to_y_up() -> DMat4 {
@@ -32,9 +34,9 @@ fn pad4(buf: &mut Vec<u8>, byte: u8) {
     }
 }
 
-/// The `.glb` bytes of a mesh with a PNG texture.
-pub fn to_glb(m: &ExportMesh, png: &[u8]) -> Result<Vec<u8>, MeshError> {
-    if m.triangles.is_empty() {
+/// The `.glb` bytes of layers (in painter's order), each with its prepared mesh and PNG texture.
+pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8])]) -> Result<Vec<u8>, MeshError> {
+    if layers.is_empty() || layers.iter().any(|l| l.1.triangles.is_empty()) {
         return Err(MeshError::Export("the mesh has no triangles (glTF accessors cannot be empty)".into()));
     }
     let mut bin = Vec::new();
@@ -47,41 +49,60 @@ pub fn to_glb(m: &ExportMesh, png: &[u8]) -> Result<Vec<u8>, MeshError> {
         }
         bin.extend_from_slice(data);
         views.push(v);
+        views.len() - 1
     };
     let f32s = |it: &mut dyn Iterator<Item = f32>| it.flat_map(f32::to_le_bytes).collect::<Vec<u8>>();
-    view(&mut bin, &f32s(&mut m.positions.iter().flatten().copied()), Some(34962));
-    view(&mut bin, &f32s(&mut m.uvs.iter().flatten().copied()), Some(34962));
-    let idx: Vec<u8> = m.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
-    view(&mut bin, &idx, Some(34963));
-    view(&mut bin, png, None);
-    pad4(&mut bin, 0);
-    let (mut mn, mut mx) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    for p in &m.positions {
-        for k in 0..3 {
-            mn[k] = mn[k].min(p[k]);
-            mx[k] = mx[k].max(p[k]);
+    let (mut nodes, mut meshes, mut materials, mut textures, mut images, mut accessors) =
+        (vec![], vec![], vec![], vec![], vec![], vec![]);
+    for (k, (l, m, png)) in layers.iter().enumerate() {
+        let (mut mn, mut mx) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for p in &m.positions {
+            for c in 0..3 {
+                mn[c] = mn[c].min(p[c]);
+                mx[c] = mx[c].max(p[c]);
+            }
         }
+        let pos = view(&mut bin, &f32s(&mut m.positions.iter().flatten().copied()), Some(34962));
+        let uv = view(&mut bin, &f32s(&mut m.uvs.iter().flatten().copied()), Some(34962));
+        let idx: Vec<u8> = m.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
+        let idx = view(&mut bin, &idx, Some(34963));
+        let img = view(&mut bin, png, None);
+        let a = accessors.len();
+        accessors.extend([
+            json!({"bufferView": pos, "componentType": 5126, "count": m.positions.len(), "type": "VEC3", "min": mn, "max": mx}),
+            json!({"bufferView": uv, "componentType": 5126, "count": m.uvs.len(), "type": "VEC2"}),
+            json!({"bufferView": idx, "componentType": 5125, "count": m.triangles.len() * 3, "type": "SCALAR"}),
+        ]);
+        images.push(json!({"bufferView": img, "mimeType": "image/png"}));
+        textures.push(json!({"sampler": 0, "source": k}));
+        materials.push(json!({
+            "name": l.name,
+            "pbrMetallicRoughness": {"baseColorTexture": {"index": k}, "metallicFactor": 0.0, "roughnessFactor": 1.0},
+            "doubleSided": l.sky_radius.is_none(),
+            "extensions": {"KHR_materials_unlit": {}}
+        }));
+        meshes.push(json!({"name": l.name, "primitives": [{
+            "attributes": {"POSITION": a, "TEXCOORD_0": a + 1}, "indices": a + 2, "material": k, "mode": 4
+        }]}));
+        let mut extras = json!({"layer": l.index});
+        if let Some(r) = l.sky_radius {
+            extras["sky_radius"] = json!(r);
+        }
+        nodes.push(json!({"mesh": k, "name": l.name, "extras": extras}));
     }
+    pad4(&mut bin, 0);
     let doc = json!({
         "asset": {"version": "2.0", "generator": "pomc mesh"},
         "extensionsUsed": ["KHR_materials_unlit"],
         "scene": 0,
-        "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0, "name": "layer"}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0, "mode": 4}]}],
-        "materials": [{
-            "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0, "roughnessFactor": 1.0},
-            "doubleSided": true,
-            "extensions": {"KHR_materials_unlit": {}}
-        }],
-        "textures": [{"sampler": 0, "source": 0}],
+        "scenes": [{"nodes": (0..layers.len()).collect::<Vec<_>>()}],
+        "nodes": nodes,
+        "meshes": meshes,
+        "materials": materials,
+        "textures": textures,
         "samplers": [{"magFilter": 9729, "minFilter": 9729, "wrapS": 10497, "wrapT": 33071}],
-        "images": [{"bufferView": 3, "mimeType": "image/png"}],
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": m.positions.len(), "type": "VEC3", "min": mn, "max": mx},
-            {"bufferView": 1, "componentType": 5126, "count": m.uvs.len(), "type": "VEC2"},
-            {"bufferView": 2, "componentType": 5125, "count": m.triangles.len() * 3, "type": "SCALAR"}
-        ],
+        "images": images,
+        "accessors": accessors,
         "bufferViews": views,
         "buffers": [{"byteLength": bin.len()}]
     });

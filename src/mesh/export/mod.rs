@@ -1,4 +1,8 @@
-//! Export of layer meshes: binary PLY, OBJ, glTF 2.0 binary (`.glb`).
+//! Export of layer meshes: binary PLY, OBJ (+ MTL + PNG textures), glTF 2.0 binary (`.glb`).
+//!
+//! A *scene* is a list of layer meshes in painter's order (farthest first), each named after its layer;
+//! layers without triangles are left out, and a scene with none is an error. One layer is the scene of
+//! one layer ([`to_bytes`]). The layout of each format is in spec §8.9.
 //!
 //! Positions are world positions by default (the manifest's LocalToWorld applied); triangles whose
 //! transform mirrors space (negative determinant) are re-wound so they stay counter-clockwise as seen
@@ -11,9 +15,26 @@ pub mod gltf;
 pub mod obj;
 pub mod ply;
 
+use std::path::{Path, PathBuf};
+
 use glam::{DMat4, DVec3};
 
-use super::{is_pole, LayerMesh};
+use super::{is_pole, LayerMesh, MeshError};
+use crate::layer::LayerImage;
+
+/// One layer of a scene.
+#[derive(Clone, Debug)]
+pub struct SceneLayer<'a> {
+    /// The layer's name: the glTF node and mesh, the OBJ object, group and material.
+    pub name: String,
+    /// The layer's index in the manifest (glTF node `extras.layer`, PLY `layer` property).
+    pub index: usize,
+    pub mesh: &'a LayerMesh,
+    /// The layer's pixels, for the colour.
+    pub image: &'a LayerImage,
+    /// Set when the mesh is a sky dome of this radius ([`super::sky_at`]).
+    pub sky_radius: Option<f64>,
+}
 
 /// A mesh ready to write: per-corner attributes deduplicated into vertices.
 #[derive(Clone, Debug, Default)]
@@ -122,13 +143,13 @@ pub enum Format {
 
 impl Format {
     /// The format of `path`'s extension (`.ply`, `.obj`, `.glb`), case-insensitive.
-    pub fn from_path(path: &std::path::Path) -> Result<Format, super::MeshError> {
+    pub fn from_path(path: &std::path::Path) -> Result<Format, MeshError> {
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         match ext.as_str() {
             "ply" => Ok(Format::Ply),
             "obj" => Ok(Format::Obj),
             "glb" => Ok(Format::Glb),
-            _ => Err(super::MeshError::Export(format!(
+            _ => Err(MeshError::Export(format!(
                 "{}: unknown mesh format (use .ply, .obj or .glb)",
                 path.display()
             ))),
@@ -137,7 +158,7 @@ impl Format {
 }
 
 /// 8-bit sRGB RGB of a layer's colour channels (black where a channel is missing).
-pub fn colour_rgb8(image: &crate::layer::LayerImage) -> Vec<u8> {
+pub fn colour_rgb8(image: &LayerImage) -> Vec<u8> {
     let n = image.width * image.height;
     let ch: Vec<Option<&[f32]>> =
         ["R", "G", "B"].iter().map(|c| image.channel(c).map(|c| c.data.as_slice())).collect();
@@ -152,28 +173,135 @@ pub fn colour_rgb8(image: &crate::layer::LayerImage) -> Vec<u8> {
     out
 }
 
-/// Encode `mesh` in `format`, in world coordinates when `local_to_world` is given (panorama-local
-/// otherwise); glTF output is additionally converted to Y-up.
-pub fn to_bytes(
-    mesh: &LayerMesh,
-    image: &crate::layer::LayerImage,
+/// `names` made safe for file names and OBJ statements (ASCII letters, digits, `-` and `_`; anything
+/// else becomes `_`, an empty name `layerK`) and unique (a repeated one gets `_K`), K the position.
+pub fn safe_names<S: AsRef<str>>(names: &[S]) -> Vec<String> {
+    let mut out: Vec<String> = Vec::with_capacity(names.len());
+    for (k, n) in names.iter().enumerate() {
+        let mut s: String = n
+            .as_ref()
+            .chars()
+            .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+            .collect();
+        if s.is_empty() {
+            s = format!("layer{k}");
+        }
+        while out.contains(&s) {
+            s = format!("{s}_{k}");
+        }
+        out.push(s);
+    }
+    out
+}
+
+/// A scene's files, `(file name, bytes)`, the main file first.
+pub type Files = Vec<(String, Vec<u8>)>;
+
+/// The files of `layers` as a scene in `format` — the main file `STEM.EXT` first (then, for OBJ,
+/// `STEM.mtl` and one `STEM_NAME.png` texture per layer) — and the number of vertices written for each
+/// layer (0 when left out; seam and pole copies included). Positions are in world
+/// coordinates when `local_to_world` is given (panorama-local otherwise); glTF output is additionally
+/// converted to Y-up.
+pub fn scene_files(
+    layers: &[SceneLayer],
     local_to_world: Option<DMat4>,
     format: Format,
-) -> Result<Vec<u8>, super::MeshError> {
-    let local_to_world = local_to_world.unwrap_or(DMat4::IDENTITY);
-    let channel = |name: &str| image.channel(name).map(|c| c.data.as_slice());
+    stem: &str,
+) -> Result<(Files, Vec<usize>), MeshError> {
+    let all = layers;
+    let layers: Vec<&SceneLayer> = all.iter().filter(|l| !l.mesh.triangles.is_empty()).collect();
+    if layers.is_empty() {
+        return Err(MeshError::Export("the mesh has no triangles (no layer has any)".into()));
+    }
+    let mut transform = local_to_world.unwrap_or(DMat4::IDENTITY);
+    if format == Format::Glb {
+        transform = gltf::z_up_to_y_up() * transform;
+    }
+    let meshes: Vec<ExportMesh> = layers.iter().map(|l| prepare_layer(l, transform)).collect();
+    let mut counts = meshes.iter().map(|m| m.positions.len());
+    let vertices =
+        all.iter().map(|l| if l.mesh.triangles.is_empty() { 0 } else { counts.next().unwrap_or(0) });
+    let vertices = vertices.collect();
+    let png =
+        |l: &SceneLayer| gltf::png_rgb8(l.image.width as u32, l.image.height as u32, &colour_rgb8(l.image));
+    let files = match format {
+        Format::Ply => {
+            let parts: Vec<_> =
+                layers.iter().zip(&meshes).map(|(l, m)| (l.index, l.name.as_str(), m)).collect();
+            vec![(format!("{stem}.ply"), ply::to_bytes(&parts))]
+        }
+        Format::Glb => {
+            let pngs = layers.iter().map(|l| png(l)).collect::<Result<Vec<_>, _>>()?;
+            let parts: Vec<_> =
+                layers.iter().zip(&meshes).zip(&pngs).map(|((l, m), p)| (*l, m, p.as_slice())).collect();
+            vec![(format!("{stem}.glb"), gltf::to_glb(&parts)?)]
+        }
+        Format::Obj => {
+            let names = safe_names(&layers.iter().map(|l| &l.name).collect::<Vec<_>>());
+            let textures: Vec<String> = names.iter().map(|n| format!("{stem}_{n}.png")).collect();
+            let parts: Vec<_> = names.iter().map(String::as_str).zip(&meshes).collect();
+            let mtl = format!("{stem}.mtl");
+            let mut files = vec![
+                (format!("{stem}.obj"), obj::to_string(&parts, &mtl).into_bytes()),
+                (mtl, obj::mtl(&names, &textures).into_bytes()),
+            ];
+            for (l, t) in layers.iter().zip(textures) {
+                files.push((t, png(l)?));
+            }
+            files
+        }
+    };
+    Ok((files, vertices))
+}
+
+/// What [`export_scene`] wrote.
+#[derive(Clone, Debug, Default)]
+pub struct Exported {
+    /// The paths written, the main file first.
+    pub files: Vec<PathBuf>,
+    /// Vertices written for each layer (0 when left out; seam and pole copies included).
+    pub vertices: Vec<usize>,
+}
+
+/// Write the scene of `layers` to `path` (its format from its extension), and the OBJ's material
+/// library and textures beside it, each atomically.
+pub fn export_scene(
+    path: &Path,
+    layers: &[SceneLayer],
+    local_to_world: Option<DMat4>,
+) -> Result<Exported, crate::Error> {
+    let format = Format::from_path(path)?;
+    let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("mesh");
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let (files, vertices) = scene_files(layers, local_to_world, format, stem)?;
+    let mut out = Exported { files: Vec::new(), vertices };
+    for (name, bytes) in files {
+        let p = if out.files.is_empty() { path.to_path_buf() } else { dir.join(name) };
+        crate::fsutil::write_bytes_atomic(&p, &bytes)?;
+        out.files.push(p);
+    }
+    Ok(out)
+}
+
+/// Encode one layer's `mesh` in `format`: the main file of the scene of that layer alone (named
+/// `layer`; an OBJ's material library and texture are not returned).
+pub fn to_bytes(
+    mesh: &LayerMesh,
+    image: &LayerImage,
+    local_to_world: Option<DMat4>,
+    format: Format,
+) -> Result<Vec<u8>, MeshError> {
+    let layer = SceneLayer { name: "layer".into(), index: 0, mesh, image, sky_radius: None };
+    Ok(scene_files(&[layer], local_to_world, format, "mesh")?.0.swap_remove(0).1)
+}
+
+/// [`prepare`] with the layer's colour channels.
+fn prepare_layer(l: &SceneLayer, transform: DMat4) -> ExportMesh {
+    let channel = |name: &str| l.image.channel(name).map(|c| c.data.as_slice());
     let (r, g, b) = (channel("R"), channel("G"), channel("B"));
     let colour = |id: u32| -> [f32; 3] {
         let i = id as usize;
         [r, g, b].map(|c| c.and_then(|c| c.get(i).copied()).unwrap_or(0.0))
     };
-    Ok(match format {
-        Format::Ply => ply::to_bytes(&prepare(mesh, local_to_world, &colour)),
-        Format::Obj => obj::to_string(&prepare(mesh, local_to_world, &colour)).into_bytes(),
-        Format::Glb => {
-            let m = prepare(mesh, gltf::z_up_to_y_up() * local_to_world, &colour);
-            let png = gltf::png_rgb8(image.width as u32, image.height as u32, &colour_rgb8(image))?;
-            gltf::to_glb(&m, &png)?
-        }
-    })
+    prepare(l.mesh, transform, &colour)
 }
