@@ -15,8 +15,8 @@ up (camera rotation PANO_ROTATION, verified with the `probe` scene: see docs/eva
 Outputs are cached: <cache-root>/<hash of this file + options>/<scene>/, rendered only when the scene's
 done.json is missing. The last line printed is the corpus directory.
 
-  python scenes.py [--small] [--size 1024x512] [--spp 32] [--views 8] [--view-size 480x270]
-                   [--view-spp 64] [--scenes room,outdoor,extreme] [--cache-root DIR]
+  python scenes.py [--small] [--size 1024x512] [--spp 16] [--views 8] [--view-size 480x270]
+                   [--view-spp 32] [--scenes room,outdoor,extreme] [--cache-root DIR]
 """
 import argparse
 import hashlib
@@ -315,7 +315,7 @@ def setup_render(w, h, spp, denoise, depth_only=False):
     c.use_animated_seed = False
     c.use_adaptive_sampling = False
     c.samples = 1 if depth_only else spp
-    c.max_bounces = 6
+    c.max_bounces = 4
     c.sample_clamp_indirect = 10.0
     # Depth: one sample at the pixel centre (a tiny filter), so no edge pixel averages two surfaces' depths.
     c.filter_width = 0.01 if depth_only else 1.5
@@ -453,10 +453,10 @@ def options(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--small", action="store_true", help="CI preset: 512x256, 3 views per scene, few samples")
     p.add_argument("--size", help="panorama WxH (default 1024x512)")
-    p.add_argument("--spp", type=int, help="panorama samples per pixel (default 32)")
+    p.add_argument("--spp", type=int, help="panorama samples per pixel (default 16)")
     p.add_argument("--views", type=int, help="perspective truth views per scene (default 8)")
     p.add_argument("--view-size", help="view WxH (default 480x270)")
-    p.add_argument("--view-spp", type=int, help="view samples per pixel (default 64)")
+    p.add_argument("--view-spp", type=int, help="view samples per pixel (default 32)")
     p.add_argument("--scenes", default="room,outdoor,extreme")
     p.add_argument("--no-denoise", action="store_true", help="skip OIDN denoising")
     p.add_argument("--seed", type=int, default=10)
@@ -465,7 +465,7 @@ def options(argv=None):
     p.add_argument("--print-dir", action="store_true", help="print the corpus directory and exit")
     o = p.parse_args(argv)
     small = dict(size="512x256", spp=8, views=3, view_size="320x180", view_spp=16)
-    full = dict(size="1024x512", spp=32, views=8, view_size="480x270", view_spp=64)
+    full = dict(size="1024x512", spp=16, views=8, view_size="480x270", view_spp=32)
     for k, v in (small if o.small else full).items():
         if getattr(o, k) is None:
             setattr(o, k, v)
