@@ -205,9 +205,9 @@ def scene_room():
     bpy.ops.mesh.primitive_cone_add(vertices=48, radius1=0.22, radius2=0.06, depth=0.2, location=(0, 0, 1.2))
     finish(bpy.context.active_object, white, smooth=True, fg=True).name = "lamp-shade"
     cube("floor-box", (-0.15, -0.12, -1.4), (0.15, 0.18, -1.25), red)
-    light("bulb", "POINT", (0, 0, 1.05), 150, size=0.05, colour=(1, 0.9, 0.75))
-    light("panel", "AREA", (1.5, -0.5, 1.58), 400, size=1.0)
-    light("fill", "POINT", (-2.0, 2.0, 0.8), 80, size=0.2)
+    light("bulb", "POINT", (0, 0, 1.05), 15, size=0.05, colour=(1, 0.9, 0.75))
+    light("panel", "AREA", (1.5, -0.5, 1.58), 50, size=1.0)
+    light("fill", "POINT", (-2.0, 2.0, 0.8), 12, size=0.2)
     world(colour=(0.05, 0.05, 0.06))
 
 
@@ -215,7 +215,7 @@ def scene_outdoor():
     ground = material("ground", "checker", (0.35, 0.4, 0.25), (0.2, 0.25, 0.15), scale=0.5, rough=0.9)
     plane("ground", 400, -1.6).data.materials.append(ground)
     bpy.data.objects["ground"]["fg"] = False
-    facade = material("facade", "brick", (0.6, 0.35, 0.25), (0.45, 0.3, 0.2), scale=0.8)
+    facade = material("facade", "checker", (0.6, 0.35, 0.25), (0.3, 0.2, 0.15), scale=0.6)
     concrete = material("concrete", "checker", (0.7, 0.7, 0.68), (0.45, 0.47, 0.5), scale=0.4)
     for i, (cx, cy, w, d, h, m) in enumerate([(12, 6, 4, 5, 8, facade), (-20, 15, 8, 6, 12, concrete),
                                               (25, -18, 6, 6, 6, facade), (-8, -30, 10, 6, 15, concrete),
@@ -230,7 +230,7 @@ def scene_outdoor():
     cylinder("post", (3, 2, -0.6), 0.05, 2.0, blue)
     sphere("seam", (-5, 0, -0.6), 1.0, green)  # azimuth +-180 degrees
     cube("near", (0.3, 0.15, -0.6), (0.5, 0.35, -0.4), red)  # ~0.5 m from the centre
-    light("sun", "SUN", (0, 0, 10), 3.0, size=math.radians(1.0), rot=(math.radians(40), 0, math.radians(30)))
+    light("sun", "SUN", (0, 0, 10), 2.0, size=math.radians(1.0), rot=(math.radians(40), 0, math.radians(30)))
     world(sky=True)
 
 
@@ -246,7 +246,7 @@ def scene_extreme():
     for i, (x, y) in enumerate([(2.0, 1.0), (-1.5, 2.5), (3.5, -2.0), (-4.0, -3.0)]):
         cylinder(f"pole{i}", (x, y, 0.4), 0.01, 4.0, metal, seg=16)
     cylinder("wire", (3.0, 0.0, 1.2), 0.005, 8.0, metal, rot=(math.radians(90), 0, 0), seg=12)
-    light("sun", "SUN", (0, 0, 10), 3.0, size=math.radians(1.0), rot=(math.radians(50), 0, math.radians(-40)))
+    light("sun", "SUN", (0, 0, 10), 2.0, size=math.radians(1.0), rot=(math.radians(50), 0, math.radians(-40)))
     world(sky=True)
 
 
