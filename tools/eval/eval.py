@@ -812,12 +812,31 @@ def write_doc(block):
         f.write(text)
 
 
+def realistic(mode, results):
+    """The path-traced corpus (tools/eval/realistic/run.py, --small in quick mode): its figures are kept
+    as they are (results.json, results.md under the target dir), summarised here."""
+    cmd = [sys.executable, os.path.join(ROOT, "tools", "eval", "realistic", "run.py")] + (["--small"] if mode == "quick" else [])
+    env = {**os.environ, "POMC_BIN": os.environ.get("POMC_BIN", POMC), "POMC_FIXTURES_BIN": os.environ.get("POMC_FIXTURES_BIN", FIX)}
+    log("realistic corpus: " + " ".join(cmd[1:]))
+    p = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    sys.stdout.write(p.stdout[-4000:])
+    if p.returncode != 0:
+        results["notes"].append(f"realistic corpus failed ({p.returncode}): {p.stderr.strip()[-300:]}")
+        return
+    verdicts = [line for line in p.stdout.splitlines() if line.startswith(("PASS ", "FAIL "))]
+    where = next((line.split("results in ", 1)[1] for line in p.stdout.splitlines() if "results in " in line), "")
+    results["realistic"] = {"pass": sum(v.startswith("PASS") for v in verdicts),
+                            "fail": [v[5:] for v in verdicts if v.startswith("FAIL")], "results": where}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="small run (2 scenes, 1024 px, fewer views)")
     ap.add_argument("--full", action="store_true", help="large run (cube diagonals, 4 views per eye, more sweeps)")
     ap.add_argument("--work", default=None, help="work directory (default: a temporary one, removed)")
-    ap.add_argument("--only", default="main,sweeps,convert,mesh", help="stages to run (comma separated)")
+    ap.add_argument("--only", default="main,sweeps,convert,mesh",
+                    help="stages to run (comma separated); `realistic` (the path-traced corpus, needs Blender's "
+                         "bpy: tools/eval/realistic/run.py) runs only when named")
     ap.add_argument("--no-docs", action="store_true", help="do not write docs/")
     a = ap.parse_args()
     mode = "quick" if a.quick else "full" if a.full else "default"
@@ -853,6 +872,8 @@ def main():
             peers_convert(cfg, work, results)
         if "mesh" in stages:
             peers_mesh(cfg, work, results)
+        if "realistic" in stages:
+            realistic(mode, results)
     finally:
         if not a.work:
             shutil.rmtree(work, ignore_errors=True)

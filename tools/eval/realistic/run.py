@@ -1,0 +1,325 @@
+#!/usr/bin/env python3
+"""Driver of the realistic (path-traced) corpus: render or reuse the cached corpus (scenes.py), build each
+scene with `pomc build`, validate, mesh (+ glTF-Validator), render every truth view with both methods
+from the build and from the two-layer reference, score against the Blender views, check issue 10's
+figures (PASS/FAIL), write results.json and results.md.
+
+  python3 tools/eval/realistic/run.py [--small] [--check] [--scenes room,outdoor,extreme] [--work DIR]
+                                      [scenes.py options: --size --spp --views --view-size --view-spp]
+Environment: POMC_BIN (default: cargo build --release -p pomc-cli), POMC_FIXTURES_BIN (default: cargo
+build -p pomc-fixtures), BPY_PYTHON (a Python with bpy; default: this one if it has bpy, else a venv
+created under the target dir with bpy==5.0.1, numpy, OpenEXR), POMC_GLTF_VALIDATOR (node_modules with
+gltf-validator; default: npm-installed under the target dir, skipped when npm is missing).
+Exit status: 1 when a figure fails and --check is given, else 0 (2 on a broken run).
+"""
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
+TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
+VENV = os.path.join(TARGET, "bpy-venv")
+PYDEPS = ["bpy==5.0.1", "numpy<2", "OpenEXR==3.5.3"]
+RADIUS = 0.9
+
+
+def log(msg):
+    print(f"[realistic {time.strftime('%H:%M:%S')}] {msg}", flush=True)
+
+
+def has(py, mods):
+    return subprocess.run([py, "-c", f"import {mods}"], capture_output=True).returncode == 0
+
+
+def bpy_python():
+    """A Python with bpy, numpy and OpenEXR: $BPY_PYTHON, this one, or a venv under the target dir."""
+    for py in (os.environ.get("BPY_PYTHON"), sys.executable, os.path.join(VENV, "bin", "python")):
+        if py and os.path.exists(py) and has(py, "bpy, numpy, OpenEXR"):
+            return py
+    base = shutil.which("python3.11") or "python3"  # the bpy 5.0 wheels are for CPython 3.11
+    log(f"creating {VENV} ({base}) with {' '.join(PYDEPS)}")
+    subprocess.run([base, "-m", "venv", VENV], check=True)
+    py = os.path.join(VENV, "bin", "python")
+    subprocess.run([py, "-m", "pip", "install", "-q", *PYDEPS], check=True)
+    return py
+
+
+# Scoring needs numpy and OpenEXR: re-run under the bpy Python when this one lacks them.
+try:
+    import numpy as np
+    import OpenEXR
+except ImportError:
+    if __name__ == "__main__" and not os.environ.get("_REALISTIC_REEXEC"):
+        py = bpy_python()
+        os.environ["_REALISTIC_REEXEC"] = "1"
+        os.execv(py, [py, os.path.abspath(__file__), *sys.argv[1:]])
+    raise
+
+
+def run(cmd, check=True):
+    t = time.perf_counter()
+    p = subprocess.run([str(c) for c in cmd], capture_output=True, text=True)
+    dt = time.perf_counter() - t
+    if check and p.returncode != 0:
+        raise RuntimeError(f"command failed ({p.returncode}): {' '.join(map(str, cmd))}\n{p.stderr[-2000:]}")
+    return p, dt
+
+
+def binaries():
+    pomc, fix = os.environ.get("POMC_BIN"), os.environ.get("POMC_FIXTURES_BIN")
+    pkgs = ([] if pomc else ["-p", "pomc-cli"]) + ([] if fix else ["-p", "pomc-fixtures"])
+    if pkgs:
+        log("cargo build --release " + " ".join(pkgs))
+        subprocess.run(["cargo", "build", "--release", "-q", *pkgs], cwd=ROOT, check=True)
+    rel = os.path.join(TARGET, "release")
+    return pomc or os.path.join(rel, "pomc"), fix or os.path.join(rel, "pomc-fixtures")
+
+
+def gltf_validator():
+    """node + the node_modules holding gltf-validator, or None (the check is then skipped)."""
+    node = shutil.which("node")
+    mods = os.environ.get("POMC_GLTF_VALIDATOR")
+    if not node:
+        return None
+    if not mods:
+        d = os.path.join(TARGET, "gltf-validator")
+        mods = os.path.join(d, "node_modules")
+        if not os.path.isdir(os.path.join(mods, "gltf-validator")) and shutil.which("npm"):
+            os.makedirs(d, exist_ok=True)
+            subprocess.run(["npm", "install", "--silent", "--no-audit", "--no-fund", "gltf-validator"], cwd=d,
+                           capture_output=True)
+    return (node, mods) if os.path.isdir(os.path.join(mods, "gltf-validator")) else None
+
+
+# ---------------------------------------------------------------- images and scores
+
+def read_rgb(path):
+    ch = OpenEXR.File(path, separate_channels=True).channels()
+    return np.stack([ch[k].pixels for k in "RGB"], -1).astype(np.float64)
+
+
+def srgb(x):
+    x = np.clip(np.nan_to_num(x, nan=0.0), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+
+
+def psnr(a, b):
+    mse = float(((a - b) ** 2).mean())
+    return 99.0 if mse == 0 else 10 * np.log10(1.0 / mse)
+
+
+def ssim(a, b):
+    """Mean SSIM of the luma (Gaussian window sigma 1.5, the usual constants)."""
+    w = np.array([0.2126, 0.7152, 0.0722])
+    x, y = a @ w, b @ w
+    g = np.exp(-0.5 * (np.arange(-5, 6) / 1.5) ** 2)
+    g /= g.sum()
+
+    def blur(im):
+        im = np.apply_along_axis(lambda r: np.convolve(r, g, mode="same"), 1, im)
+        return np.apply_along_axis(lambda c: np.convolve(c, g, mode="same"), 0, im)
+
+    mx, my = blur(x), blur(y)
+    sxx, syy, sxy = blur(x * x) - mx * mx, blur(y * y) - my * my, blur(x * y) - mx * my
+    c1, c2 = 0.01 ** 2, 0.03 ** 2
+    s = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
+    return float(s[5:-5, 5:-5].mean())
+
+
+def score(out, truth):
+    raw = read_rgb(out)
+    nans = int(np.isnan(raw).sum())
+    a, b = srgb(raw), srgb(read_rgb(truth))
+    return dict(psnr=round(psnr(a, b), 2), ssim=round(ssim(a, b), 4), nan=nans)
+
+
+# ---------------------------------------------------------------- one scene
+
+def validate(pomc, pano):
+    p, _ = run([pomc, "validate", pano, "--json"], check=False)
+    try:
+        r = json.loads(p.stdout)
+    except json.JSONDecodeError:
+        return dict(errors=-1, warnings=-1, codes=[p.stderr.strip()[-300:]])
+    codes = sorted({f"{i['severity']}:{i['code']}" for i in r.get("issues", [])})
+    return dict(errors=r.get("errors", 0), warnings=r.get("warnings", 0), codes=codes)
+
+
+def build(pomc, colour, depth, out):
+    shutil.rmtree(out, ignore_errors=True)
+    p, dt = run([pomc, "build", "--colour", colour, "--depth", depth, "--convention", "blender",
+                 "--freedom-radius", RADIUS, "-o", out, "--json"])
+    rep = json.loads(p.stdout)
+    layers = rep.get("layers")
+    return dict(seconds=round(dt, 3), layers=len(layers) if isinstance(layers, list) else layers)
+
+
+def render(pomc, pano, out, cam, method):
+    w, h = cam["size"]
+    f = lambda v: ",".join(f"{x:g}" for x in v)  # noqa: E731
+    # `--eye=x,y,z`: a value starting with '-' must not be taken for an option.
+    p, dt = run([pomc, "render", pano, "-o", out, "--method", method, f"--eye={f(cam['eye'])}",
+                 f"--look-at={f(cam['look_at'])}", f"--up={f(cam['up'])}", f"--fov={cam['fov']:g}", "--size",
+                 f"{w}x{h}", "--json"], check=False)
+    if p.returncode != 0:
+        return dict(error=p.stderr.strip()[-300:], seconds=round(dt, 3))
+    r = json.loads(p.stdout)
+    return dict(holes=r.get("holes"), hole_ratio=r.get("hole_ratio"), seconds=round(dt, 3),
+                total_s=r.get("stages", {}).get("total_s"))
+
+
+def run_scene(name, src, work, pomc, fix, gltf):
+    os.makedirs(work, exist_ok=True)
+    res = dict(scene=name, corpus=src)
+    log(f"{name}: build")
+    pano, ref = os.path.join(work, "pano"), os.path.join(work, "reference")
+    res["build"] = build(pomc, os.path.join(src, "colour.exr"), os.path.join(src, "depth.exr"), pano)
+    res["validate"] = validate(pomc, pano)
+    # Two-layer reference: pomc build on the true background, plus the full render's foreground on top.
+    res["reference_build"] = build(pomc, os.path.join(src, "bg_colour.exr"), os.path.join(src, "bg_depth.exr"), ref)
+    run([fix, "add-layer", ref, os.path.join(src, "colour.exr"), os.path.join(src, "depth.exr"),
+         "--where-nearer-than", os.path.join(src, "bg_depth.exr")])
+    res["reference_validate"] = validate(pomc, ref)
+    log(f"{name}: mesh")
+    glb = os.path.join(work, "scene.glb")
+    p, dt = run([pomc, "mesh", pano, "-o", glb, "--json"], check=False)
+    res["mesh"] = dict(ok=p.returncode == 0, seconds=round(dt, 3))
+    if p.returncode != 0:
+        res["mesh"]["error"] = p.stderr.strip()[-300:]
+    elif gltf:
+        node, mods = gltf
+        q = subprocess.run([node, os.path.join(ROOT, "tools", "gltf_validate.mjs"), glb], capture_output=True,
+                           text=True, env={**os.environ, "POMC_GLTF_VALIDATOR": mods})
+        try:
+            res["mesh"]["gltf_errors"] = json.loads(q.stdout)["numErrors"]
+        except (json.JSONDecodeError, KeyError):
+            res["mesh"]["gltf_errors"] = f"validator failed: {q.stderr.strip()[-200:]}"
+    cams = json.load(open(os.path.join(src, "cameras.json")))["views"]
+    res["views"] = []
+    for i, cam in enumerate(cams):
+        v = dict(view=i, eye=cam["eye"], look_at=cam["look_at"], up=cam["up"], fov=cam["fov"],
+                 radius=round(float(np.linalg.norm(cam["eye"])), 3))
+        truth = os.path.join(src, cam["file"])
+        for system, pdir in (("pomc", pano), ("ref", ref)):
+            for method in ("splat", "mesh"):
+                out = os.path.join(work, f"{i:02d}-{system}-{method}.exr")
+                r = render(pomc, pdir, out, cam, method)
+                if "error" not in r:
+                    r.update(score(out, truth))
+                v[f"{system}_{method}"] = r
+        log(f"{name}: view {i:02d} r={v['radius']:.2f} " + " ".join(
+            f"{k}={v[k].get('psnr', 'ERR')}" for k in ("pomc_splat", "pomc_mesh", "ref_splat", "ref_mesh")))
+        res["views"].append(v)
+    return res
+
+
+# ---------------------------------------------------------------- figures
+
+def checks(res):
+    """Issue 10's figures for one scene: a list of (figure, PASS/FAIL, detail)."""
+    out = []
+    add = lambda fig, ok, detail: out.append((fig, "PASS" if ok else "FAIL", detail))  # noqa: E731
+    for method in ("splat", "mesh"):
+        rs = [(v["view"], v[f"pomc_{method}"], v[f"ref_{method}"]) for v in res["views"]]
+        err = [i for i, r, _ in rs if "error" in r]
+        add(f"{method}: every view renders", not err, f"failed views {err}" if err else "")
+        ok = [(i, r, q) for i, r, q in rs if "error" not in r]
+        bad = [f"{i}:{100 * r['hole_ratio']:.3f}%" for i, r, _ in ok if r["hole_ratio"] > 0.001]
+        add(f"{method}: holes <= 0.1 %", not bad and not err, " ".join(bad))
+        bad = [f"{i}:{r['psnr']:.1f}<{q['psnr']:.1f}-1" for i, r, q in ok if "psnr" in q and r["psnr"] < q["psnr"] - 1]
+        add(f"{method}: PSNR >= reference - 1 dB", not bad and not err, " ".join(bad))
+        bad = [f"{i}:{r['nan']}" for i, r, _ in ok if r["nan"]]
+        add(f"{method}: no NaN", not bad and not err, " ".join(bad))
+        t = [r["seconds"] for _, r, _ in ok]
+        ratio = max(t) / statistics.median(t) if t else float("inf")
+        add(f"{method}: max/median view time <= 2", ratio <= 2, f"{ratio:.2f}")
+    bad = []
+    for v in res["views"]:
+        a, b = v["pomc_splat"], v["pomc_mesh"]
+        if "psnr" in a and "psnr" in b and abs(a["psnr"] - b["psnr"]) > 1:
+            bad.append(f"{v['view']}:{a['psnr']:.1f}/{b['psnr']:.1f}")
+    add("|PSNR(splat) - PSNR(mesh)| <= 1 dB", not bad, " ".join(bad))
+    m = res["mesh"]
+    add("pomc mesh succeeds", m["ok"], m.get("error", "")[:120])
+    g = m.get("gltf_errors")
+    add("glTF-Validator 0 errors", g == 0, "no .glb" if not m["ok"] else "skipped (no validator)" if g is None else str(g))
+    add("mesh time <= build time", m["ok"] and m["seconds"] <= res["build"]["seconds"],
+        f"{m['seconds']:.2f} s vs {res['build']['seconds']:.2f} s")
+    for key in ("validate", "reference_validate"):
+        val = res[key]
+        add(f"pomc validate {'(reference) ' if key != 'validate' else ''}0 errors, 0 warnings",
+            val["errors"] == 0 and val["warnings"] == 0, f"{val['errors']} E / {val['warnings']} W {' '.join(val['codes'])}")
+    return out
+
+
+def markdown(results):
+    fmt = lambda r: "fail" if "error" in r else f"{r['psnr']:.2f} / {r['ssim']:.3f} / {100 * r['hole_ratio']:.3f} % / {r['seconds']:.2f} s"  # noqa: E731,E501
+    lines = ["| scene | view | eye radius | fov | pomc splat | pomc mesh | reference splat | reference mesh |",
+             "|---|---|---|---|---|---|---|---|"]
+    for res in results:
+        for v in res["views"]:
+            lines.append(f"| {res['scene']} | {v['view']:02d} | {v['radius']:.2f} | {v['fov']:g} | " + " | ".join(
+                fmt(v[k]) for k in ("pomc_splat", "pomc_mesh", "ref_splat", "ref_mesh")) + " |")
+    lines += ["", "Cells: PSNR dB (sRGB, clipped) / SSIM / holes / wall time of `pomc render`.", "",
+              "| scene | build s | layers | validate E/W | reference E/W | mesh s | glTF errors |", "|---|---|---|---|---|---|---|"]
+    for res in results:
+        m = res["mesh"]
+        lines.append(f"| {res['scene']} | {res['build']['seconds']:.2f} | {res['build']['layers']} | "
+                     f"{res['validate']['errors']}/{res['validate']['warnings']} | "
+                     f"{res['reference_validate']['errors']}/{res['reference_validate']['warnings']} | "
+                     f"{m['seconds']:.2f}{'' if m['ok'] else ' (failed)'} | {m.get('gltf_errors', '-')} |")
+    lines += ["", "| scene | figure | result | detail |", "|---|---|---|---|"]
+    for res in results:
+        for fig, verdict, detail in res["checks"]:
+            lines.append(f"| {res['scene']} | {fig} | {verdict} | {detail.replace('|', '/')} |")
+    return "\n".join(lines) + "\n"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--check", action="store_true", help="exit 1 when a figure fails")
+    ap.add_argument("--small", action="store_true", help="CI preset of scenes.py")
+    ap.add_argument("--scenes", default="room,outdoor,extreme")
+    ap.add_argument("--work", default=os.path.join(TARGET, "realistic-eval"))
+    for opt in ("--size", "--spp", "--views", "--view-size", "--view-spp"):
+        ap.add_argument(opt)
+    o = ap.parse_args()
+    pomc, fix = binaries()
+    py = bpy_python()
+    sc = [py, os.path.join(HERE, "scenes.py"), "--scenes", o.scenes] + (["--small"] if o.small else [])
+    for opt in ("size", "spp", "views", "view_size", "view_spp"):
+        if getattr(o, opt):
+            sc += [f"--{opt.replace('_', '-')}", getattr(o, opt)]
+    log("corpus: " + " ".join(sc[1:]))
+    p = subprocess.run(sc, stdout=subprocess.PIPE, text=True)
+    if p.returncode != 0:
+        sys.exit(f"scenes.py failed ({p.returncode})")
+    corpus = p.stdout.strip().splitlines()[-1]
+    log(f"corpus in {corpus}")
+    gltf = gltf_validator()
+    work = os.path.join(o.work, os.path.basename(corpus))
+    results = []
+    for name in o.scenes.split(","):
+        res = run_scene(name, os.path.join(corpus, name), os.path.join(work, name), pomc, fix, gltf)
+        res["checks"] = checks(res)
+        results.append(res)
+    json.dump(dict(corpus=corpus, pomc=pomc, results=results), open(os.path.join(work, "results.json"), "w"), indent=1)
+    md = markdown(results)
+    open(os.path.join(work, "results.md"), "w").write(md)
+    print(md)
+    fails = [(r["scene"], f) for r in results for f, v, _ in r["checks"] if v == "FAIL"]
+    for r in results:
+        for fig, verdict, detail in r["checks"]:
+            print(f"{verdict} {r['scene']}: {fig} {detail}")
+    log(f"{len(fails)} figure(s) FAIL; results in {work}/results.json, results.md")
+    sys.exit(1 if fails and o.check else 0)
+
+
+if __name__ == "__main__":
+    main()
