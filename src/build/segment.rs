@@ -184,8 +184,9 @@ const SPECK_MAX: u32 = 256;
 /// occlusion graph) are ordered by mean depth, far to near, to break it. A relation between
 /// components always counts, whatever the means: a distant building occludes the ground behind it
 /// although the ground as a whole is nearer on average. A segment that occludes nothing takes the
-/// level of the larger segment it shares the longest fold with: a box face next to the rest of
-/// the box stays with the box, while the floor a box stands on does not follow the box.
+/// level of the larger segment it shares the longest fold with, unless that would put it level with
+/// (or above) a segment in front of it — then the next fold partner's: a box face next to the rest
+/// of the box stays with the box, while the floor a box stands on does not follow the box.
 fn levels(
     count: usize,
     mean: &[f64],
@@ -232,6 +233,14 @@ fn levels(
         }
     }
     let occluder: Vec<bool> = behind.iter().map(|l| !l.is_empty()).collect();
+    // What occludes each segment: a free segment never joins the level of one in front of it
+    // (the layer would hold both sides of their jump).
+    let mut in_front: Vec<Vec<u32>> = vec![Vec::new(); count];
+    for (near, list) in behind.iter().enumerate() {
+        for &far in list {
+            in_front[far as usize].push(near as u32);
+        }
+    }
     let mut attached: Vec<Vec<(u32, u32)>> = vec![Vec::new(); count];
     for (&(a, b), &c) in folds {
         if size[b as usize] > size[a as usize] {
@@ -250,7 +259,8 @@ fn levels(
             if occluder[s] {
                 continue;
             }
-            if let Some(&(_, other)) = attached[s].first() {
+            let below_front = |l: u32| in_front[s].iter().all(|&f| level[f as usize] > l);
+            if let Some(&(_, other)) = attached[s].iter().find(|&&(_, o)| below_front(level[o as usize])) {
                 let l = level[other as usize];
                 if level[s] != l {
                     level[s] = l;
