@@ -5,7 +5,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::continuity::continuous;
-use crate::mapping::{opposite, Neighbours};
+use crate::mapping::{opposite, Neighbours, OFFSETS};
 
 /// Tuning of the discontinuity tests.
 #[derive(Clone, Copy, Debug)]
@@ -35,6 +35,11 @@ pub enum Link {
     Fold,
     /// Depth jumps: different surfaces; the nearer one occludes the farther.
     Jump,
+}
+
+/// Index into [`OFFSETS`] of a 4-neighbour offset.
+fn axis(dx: i32, dy: i32) -> usize {
+    OFFSETS.iter().position(|&o| o == (dx, dy)).expect("a 4-neighbour offset")
 }
 
 /// Depth usable by the tests: finite and positive, or +inf for content treated as infinitely far.
@@ -74,6 +79,33 @@ impl Links {
                 (u, j)
             })
             .unzip();
+        // A diagonal step is one surface when it is by the 4-neighbours around it: the last row of
+        // a grazing floor beside a wall has no plane to follow along the diagonal (the pixel behind
+        // is the wall, the one beyond is past the floor's end), but does along the row and column.
+        let straight = |p: usize, k: usize| (usable[p] & !jump[p]) >> k & 1 == 1;
+        let jump: Vec<u8> = (0..nb.len())
+            .into_par_iter()
+            .map(|p| {
+                let mut j = jump[p];
+                for k in 4..8 {
+                    if j >> k & 1 == 0 {
+                        continue;
+                    }
+                    let Some(q) = nb.get(p, k) else { continue };
+                    let (dx, dy) = OFFSETS[k];
+                    let (kx, ky) = (axis(dx, 0), axis(0, dy));
+                    let around = |first: usize, then: usize| {
+                        nb.get(p, first).is_some_and(|r| {
+                            straight(p, first) && nb.get(r, then) == Some(q) && straight(r, then)
+                        })
+                    };
+                    if around(kx, ky) || around(ky, kx) {
+                        j &= !(1 << k);
+                    }
+                }
+                j
+            })
+            .collect();
         Links { usable, jump, fold_cos: o.fold_deg.map(|a| a.to_radians().cos() as f32) }
     }
 

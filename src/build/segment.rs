@@ -115,6 +115,31 @@ pub fn segment(
             }
         }
     }
+    let id = compact(&mut dsu, n, &finite);
+    // A segment that occludes itself (a pole standing on the ground with no fold found between them,
+    // a surface curving behind itself) would put both sides of a jump in one layer. Its *front*
+    // pixels — nearer across a jump than a pixel of the same segment — are cut from the rest of it,
+    // so the near side becomes a segment of its own that occludes the far side.
+    let front: Vec<bool> = (0..n)
+        .into_par_iter()
+        .map(|p| {
+            id[p] != NO_SEGMENT
+                && (0..8).any(|k| {
+                    links.is_jump(p, k) && nb.get(p, k).is_some_and(|q| id[q] == id[p] && depth[q] > depth[p])
+                })
+        })
+        .collect();
+    let mut dsu = Dsu::new(n);
+    for (p, &(smooth, _, _)) in masks.iter().enumerate() {
+        for (i, &k) in HALF.iter().enumerate() {
+            if smooth >> i & 1 == 1 {
+                let q = nb.get(p, k).expect("link implies a neighbour");
+                if front[p] == front[q] || id[p] != id[q] {
+                    dsu.union(p as u32, q as u32);
+                }
+            }
+        }
+    }
     // Compact ids.
     let mut id = vec![NO_SEGMENT; n];
     // Indexed by root pixel: a plain table beats hashing 8M pixels.
@@ -172,6 +197,24 @@ pub fn segment(
     occludes.sort_unstable();
     let level = levels(count, &mean, &size, &occludes, &folds);
     Segments { id, level, size, occludes }
+}
+
+/// Segment id per finite pixel from a union-find over the continuous links (ids in pixel order).
+fn compact(dsu: &mut Dsu, n: usize, finite: &dyn Fn(usize) -> bool) -> Vec<u32> {
+    let mut id = vec![NO_SEGMENT; n];
+    let mut root_to_id = vec![NO_SEGMENT; n];
+    let mut next = 0u32;
+    for p in 0..n {
+        if finite(p) {
+            let r = dsu.find(p as u32) as usize;
+            if root_to_id[r] == NO_SEGMENT {
+                root_to_id[r] = next;
+                next += 1;
+            }
+            id[p] = root_to_id[r];
+        }
+    }
+    id
 }
 
 /// A segment behind another that is over `SPECK` times larger, and smaller than `SPECK_MAX` pixels,

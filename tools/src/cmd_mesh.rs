@@ -5,6 +5,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use pomc::layer::LayerImage;
 use pomc::layer_io::ReadLimits;
 use pomc::mapping::{AnyMapping, MappingKind};
@@ -139,11 +141,14 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         Some(k) => vec![k],
         None => pano.manifest.painter_order(),
     };
-    let mut images = Vec::with_capacity(order.len());
-    for &k in &order {
-        let t = Instant::now();
-        images.push((pano.read_layer(k, &limits)?, ms(t)));
-    }
+    // Layers are read and meshed in parallel: one layer's stages do not keep both cores busy.
+    let images = order
+        .par_iter()
+        .map(|&k| {
+            let t = Instant::now();
+            Ok((pano.read_layer(k, &limits)?, ms(t)))
+        })
+        .collect::<Result<Vec<_>, Failure>>()?;
     // The default radius depends on every layer's depths, also when one layer is meshed.
     let sky_radius = match args.sky_radius {
         Some(r) => r,
@@ -154,15 +159,18 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         }
         None => mesh::default_sky_radius(images.iter().map(|i| &i.0)),
     };
-    let mut layers = Vec::with_capacity(order.len());
-    for (&k, (image, read_ms)) in order.iter().zip(images) {
-        spin.set_message(format!("meshing layer {k}"));
-        let decl = &pano.manifest.layers[k];
-        let mut l = mesh_one(&args, &params, &pano, image, sky_radius)?;
-        l.name = decl.name.clone().unwrap_or_else(|| format!("layer{k}"));
-        (l.index, l.role, l.times[0]) = (k, decl.role.map(|r| r.as_str()), read_ms);
-        layers.push(l);
-    }
+    spin.set_message(format!("meshing {} layer(s)", order.len()));
+    let layers = order
+        .par_iter()
+        .zip(images)
+        .map(|(&k, (image, read_ms))| {
+            let decl = &pano.manifest.layers[k];
+            let mut l = mesh_one(&args, &params, &pano, image, sky_radius)?;
+            l.name = decl.name.clone().unwrap_or_else(|| format!("layer{k}"));
+            (l.index, l.role, l.times[0]) = (k, decl.role.map(|r| r.as_str()), read_ms);
+            Ok(l)
+        })
+        .collect::<Result<Vec<_>, Failure>>()?;
     let mut export_ms = 0.0;
     let mut exported = export::Exported::default();
     if let Some(path) = &args.output {
