@@ -161,6 +161,22 @@ pub fn default_sky_radius<'a>(images: impl IntoIterator<Item = &'a LayerImage>) 
     }
 }
 
+/// Relative error the sky dome is meshed to. The dome stands for directions, not a surface: its
+/// radius error moves nothing a camera inside the freedom radius sees, so only the angle cap (texture
+/// distortion) bounds its triangles; the layer tolerance would spend thousands of triangles on a sphere.
+pub const SKY_MAX_ERROR: f64 = 0.05;
+
+/// `p` for the sky dome: [`SKY_MAX_ERROR`] (or `p`'s own, if looser) in both stages, the rest as given.
+pub fn sky_params(p: &MeshParams) -> MeshParams {
+    let loose = |e: f64| e.max(SKY_MAX_ERROR);
+    let mut q = p.clone();
+    q.max_error = q.max_error.map(loose);
+    if let Some(s) = &mut q.simplify {
+        s.max_error = loose(s.max_error);
+    }
+    q
+}
+
 /// Whether `image` has infinitely far samples (`Z = +∞` inside its domain, spec §4.3): the sky.
 pub fn has_sky(image: &LayerImage) -> bool {
     samples(image).any(|s| s == Sample::Infinite)

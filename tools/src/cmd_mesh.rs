@@ -253,7 +253,10 @@ fn mesh_one(
 ) -> Result<Layer, Failure> {
     let mapping = mapping_of(pano, &image)?;
     let dome = mesh::sky_at(&image, sky_radius)?;
-    let meshed = mesh::mesh_layer(dome.as_ref().unwrap_or(&image), &mapping, params)?;
+    let meshed = match &dome {
+        Some(d) => mesh::mesh_layer(d, &mapping, &mesh::sky_params(params))?,
+        None => mesh::mesh_layer(&image, &mapping, params)?,
+    };
     let t = Instant::now();
     // The encoding stores the quadtrees of the layer itself (the dome is not part of it); lattices
     // meshed by greedy insertion have none yet, so they are built only when the encoding is stored.
