@@ -4,13 +4,17 @@ scene with `pomc build`, validate, mesh (+ glTF-Validator), render every truth v
 from the build and from the two-layer reference, score against the Blender views, check issue 10's
 figures (PASS/FAIL), write results.json and results.md.
 
-  python3 tools/eval/realistic/run.py [--small] [--check] [--scenes room,outdoor,extreme] [--work DIR]
+  python3 tools/eval/realistic/run.py [--small] [--check|--check-all] [--scenes room,outdoor,extreme] [--work DIR]
                                       [scenes.py options: --size --spp --views --view-size --view-spp]
 Environment: POMC_BIN (default: cargo build --release -p pomc-cli), POMC_FIXTURES_BIN (default: cargo
 build -p pomc-fixtures), BPY_PYTHON (a Python with bpy; default: this one if it has bpy, else a venv
 created under the target dir with bpy==5.0.1, numpy, OpenEXR), POMC_GLTF_VALIDATOR (node_modules with
 gltf-validator; default: npm-installed under the target dir, skipped when npm is missing).
-Exit status: 1 when a figure fails and --check is given, else 0 (2 on a broken run).
+Exit status: 1 when a gated figure fails with --check (every figure with --check-all), else 0 (2 on a
+broken run). Gated (CI): properties of the tools — every view renders, no NaN, splat and mesh within 1 dB,
+`pomc mesh` succeeds, glTF-Validator 0 errors, `pomc validate` 0 errors and 0 warnings on build outputs.
+Reported only: wall-clock figures (never asserted on a shared machine), holes and PSNR against the
+reference (fill quality, which the corpus measures rather than guarantees).
 """
 import argparse
 import json
@@ -221,6 +225,15 @@ def run_scene(name, src, work, pomc, fix, gltf):
 
 # ---------------------------------------------------------------- figures
 
+# Figures `--check` enforces (see the module doc); the others are reported.
+GATED = ("every view renders", "no NaN", "|PSNR(splat) - PSNR(mesh)|", "pomc mesh succeeds",
+         "glTF-Validator", "pomc validate 0 errors")
+
+
+def gated(fig):
+    return any(g in fig for g in GATED)
+
+
 def checks(res):
     """Issue 10's figures for one scene: a list of (figure, PASS/FAIL, detail)."""
     out = []
@@ -283,7 +296,8 @@ def markdown(results):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--check", action="store_true", help="exit 1 when a figure fails")
+    ap.add_argument("--check", action="store_true", help="exit 1 when a gated figure fails")
+    ap.add_argument("--check-all", action="store_true", help="exit 1 when any figure fails")
     ap.add_argument("--small", action="store_true", help="CI preset of scenes.py")
     ap.add_argument("--scenes", default="room,outdoor,extreme")
     ap.add_argument("--work", default=os.path.join(TARGET, "realistic-eval"))
@@ -316,9 +330,13 @@ def main():
     fails = [(r["scene"], f) for r in results for f, v, _ in r["checks"] if v == "FAIL"]
     for r in results:
         for fig, verdict, detail in r["checks"]:
-            print(f"{verdict} {r['scene']}: {fig} {detail}")
+            print(f"{verdict} {r['scene']}: {fig} {detail}{'' if gated(fig) else '  (reported)'}")
     log(f"{len(fails)} figure(s) FAIL; results in {work}/results.json, results.md")
-    sys.exit(1 if fails and o.check else 0)
+    enforced = [f for f in fails if o.check_all or gated(f[1])]
+    if o.check or o.check_all:
+        total = sum(1 for r in results for f, _, _ in r["checks"] if o.check_all or gated(f))
+        print(f"realistic: {total - len(enforced)} passed, {len(enforced)} failed")
+    sys.exit(1 if enforced and (o.check or o.check_all) else 0)
 
 
 if __name__ == "__main__":
