@@ -87,12 +87,11 @@ impl Links {
             .into_par_iter()
             .map(|p| {
                 let mut j = jump[p];
-                for k in 4..8 {
+                for (k, &(dx, dy)) in OFFSETS.iter().enumerate().skip(4) {
                     if j >> k & 1 == 0 {
                         continue;
                     }
                     let Some(q) = nb.get(p, k) else { continue };
-                    let (dx, dy) = OFFSETS[k];
                     let (kx, ky) = (axis(dx, 0), axis(0, dy));
                     let around = |first: usize, then: usize| {
                         nb.get(p, first).is_some_and(|r| {

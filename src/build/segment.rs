@@ -201,20 +201,21 @@ pub fn segment(
 
 /// Segment id per finite pixel from a union-find over the continuous links (ids in pixel order).
 fn compact(dsu: &mut Dsu, n: usize, finite: &dyn Fn(usize) -> bool) -> Vec<u32> {
-    let mut id = vec![NO_SEGMENT; n];
     let mut root_to_id = vec![NO_SEGMENT; n];
     let mut next = 0u32;
-    for p in 0..n {
-        if finite(p) {
+    (0..n)
+        .map(|p| {
+            if !finite(p) {
+                return NO_SEGMENT;
+            }
             let r = dsu.find(p as u32) as usize;
             if root_to_id[r] == NO_SEGMENT {
                 root_to_id[r] = next;
                 next += 1;
             }
-            id[p] = root_to_id[r];
-        }
-    }
-    id
+            root_to_id[r]
+        })
+        .collect()
 }
 
 /// A segment behind another that is over `SPECK` times larger, and smaller than `SPECK_MAX` pixels,
