@@ -28,8 +28,8 @@ pub use report::{Issue, Report, Severity};
 pub struct ValidateOptions {
     /// Size limits for layer files (checked from headers before decoding).
     pub limits: ReadLimits,
-    /// Relative depth jump between 4-neighbours of one layer reported as a discontinuity:
-    /// `|a − b| / min(a, b) > jump_threshold`.
+    /// Relative depth step between 4-neighbours of one layer above which they are reported as a
+    /// discontinuity, unless a plane continues across them ([`continuity::continuous`]).
     pub jump_threshold: f64,
     /// Tolerance on `|N| = 1` for normals (half precision stores ~1e-3).
     pub normal_tolerance: f32,
@@ -480,5 +480,46 @@ fn check_coverage(name: &str, domains: &[(AnyMapping, Vec<bool>)], issues: &mut 
             ),
             format!("{name} layer[{finest}] pixel ({x},{y})"),
         ));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layer::SampleType;
+    use glam::DVec3;
+
+    fn layer(m: &AnyMapping, depth: impl Fn(DVec3) -> f32) -> LayerImage {
+        let (w, h) = (m.width(), m.height());
+        let mut img = LayerImage::new(w, h);
+        let z = (0..w * h).map(|p| depth(m.pixel_dir(p % w, p / w))).collect();
+        img.set_channel("Z", SampleType::F32, z);
+        img
+    }
+
+    fn continuity_issues(img: &LayerImage, m: &AnyMapping) -> usize {
+        let mut issues = Vec::new();
+        check_continuity(img, m, &ValidateOptions::default(), "test", &mut issues);
+        issues.len()
+    }
+
+    /// Ground seen at a grazing angle steps by far more than 50 % a row near the horizon, smoothly:
+    /// not a discontinuity (build keeps it one surface by the same rule). A real step is.
+    #[test]
+    fn grazing_ground_is_continuous_and_a_step_is_not() {
+        let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
+        // Ground 1.6 m below, up to 1 km away; a dome of 2 km above.
+        let ground = |d: DVec3| if d.z < -1.6e-3 { (-1.6 / d.z) as f32 } else { 2000.0 };
+        let img = layer(&m, |d| ground(d).min(2000.0));
+        let w = m.width();
+        let rows: Vec<f32> = (60..70).map(|y| img.channel("Z").unwrap().data[y * w]).collect();
+        assert!(rows.windows(2).any(|r| r[0] / r[1] > 1.5 || r[1] / r[0] > 1.5), "{rows:?}");
+        // Only the horizon itself (ground meeting the dome) may step: take the lower hemisphere.
+        let lower = layer(&m, |d| if d.z < -0.02 { ground(d) } else { f32::NAN });
+        let (a, b) = (lower.channel("Z").unwrap().data[65 * w], lower.channel("Z").unwrap().data[66 * w]);
+        assert!(a / b > 1.5, "the first two rows step by {}", a / b);
+        assert_eq!(continuity_issues(&lower, &m), 0);
+        let step = layer(&m, |d| if d.x > 0.9 { 1.0 } else { 3.0 });
+        assert_eq!(continuity_issues(&step, &m), 1);
     }
 }
