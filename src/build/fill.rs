@@ -252,7 +252,8 @@ fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
             .flat_map_iter(|&(q, _, _)| {
                 let (x, y) = (q % w, q / w);
                 let (d, filled) = (&d, &filled);
-                (0..8).filter_map(move |j| {
+                // 4-neighbours, as validate checks: a diagonal step is judged by the steps around it.
+                (0..4).filter_map(move |j| {
                     let r = cx.nb.get_at(x, y, j)?;
                     let (a, b) = (d[q] as f64, at(d, Some(r))?);
                     let behind = at(d, cx.nb.get_at(x, y, opposite(j)));

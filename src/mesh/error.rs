@@ -161,7 +161,8 @@ fn equirect_candidates(e: &Equirect, p: [DVec3; 3]) -> Vec<[usize; 4]> {
 pub fn hit_distances(positions: &[DVec3], triangles: &[[u32; 3]], mapping: &AnyMapping) -> Vec<f64> {
     let (w, h) = (mapping.width(), mapping.height());
     let dirs = DirTable::new(*mapping);
-    let chunk = triangles.len().div_ceil(rayon::current_num_threads().max(1)).max(1);
+    // A full-canvas buffer per chunk: a few chunks keep both cores busy without memory growing with them.
+    let chunk = triangles.len().div_ceil(rayon::current_num_threads().clamp(1, 4)).max(1);
     let cast = |tris: &[[u32; 3]]| {
         let mut hits = vec![f64::INFINITY; w * h];
         for t in tris {

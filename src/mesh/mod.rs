@@ -155,7 +155,8 @@ pub fn default_sky_radius<'a>(images: impl IntoIterator<Item = &'a LayerImage>) 
         })
         .fold(0.0, f64::max);
     if far > 0.0 {
-        SKY_RADIUS_FACTOR * far
+        // Finite as f32 (positions are stored as f32) for any finite depth.
+        (SKY_RADIUS_FACTOR * far).min(f32::MAX as f64 / 16.0)
     } else {
         SKY_RADIUS_FALLBACK
     }

@@ -164,7 +164,9 @@ impl Camera {
         let Camera::Perspective(c) = self else { return false };
         let (hw, hh) = (c.width as f64 / 2.0 + margin, c.height as f64 / 2.0 + margin);
         let all = |f: &dyn Fn(DVec3) -> f64| pts.iter().all(|&p| f(p) > 0.0);
-        all(&|p| c.focal * p.x - hw * p.z)
+        // Behind the eye (the four side planes meet there, so they alone would keep such a hull).
+        all(&|p| -p.z)
+            || all(&|p| c.focal * p.x - hw * p.z)
             || all(&|p| -c.focal * p.x - hw * p.z)
             || all(&|p| c.focal * p.y - hh * p.z)
             || all(&|p| -c.focal * p.y - hh * p.z)
@@ -271,6 +273,21 @@ mod tests {
 
     fn cam(eye: DVec3, at: DVec3, up: DVec3) -> Camera {
         Camera::Perspective(Perspective::new(eye, at, up, 60.0, 96, 54).unwrap())
+    }
+
+    #[test]
+    fn hulls_behind_the_eye_or_beside_the_frustum_are_outside() {
+        let c = cam(DVec3::ZERO, DVec3::X, DVec3::Z);
+        // Camera space: z forward. A square behind the eye spanning left and right, one beside the
+        // frustum in the camera plane, one straddling it across the view, one in view.
+        let behind = [DVec3::new(-1.0, -1.0, -0.5), DVec3::new(1.0, -1.0, -0.5), DVec3::new(1.0, 1.0, -2.0)];
+        let beside = [DVec3::new(5.0, 0.0, 1e-9), DVec3::new(6.0, 1.0, -1e-3), DVec3::new(5.0, -1.0, 0.1)];
+        let across = [DVec3::new(-1.0, 0.0, 2.0), DVec3::new(1.0, 0.0, 2.0), DVec3::new(0.0, 0.5, 2.0)];
+        let ahead = [DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.1, 0.0, 1.0), DVec3::new(0.0, 0.1, 1.0)];
+        assert!(c.hull_outside(&behind, 1.0));
+        assert!(c.hull_outside(&beside, 1.0));
+        assert!(!c.hull_outside(&across, 1.0));
+        assert!(!c.hull_outside(&ahead, 1.0));
     }
 
     #[test]

@@ -397,7 +397,7 @@ impl LayerCtx<'_> {
             // it lands on the output only, so work and sample size follow what is visible.
             let mut done = 0;
             for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
-                let sq = Square { x0: 0.0f64.min(sx * 0.5), y0: 0.0f64.min(sy * 0.5), size: 0.5 };
+                let sq = Rect { x0: 0.0f64.min(sx * 0.5), y0: 0.0f64.min(sy * 0.5), w: 0.5, h: 0.5 };
                 done += self.refine(c, &linked, &own, sq, 1, acc);
             }
             return done;
@@ -444,16 +444,17 @@ impl LayerCtx<'_> {
         1
     }
 
-    /// Adaptive resampling of one square of a pixel's footprint (inside one quadrant, where the
-    /// surface is one bilinear patch, inside the hull of its corners): a square whose hull lies
+    /// Adaptive resampling of one rectangle of a pixel's footprint (inside one quadrant, where the
+    /// surface is one bilinear patch, inside the hull of its corners): a rectangle whose hull lies
     /// outside the view frustum is dropped, one whose projected sides are at most
-    /// [`SplatOptions::spacing`] long is one sample, any other is split in four.
+    /// [`SplatOptions::spacing`] long is one sample, any other is halved across each direction
+    /// whose sides are longer (a grazing sliver L pixels long costs ~L samples, not L²).
     fn refine(
         &self,
         c: &Pt,
         linked: &[Option<&Pt>; 8],
         own: &[Option<DVec3>; 8],
-        sq: Square,
+        sq: Rect,
         depth: u32,
         acc: &mut Accum,
     ) -> u64 {
@@ -461,15 +462,16 @@ impl LayerCtx<'_> {
         if self.camera.hull_outside(&cams, self.o.radius + 1.0) {
             return 0;
         }
-        let (cx, cy) = (sq.x0 + sq.size / 2.0, sq.y0 + sq.size / 2.0);
+        let (cx, cy) = (sq.x0 + sq.w / 2.0, sq.y0 + sq.h / 2.0);
         let q = cams.map(|p| self.camera.project(p));
-        let side = match q {
+        let (along_x, along_y) = match q {
             [Some(a), Some(b), Some(d), Some(e)] => {
-                self.gap(a, b).max(self.gap(b, d)).max(self.gap(d, e)).max(self.gap(e, a))
+                (self.gap(a, b).max(self.gap(e, d)), self.gap(b, d).max(self.gap(e, a)))
             }
             // Straddles the camera plane: split until what projects is sampled finely.
-            _ => f64::INFINITY,
+            _ => (f64::INFINITY, f64::INFINITY),
         };
+        let side = along_x.max(along_y);
         if side <= self.o.spacing {
             return self.emit(c, linked, own, cx, cy, self.o.radius, acc);
         }
@@ -479,11 +481,14 @@ impl LayerCtx<'_> {
             let grow = if side.is_finite() { side / self.o.spacing } else { 1.0 };
             return self.emit(c, linked, own, cx, cy, self.o.radius * grow, acc);
         }
-        let half = sq.size / 2.0;
+        let (nx, ny) = (1 + (along_x > self.o.spacing) as usize, 1 + (along_y > self.o.spacing) as usize);
+        let (w, h) = (sq.w / nx as f64, sq.h / ny as f64);
         let mut done = 0;
-        for (dx, dy) in [(0.0, 0.0), (half, 0.0), (0.0, half), (half, half)] {
-            let child = Square { x0: sq.x0 + dx, y0: sq.y0 + dy, size: half };
-            done += self.refine(c, linked, own, child, depth + 1, acc);
+        for j in 0..ny {
+            for i in 0..nx {
+                let child = Rect { x0: sq.x0 + i as f64 * w, y0: sq.y0 + j as f64 * h, w, h };
+                done += self.refine(c, linked, own, child, depth + 1, acc);
+            }
         }
         done
     }
@@ -539,23 +544,24 @@ fn interpolate(
     (cam, rgb)
 }
 
-/// A square `[x0, x0 + size] × [y0, y0 + size]` of a pixel's footprint, in offsets from its centre.
+/// A rectangle `[x0, x0 + w] × [y0, y0 + h]` of a pixel's footprint, in offsets from its centre.
 #[derive(Clone, Copy, Debug)]
-struct Square {
+struct Rect {
     x0: f64,
     y0: f64,
-    size: f64,
+    w: f64,
+    h: f64,
 }
 
-impl Square {
+impl Rect {
     /// Corners in cyclic order.
     fn corners(&self) -> [(f64, f64); 4] {
-        let (x1, y1) = (self.x0 + self.size, self.y0 + self.size);
+        let (x1, y1) = (self.x0 + self.w, self.y0 + self.h);
         [(self.x0, self.y0), (x1, self.y0), (x1, y1), (self.x0, y1)]
     }
 }
 
-/// Deepest subdivision of a footprint: squares of `2^-16` of a layer pixel.
+/// Deepest subdivision of a footprint: 16 halvings (`2^-16` of a layer pixel along a direction).
 const MAX_REFINE: u32 = 16;
 
 /// One sample ready to filter into the output.

@@ -397,9 +397,11 @@ fn check_continuity(
             for x in 0..w {
                 let i = y * w + x;
                 let Some(a) = depth(i) else { continue };
-                // Right and down: every 4-neighbour pair once.
-                for k in [0, 2] {
-                    let Some(b) = nb.get_at(x, y, k).and_then(depth) else { continue };
+                // Every 4-neighbour pair once (from its lower index: over the poles and cube-face
+                // edges "right" and "down" are not the only directions a pair is seen from).
+                for k in 0..4 {
+                    let Some(q) = nb.get_at(x, y, k).filter(|&q| q > i) else { continue };
+                    let Some(b) = depth(q) else { continue };
                     let behind = nb.get_at(x, y, opposite(k)).and_then(depth);
                     let beyond = nb.get2_at(x, y, k).and_then(depth);
                     if !continuity::continuous(
