@@ -134,7 +134,7 @@ pub fn segment(
         for (i, &k) in HALF.iter().enumerate() {
             if smooth >> i & 1 == 1 {
                 let q = nb.get(p, k).expect("link implies a neighbour");
-                if front[p] == front[q] || id[p] != id[q] {
+                if front[p] == front[q] {
                     dsu.union(p as u32, q as u32);
                 }
             }
