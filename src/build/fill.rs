@@ -18,11 +18,23 @@ use rayon::prelude::*;
 use crate::continuity::continuous;
 use crate::mapping::{opposite, Neighbours};
 
-/// The fill of one layer: extra pixels with their depth and the pixel whose colour they take.
+/// One filled pixel.
+#[derive(Clone, Copy, Debug)]
+pub struct FillPixel {
+    pub pixel: usize,
+    pub depth: f32,
+    /// The visible pixel whose colour it takes (the nearest one, or the exemplar's match).
+    pub colour: usize,
+    /// Its linear RGB: the colour pixel's, or synthesised ([`super::texture`]).
+    pub rgb: [f32; 3],
+    /// The seed whose surface it continues (its plane and normal).
+    pub surface: usize,
+}
+
+/// The fill of one layer: extra pixels, in breadth-first order from the occluders' borders.
 #[derive(Clone, Debug, Default)]
 pub struct Fill {
-    /// (pixel, depth, colour source pixel).
-    pub pixels: Vec<(usize, f32, usize)>,
+    pub pixels: Vec<FillPixel>,
     /// Widest angle (radians) between a filled pixel and its source.
     pub max_angle: f64,
 }
@@ -48,6 +60,8 @@ pub struct FillContext<'a> {
     /// a fill never leaves its layer discontinuous by it.
     pub jump: f64,
     pub plane_tol: f64,
+    /// Input linear RGB, planar.
+    pub rgb: &'a [Vec<f32>; 3],
 }
 
 /// Largest angle (radians) a camera within `r` of the centre can open between an occluding
@@ -215,9 +229,10 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
         // Pixels only fold seeds reach have no rivals.
         let none = [NONE; RIVALS];
         let rival = rivals.get(slot_of[q] as usize).unwrap_or(&none);
-        let (s, d) = pick_surface(cx, &centroid, own, rival, q);
+        let Some((s, d)) = pick_surface(cx, &centroid, own, rival, q) else { continue };
         let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
-        fill.pixels.push((q, d, c));
+        let rgb = [cx.rgb[0][c], cx.rgb[1][c], cx.rgb[2][c]];
+        fill.pixels.push(FillPixel { pixel: q, depth: d, colour: c, rgb, surface: s });
         fill.max_angle = fill.max_angle.max(angle_of[q]);
     }
     keep_continuous(cx, k, &mut fill);
@@ -237,9 +252,9 @@ fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
         .map(|p| if cx.layer_of[p] == k && cx.depth[p] > 0.0 { cx.depth[p] } else { f32::NAN })
         .collect();
     let mut filled = vec![false; n];
-    for &(q, dq, _) in &fill.pixels {
-        d[q] = dq;
-        filled[q] = true;
+    for f in &fill.pixels {
+        d[f.pixel] = f.depth;
+        filled[f.pixel] = true;
     }
     let w = cx.nb.width();
     let at = |d: &[f32], i: Option<usize>| i.map(|i| d[i] as f64).filter(|v| *v > 0.0);
@@ -249,7 +264,8 @@ fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
         let mut drop: Vec<usize> = fill
             .pixels
             .par_iter()
-            .flat_map_iter(|&(q, _, _)| {
+            .flat_map_iter(|f| {
+                let q = f.pixel;
                 let (x, y) = (q % w, q / w);
                 let (d, filled) = (&d, &filled);
                 // 4-neighbours, as validate checks: a diagonal step is judged by the steps around it.
@@ -274,7 +290,7 @@ fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
             d[p] = f32::NAN;
             filled[p] = false;
         }
-        fill.pixels.retain(|&(q, _, _)| filled[q]);
+        fill.pixels.retain(|f| filled[f.pixel]);
     }
 }
 
@@ -284,14 +300,28 @@ fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
 /// nearer hit is the surface; a convex one (a pillar's corner: each surface behind the other's
 /// plane) shows the farther hit. Planes the seeds do not relate (they disagree, or a seed lies
 /// on the other's plane) leave the current choice.
-fn pick_surface(cx: &FillContext, centroid: &[Vec3], own: usize, rivals: &[u32], q: usize) -> (usize, f32) {
-    let mut best = (own, continue_surface(cx, own, q));
+fn pick_surface(
+    cx: &FillContext,
+    centroid: &[Vec3],
+    own: usize,
+    rivals: &[u32],
+    q: usize,
+) -> Option<(usize, f32)> {
+    let mut best = continue_surface(cx, own, q).map(|d| (own, d));
     for &r in rivals {
         let b = r as usize;
-        if r == u32::MAX || same_surface(cx, b, best.0) {
+        if r == u32::MAX {
             continue;
         }
-        let a = best.0;
+        let Some(cur) = best else {
+            // The nearest seed's plane misses the ray: the first rival whose plane it meets.
+            best = plane_hit(cx, b, q).map(|d| (b, d));
+            continue;
+        };
+        if same_surface(cx, b, cur.0) {
+            continue;
+        }
+        let a = cur.0;
         let (na, nb) = (cx.normals[a], cx.normals[b]);
         let (pa, pb) = (cx.dirs[a] * cx.depth[a], cx.dirs[b] * cx.depth[b]);
         // One segment's two faces (a segment can leak round a crease) share one centroid,
@@ -313,8 +343,8 @@ fn pick_surface(cx: &FillContext, centroid: &[Vec3], own: usize, rivals: &[u32],
         let Some(db) = plane_hit(cx, b, q) else { continue };
         let concave = sa > tol && sb > tol;
         let convex = sa < -tol && sb < -tol;
-        if (concave && db < best.1) || (convex && db > best.1) {
-            best = (b, db);
+        if (concave && db < cur.1) || (convex && db > cur.1) {
+            best = Some((b, db));
         }
     }
     best
@@ -348,14 +378,23 @@ fn trusted_plane(cx: &FillContext, p: usize) -> bool {
 }
 
 /// Depth at pixel `q` of the surface of source pixel `s` continued behind the occluder: the ray
-/// through `q` meets the tangent plane at `s`; when it cannot (plane seen edge-on, or behind the
-/// centre), or the hit is implausible, the source's depth is kept.
-fn continue_surface(cx: &FillContext, s: usize, q: usize) -> f32 {
+/// through `q` meets the tangent plane at `s`. A ray that runs away from the plane (the ground,
+/// above its horizon) does not meet the surface: `None`, another surface or a farther layer
+/// shows there. When the hit is implausible (far beyond `s`: a noisy normal seen edge-on) or
+/// there is no normal, the source's depth is kept.
+fn continue_surface(cx: &FillContext, s: usize, q: usize) -> Option<f32> {
     let ds = cx.depth[s];
     if ds.is_infinite() {
-        return f32::INFINITY;
+        return Some(f32::INFINITY);
     }
-    plane_hit(cx, s, q).unwrap_or_else(|| ds.max(cx.depth[q] * 1.0001))
+    if let Some(t) = plane_hit(cx, s, q) {
+        return Some(t);
+    }
+    let nrm = cx.normals[s];
+    if nrm != Vec3::ZERO && nrm.dot(cx.dirs[q]) > -1e-3 {
+        return None;
+    }
+    Some(ds.max(cx.depth[q] * 1.0001))
 }
 
 /// Where the ray through `q` meets the tangent plane at `s`, if it does so plausibly: behind

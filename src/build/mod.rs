@@ -10,6 +10,7 @@ pub mod edges;
 pub mod fill;
 pub mod input;
 pub mod segment;
+pub mod texture;
 
 use std::time::Instant;
 
@@ -23,6 +24,7 @@ use crate::mapping::Neighbours;
 use crate::mapping::{AnyMapping, Mapping, MappingKind};
 use fill::{fill_layer, FillContext};
 use segment::{segment, SegmentOptions, NO_SEGMENT};
+pub use texture::FillColour;
 
 /// A plain RGB-D panorama: one surface per ray.
 #[derive(Clone, Debug)]
@@ -53,6 +55,8 @@ pub struct BuildOptions {
     /// Extra fill band in pixels beyond the parallax band (reconstruction filters reach ~1-2 px).
     pub margin_px: f64,
     pub classify: Classify,
+    /// How the fill is coloured.
+    pub fill_colour: FillColour,
 }
 
 impl Default for BuildOptions {
@@ -66,6 +70,7 @@ impl Default for BuildOptions {
             drop_mixed: true,
             margin_px: 2.0,
             classify: Classify::Depth,
+            fill_colour: FillColour::default(),
         }
     }
 }
@@ -375,9 +380,27 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         surface: &seg.id,
         jump: o.segment.edges.jump,
         plane_tol: o.segment.edges.extrapolation,
+        rgb: &input.rgb,
     };
-    let fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(&cx, k)).collect();
+    let mut fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(&cx, k)).collect();
     lap("fill", &mut stages);
+    if o.fill_colour != FillColour::Nearest {
+        progress("fill colour");
+        let tx = texture::Texture {
+            nb: &nb,
+            dirs: &dirs,
+            depth: &depth,
+            normals: &normals,
+            layer_of: &layer_of,
+            surface: &seg.id,
+            rgb: &input.rgb,
+        };
+        fills.par_iter_mut().enumerate().for_each(|(k, f)| match o.fill_colour {
+            FillColour::Exemplar => texture::synthesise(&tx, k as u32, f),
+            _ => texture::smooth(&tx, k as u32, f),
+        });
+        lap("fill colour", &mut stages);
+    }
 
     // (7) Images, names, roles, order.
     progress("images");
@@ -563,25 +586,32 @@ fn layer_image(
 ) -> LayerImage {
     let m = input.mapping;
     let n = m.width() * m.height();
-    let (mut z, mut src): (Vec<f32>, Vec<usize>) = (0..n)
+    let (mut z, src): (Vec<f32>, Vec<usize>) = (0..n)
         .into_par_iter()
         .map(|p| if layer_of[p] == k { (depth[p], p) } else { (OUTSIDE_DEPTH, usize::MAX) })
         .unzip();
-    for &(p, d, c) in &fill.pixels {
-        z[p] = d;
-        src[p] = c;
+    // The continued surface's normal, not the colour source's (elsewhere on the surface).
+    let mut normal_src = if with_normals { src.clone() } else { Vec::new() };
+    for f in &fill.pixels {
+        z[f.pixel] = f.depth;
+        if with_normals {
+            normal_src[f.pixel] = f.surface;
+        }
     }
     let mut img = LayerImage::new(m.width(), m.height());
     let half = |v: f32| half::f16::from_f32(v).to_f32();
     for (c, name) in ["R", "G", "B"].iter().enumerate() {
-        let data =
+        let mut data: Vec<f32> =
             src.par_iter().map(|&s| if s == usize::MAX { 0.0 } else { half(input.rgb[c][s]) }).collect();
+        for f in &fill.pixels {
+            data[f.pixel] = half(f.rgb[c]);
+        }
         img.set_channel(name, SampleType::F16, data);
     }
     img.set_channel("Z", SampleType::F32, z);
     if with_normals {
         for (c, name) in ["N.X", "N.Y", "N.Z"].iter().enumerate() {
-            let data = src
+            let data = normal_src
                 .iter()
                 .map(|&s| if s == usize::MAX { 0.0 } else { half(normals[s].to_array()[c]) })
                 .collect();

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use pomc::build::input::{self, Convention, DepthKind, Preset};
-use pomc::build::{self, BuildOptions, Classify};
+use pomc::build::{self, BuildOptions, Classify, FillColour};
 use pomc::layer_io::ReadLimits;
 use pomc::manifest::Transform;
 use pomc::panorama::{self, SaveOptions};
@@ -46,6 +46,16 @@ enum ClassifyArg {
     Depth,
     /// Also split the background into floor, ceiling and walls
     Geometry,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum FillColourArg {
+    /// Continue the hidden surface's texture: patches matched in its plane
+    Exemplar,
+    /// Copy the nearest visible pixel (fast; textures come out as streaks)
+    Nearest,
+    /// Blend the border's colours smoothly across the hole
+    Smooth,
 }
 
 #[derive(clap::Args, Debug)]
@@ -92,6 +102,9 @@ pub struct Args {
     /// Extra fill band (pixels) beyond the parallax band of the freedom radius.
     #[arg(long, default_value_t = 2.0)]
     fill_margin: f64,
+    /// How the fill behind occluders is coloured.
+    #[arg(long, value_enum, default_value = "exemplar")]
+    fill_colour: FillColourArg,
     /// Do not split at folds (depth discontinuities only).
     #[arg(long)]
     no_fold: bool,
@@ -144,6 +157,11 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         drop_mixed: !args.keep_mixed,
         classify: if args.classify == ClassifyArg::Geometry { Classify::Geometry } else { Classify::Depth },
         margin_px: args.fill_margin,
+        fill_colour: match args.fill_colour {
+            FillColourArg::Exemplar => FillColour::Exemplar,
+            FillColourArg::Nearest => FillColour::Nearest,
+            FillColourArg::Smooth => FillColour::Smooth,
+        },
         ..BuildOptions::default()
     };
     options.segment.edges.jump = args.jump;

@@ -143,6 +143,44 @@ def score(out, truth):
     return dict(psnr=round(psnr(a, b), 2), ssim=round(ssim(a, b), 4), nan=nans)
 
 
+def read_channels(path):
+    return {k: np.asarray(v.pixels, np.float64) for k, v in OpenEXR.File(path, separate_channels=True).channels().items()}
+
+
+def fill_quality(pano, src):
+    """The fill against the truth behind the foreground (bg_*.exr): pixels of the build's full-size
+    layers hidden behind nearer input depth, their colour (PSNR, sRGB) where the layer lies on the
+    true hidden surface (depth within 5 %, or both infinitely far), and the median relative depth
+    error over every finite filled pixel. Patch-packed (object) layers are skipped."""
+    import xml.etree.ElementTree as ET
+    seen = read_channels(os.path.join(src, "depth.exr"))["Z"]
+    bg = read_channels(os.path.join(src, "bg_colour.exr"))
+    truth = srgb(np.stack([bg[c] for c in "RGB"], -1))
+    bg_z = read_channels(os.path.join(src, "bg_depth.exr"))["Z"]
+    se, count, pixels, rel = 0.0, 0, 0, []
+    for layer in ET.parse(os.path.join(pano, "panorama.xml")).getroot().iter("Layer"):
+        if layer.find("Packing") is not None:
+            continue
+        ch = read_channels(os.path.join(pano, layer.find("Image").get("file")))
+        z = ch["Z"]
+        with np.errstate(invalid="ignore"):
+            hidden = (z > 0) & (seen > 0) & (seen < 0.97 * z)
+            if layer.get("role") == "infinity":
+                on = hidden & np.isinf(bg_z)
+            else:
+                finite = hidden & np.isfinite(bg_z) & np.isfinite(z)
+                err = np.abs(bg_z - z) / bg_z
+                rel.append(err[finite])
+                on = finite & (err < 0.05)
+        pixels += int(hidden.sum())
+        colour = srgb(np.stack([ch[c] for c in "RGB"], -1))
+        se += float(((colour - truth) ** 2)[on].sum())
+        count += 3 * int(on.sum())
+    rel = np.concatenate(rel) if rel else np.zeros(0)
+    return dict(pixels=pixels, colour_psnr=round(10 * np.log10(count / se), 2) if se > 0 else None,
+                depth_median_rel=round(float(np.median(rel)), 5) if rel.size else None)
+
+
 # ---------------------------------------------------------------- one scene
 
 def validate(pomc, pano):
@@ -155,13 +193,14 @@ def validate(pomc, pano):
     return dict(errors=r.get("errors", 0), warnings=r.get("warnings", 0), codes=codes)
 
 
-def build(pomc, colour, depth, out):
+def build(pomc, colour, depth, out, extra=()):
     shutil.rmtree(out, ignore_errors=True)
     p, dt = run([pomc, "build", "--colour", colour, "--depth", depth, "--convention", "blender",
-                 "--freedom-radius", RADIUS, "-o", out, "--json"])
+                 "--freedom-radius", RADIUS, "-o", out, "--json", *extra])
     rep = json.loads(p.stdout)
     layers = rep.get("layers")
-    return dict(seconds=round(dt, 3), layers=len(layers) if isinstance(layers, list) else layers)
+    return dict(seconds=round(dt, 3), layers=len(layers) if isinstance(layers, list) else layers,
+                stages=rep.get("stages"))
 
 
 def render(pomc, pano, out, cam, method):
@@ -178,13 +217,14 @@ def render(pomc, pano, out, cam, method):
                 total_s=r.get("stages", {}).get("total_s"))
 
 
-def run_scene(name, src, work, pomc, fix, gltf):
+def run_scene(name, src, work, pomc, fix, gltf, build_args=()):
     os.makedirs(work, exist_ok=True)
     res = dict(scene=name, corpus=src)
     log(f"{name}: build")
     pano, ref = os.path.join(work, "pano"), os.path.join(work, "reference")
-    res["build"] = build(pomc, os.path.join(src, "colour.exr"), os.path.join(src, "depth.exr"), pano)
+    res["build"] = build(pomc, os.path.join(src, "colour.exr"), os.path.join(src, "depth.exr"), pano, build_args)
     res["validate"] = validate(pomc, pano)
+    res["fill"] = fill_quality(pano, src)
     # Two-layer reference: pomc build on the true background, plus the full render's foreground on top.
     res["reference_build"] = build(pomc, os.path.join(src, "bg_colour.exr"), os.path.join(src, "bg_depth.exr"), ref)
     run([fix, "add-layer", ref, os.path.join(src, "colour.exr"), os.path.join(src, "depth.exr"),
@@ -264,6 +304,10 @@ def checks(res):
     add("glTF-Validator 0 errors", g == 0, "no .glb" if not m["ok"] else "skipped (no validator)" if g is None else str(g))
     add("mesh time <= build time", m["ok"] and m["seconds"] <= res["build"]["seconds"],
         f"{m['seconds']:.2f} s vs {res['build']['seconds']:.2f} s")
+    fq = res.get("fill", {})
+    if fq.get("depth_median_rel") is not None:
+        add("fill depth median relative error <= 1 %", fq["depth_median_rel"] <= 0.01,
+            f"{100 * fq['depth_median_rel']:.2f} % over {fq['pixels']} filled pixels")
     for key in ("validate", "reference_validate"):
         val = res[key]
         add(f"pomc validate {'(reference) ' if key != 'validate' else ''}0 errors, 0 warnings",
@@ -280,13 +324,17 @@ def markdown(results):
             lines.append(f"| {res['scene']} | {v['view']:02d} | {v['radius']:.2f} | {v['fov']:g} | " + " | ".join(
                 fmt(v[k]) for k in ("pomc_splat", "pomc_mesh", "ref_splat", "ref_mesh")) + " |")
     lines += ["", "Cells: PSNR dB (sRGB, clipped) / SSIM / holes / wall time of `pomc render`.", "",
-              "| scene | build s | layers | validate E/W | reference E/W | mesh s | glTF errors |", "|---|---|---|---|---|---|---|"]
+              "| scene | build s | layers | validate E/W | reference E/W | mesh s | glTF errors | filled px | fill colour PSNR | "
+              "fill depth median error |", "|---|---|---|---|---|---|---|---|---|---|"]
     for res in results:
-        m = res["mesh"]
+        m, fq = res["mesh"], res.get("fill", {})
+        dm = fq.get("depth_median_rel")
         lines.append(f"| {res['scene']} | {res['build']['seconds']:.2f} | {res['build']['layers']} | "
                      f"{res['validate']['errors']}/{res['validate']['warnings']} | "
                      f"{res['reference_validate']['errors']}/{res['reference_validate']['warnings']} | "
-                     f"{m['seconds']:.2f}{'' if m['ok'] else ' (failed)'} | {m.get('gltf_errors', '-')} |")
+                     f"{m['seconds']:.2f}{'' if m['ok'] else ' (failed)'} | {m.get('gltf_errors', '-')} | "
+                     f"{fq.get('pixels', '-')} | {fq.get('colour_psnr', '-')} dB | "
+                     f"{'-' if dm is None else f'{100 * dm:.2f} %'} |")
     lines += ["", "| scene | figure | result | detail |", "|---|---|---|---|"]
     for res in results:
         for fig, verdict, detail in res["checks"]:
@@ -303,6 +351,9 @@ def main():
     ap.add_argument("--work", default=os.path.join(TARGET, "realistic-eval"))
     for opt in ("--size", "--spp", "--views", "--view-size", "--view-spp"):
         ap.add_argument(opt)
+    ap.add_argument("--build-args", default="", help="extra `pomc build` options for the scene (not the reference), "
+                    "e.g. '--fill-colour nearest'")
+    ap.add_argument("--tag", default="", help="results go to a work subdirectory of this name (compare options)")
     o = ap.parse_args()
     pomc, fix = binaries()
     py = bpy_python()
@@ -317,10 +368,10 @@ def main():
     corpus = p.stdout.strip().splitlines()[-1]
     log(f"corpus in {corpus}")
     gltf = gltf_validator()
-    work = os.path.join(o.work, os.path.basename(corpus))
+    work = os.path.join(o.work, os.path.basename(corpus), o.tag)
     results = []
     for name in o.scenes.split(","):
-        res = run_scene(name, os.path.join(corpus, name), os.path.join(work, name), pomc, fix, gltf)
+        res = run_scene(name, os.path.join(corpus, name), os.path.join(work, name), pomc, fix, gltf, o.build_args.split())
         res["checks"] = checks(res)
         results.append(res)
     json.dump(dict(corpus=corpus, pomc=pomc, results=results), open(os.path.join(work, "results.json"), "w"), indent=1)

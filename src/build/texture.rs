@@ -1,0 +1,362 @@
+//! The colour of the fill. What a displaced camera sees behind an occluder is what build invents
+//! there, so the fill continues the hidden surface's texture rather than smearing its border.
+//! The default copies the surface from elsewhere by a few dominant offsets in its own plane
+//! (after He & Sun, "Statistics of patch offsets for image completion", ECCV 2012): a wall's
+//! checker or a floor's bricks continue in phase and with the right perspective (spec §7 step 6,
+//! `docs/build.md`). Offsets are 3D vectors and sources are looked up by direction, so seams,
+//! poles and cube-face edges need no special case.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::fill::Fill;
+use crate::mapping::{Mapping, Neighbours};
+
+/// How the fill is coloured.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FillColour {
+    /// Exemplar: the hidden surface copied from elsewhere on it by the offsets in its plane that
+    /// best continue the texture around the hole.
+    #[default]
+    Exemplar,
+    /// Each filled pixel takes the colour of the visible pixel nearest its seed: fast, but
+    /// textured surfaces come out as streaks.
+    Nearest,
+    /// Inwards from the border, each filled pixel takes the distance-weighted mean of the known
+    /// pixels around it, then a few relaxation sweeps smooth it: the border's colours blend
+    /// across the hole without streaks or texture.
+    Smooth,
+}
+
+/// What the colour synthesis reads.
+pub struct Texture<'a> {
+    pub nb: &'a Neighbours,
+    pub dirs: &'a [Vec3],
+    pub depth: &'a [f32],
+    pub normals: &'a [Vec3],
+    pub layer_of: &'a [u32],
+    /// Surface (segment) id per pixel: a fill copies from its own surface only.
+    pub surface: &'a [u32],
+    /// Linear RGB, planar.
+    pub rgb: &'a [Vec<f32>; 3],
+}
+
+const NONE: u32 = u32::MAX;
+/// Relative distance from the continued plane within which a visible pixel counts as the same
+/// surface (tessellated and gently curved surfaces, pixel quantisation).
+const PLANE_TOL: f32 = 0.03;
+/// Samples that score an offset: of the visible ring around the hole, of the hole itself.
+const RING_SAMPLES: usize = 512;
+const HOLE_SAMPLES: usize = 256;
+/// Cost of a ring sample whose source is not visible surface, and of an uncovered hole sample
+/// (features lie in [0, 1); a good match costs ~1e-4).
+const INVALID: f32 = 0.05;
+const UNCOVERED: f32 = 0.02;
+/// Offsets kept per part: each pixel takes the first that lands on visible surface.
+const OFFSETS: usize = 4;
+
+impl Texture<'_> {
+    /// Colour compressed to [0, 1): HDR highlights must not outweigh the texture in a match.
+    #[inline]
+    fn feature(&self, p: usize) -> Vec3 {
+        let c = Vec3::new(self.rgb[0][p], self.rgb[1][p], self.rgb[2][p]).max(Vec3::ZERO);
+        c / (Vec3::ONE + c)
+    }
+
+    #[inline]
+    fn pixel(&self, y: Vec3) -> usize {
+        let (i, j) = self.nb.mapping().pixel_of(y.as_dvec3());
+        j * self.nb.width() + i
+    }
+
+    /// Point of pixel `p` (the unit direction when infinitely far: its tangent plane stands in).
+    #[inline]
+    fn point(&self, p: usize, depth: f32) -> Vec3 {
+        if depth.is_finite() {
+            self.dirs[p] * depth
+        } else {
+            self.dirs[p]
+        }
+    }
+}
+
+/// The plane a part of the fill continues: a point, the unit normal (facing the centre) and
+/// in-plane axes. An infinitely far surface uses the unit sphere's tangent plane, a surface
+/// without a trustworthy normal the plane facing the centre.
+struct Plane {
+    x: Vec3,
+    n: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    finite: bool,
+}
+
+impl Plane {
+    fn new(tx: &Texture, q: usize, depth: f32, surface: usize) -> Plane {
+        let dq = tx.dirs[q];
+        let finite = depth.is_finite();
+        let ns = tx.normals[surface];
+        let n = if finite && ns.dot(dq) < -0.05 { ns } else { -dq };
+        let (e1, e2) = n.any_orthonormal_pair();
+        Plane { x: tx.point(q, depth), n, e1, e2, finite }
+    }
+}
+
+/// Recolour the fill of layer `k` by [`FillColour::Exemplar`]. Each connected part of the fill,
+/// per surface it continues, gets a few offsets in the surface's plane: those that best carry
+/// the visible ring around the part onto matching texture while landing the part itself on
+/// visible surface (a coarse grid search, refined by halving steps). Each pixel then copies the
+/// pixel its first valid offset lands on. Parts are independent, so they run in parallel.
+pub fn synthesise(tx: &Texture, k: u32, fill: &mut Fill) {
+    if fill.pixels.is_empty() {
+        return;
+    }
+    let n = tx.nb.len();
+    let mut slot = vec![NONE; n];
+    for (i, f) in fill.pixels.iter().enumerate() {
+        slot[f.pixel] = i as u32;
+    }
+    // Visible pixels of the layer none of whose neighbours is hidden by a nearer layer: colours
+    // free of the occluder's (anti-aliased borders mix them in), the only sources.
+    let clean: Vec<bool> = (0..n)
+        .into_par_iter()
+        .map(|p| tx.layer_of[p] == k && tx.nb.all(p).all(|r| tx.layer_of[r] == k))
+        .collect();
+    // Parts, split by the surface they continue (a hole behind a box shows floor and wall).
+    let mut groups: Vec<Vec<u32>> = Vec::new();
+    for part in components(tx.nb, fill, &slot) {
+        let mut by_surface: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
+        for i in part {
+            by_surface.entry(tx.surface[fill.pixels[i as usize].surface]).or_default().push(i);
+        }
+        groups.extend(by_surface.into_values());
+    }
+    let alpha = (4.0 * std::f32::consts::PI / n as f32).sqrt();
+    let chosen: Vec<(u32, usize)> =
+        groups.par_iter().flat_map_iter(|g| copy_group(tx, fill, &clean, g, alpha)).collect();
+    for (i, c) in chosen {
+        let f = &mut fill.pixels[i as usize];
+        f.colour = c;
+        f.rgb = [tx.rgb[0][c], tx.rgb[1][c], tx.rgb[2][c]];
+    }
+}
+
+/// Up to `count` items spread evenly over `items`.
+fn spread<T: Copy>(items: &[T], count: usize) -> impl Iterator<Item = T> + '_ {
+    let step = items.len().div_ceil(count.max(1)).max(1);
+    items.iter().step_by(step).copied()
+}
+
+/// Offsets for one part of the fill on one surface, and the source each pixel takes.
+fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f32) -> Vec<(u32, usize)> {
+    let first = fill.pixels[group[0] as usize];
+    let plane = Plane::new(tx, first.pixel, first.depth, first.surface);
+    let surface = tx.surface[first.surface];
+    let valid = |p: usize| clean[p] && tx.surface[p] == surface && on_plane(tx, &plane, p);
+    // The hole's points (each pixel's own) and its visible ring on the same surface (2 pixels
+    // deep), with their colours.
+    let hole: Vec<Vec3> =
+        group.iter().map(|&i| fill.pixels[i as usize]).map(|f| tx.point(f.pixel, f.depth)).collect();
+    let mut ring: Vec<usize> = group
+        .iter()
+        .flat_map(|&i| {
+            let q = fill.pixels[i as usize].pixel;
+            let (x, y) = (q % tx.nb.width(), q / tx.nb.width());
+            (0..8).flat_map(move |j| [tx.nb.get_at(x, y, j), tx.nb.get2_at(x, y, j)]).flatten()
+        })
+        .filter(|&r| valid(r))
+        .collect();
+    ring.sort_unstable();
+    ring.dedup();
+    if ring.is_empty() || hole.is_empty() {
+        return Vec::new();
+    }
+    let ring: Vec<(Vec3, Vec3)> =
+        spread(&ring, RING_SAMPLES).map(|r| (tx.point(r, tx.depth[r]), tx.feature(r))).collect();
+    let hole_samples: Vec<Vec3> = spread(&hole, HOLE_SAMPLES).collect();
+    // Scale: the pixel's footprint on the plane at the hole's centre, and the hole's extent.
+    let centre = hole_samples.iter().copied().sum::<Vec3>() / hole_samples.len() as f32;
+    let extent = hole_samples.iter().map(|p| (*p - centre).length()).fold(0.0, f32::max);
+    let cos = (-plane.n.dot(centre.normalize_or_zero())).max(0.2);
+    let footprint = alpha * centre.length() / cos;
+    if !(footprint > 0.0 && footprint.is_finite() && extent.is_finite()) {
+        return Vec::new();
+    }
+    let score = |t: Vec3, ring_n: usize, hole_n: usize| -> f32 {
+        let mut sum = 0.0;
+        for (x, feat) in spread(&ring, ring_n) {
+            let p = tx.pixel(x + t);
+            sum += if valid(p) { (tx.feature(p) - feat).length_squared() } else { INVALID };
+        }
+        let mut uncovered = 0;
+        for x in spread(&hole_samples, hole_n) {
+            uncovered += !valid(tx.pixel(x + t)) as u32;
+        }
+        sum / ring.len().min(ring_n) as f32
+            + UNCOVERED * uncovered as f32 / hole_samples.len().min(hole_n) as f32
+    };
+    // Coarse grid over a disc a few hole sizes wide, then each of the best few refined by
+    // halving steps down to half a pixel.
+    let reach = 2.0 * extent + 16.0 * footprint;
+    let mut step = (2.0 * footprint).max(reach / 24.0);
+    let cells = (reach / step).ceil() as i32;
+    let mut best: Vec<(f32, Vec3)> = Vec::new();
+    for a in -cells..=cells {
+        for b in -cells..=cells {
+            let t = plane.e1 * (a as f32 * step) + plane.e2 * (b as f32 * step);
+            if t.length() > reach || t.length() < 2.0 * footprint {
+                continue;
+            }
+            best.push((score(t, 64, 32), t));
+        }
+    }
+    best.sort_by(|a, b| a.0.total_cmp(&b.0));
+    best.truncate(2 * OFFSETS);
+    for c in &mut best {
+        c.0 = score(c.1, RING_SAMPLES, HOLE_SAMPLES);
+    }
+    while step > 0.5 * footprint {
+        step *= 0.5;
+        for c in &mut best {
+            let centre = c.1;
+            for (a, b) in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)] {
+                let t = centre + plane.e1 * (a as f32 * step) + plane.e2 * (b as f32 * step);
+                let s = score(t, RING_SAMPLES, HOLE_SAMPLES);
+                if s < c.0 {
+                    *c = (s, t);
+                }
+            }
+        }
+    }
+    best.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut offsets: Vec<Vec3> = Vec::new();
+    for (_, t) in best {
+        if offsets.len() < OFFSETS && offsets.iter().all(|o| (*o - t).length() > 2.0 * footprint) {
+            offsets.push(t);
+        }
+    }
+    group
+        .iter()
+        .zip(&hole)
+        .filter_map(|(&i, &x)| offsets.iter().map(|&t| tx.pixel(x + t)).find(|&p| valid(p)).map(|p| (i, p)))
+        .collect()
+}
+
+/// A source must lie on the plane being continued (elsewhere the surface curves away).
+fn on_plane(tx: &Texture, plane: &Plane, p: usize) -> bool {
+    let d = tx.depth[p];
+    if !plane.finite {
+        return d.is_infinite();
+    }
+    if !d.is_finite() || d <= 0.0 {
+        return false;
+    }
+    let point = tx.dirs[p] * d;
+    (plane.n.dot(point - plane.x)).abs() <= PLANE_TOL * d.max(plane.x.length())
+}
+
+/// Colour the fill of layer `k` by [`FillColour::Smooth`].
+pub fn smooth(tx: &Texture, k: u32, fill: &mut Fill) {
+    if fill.pixels.is_empty() {
+        return;
+    }
+    let n = tx.nb.len();
+    let mut slot = vec![NONE; n];
+    for (i, f) in fill.pixels.iter().enumerate() {
+        slot[f.pixel] = i as u32;
+    }
+    let clean = |p: usize| tx.layer_of[p] == k && tx.nb.all(p).all(|r| tx.layer_of[r] == k);
+    let w = tx.nb.width();
+    let mut known = vec![false; fill.pixels.len()];
+    let mut rgb: Vec<Vec3> = vec![Vec3::ZERO; fill.pixels.len()];
+    // The fill's 5 × 5 neighbourhood: one and two steps along the 8 directions (weights 1/d²).
+    let ring = |q: usize| {
+        let (x, y) = (q % w, q / w);
+        (0..8).flat_map(move |j| {
+            let diag = if j >= 4 { 2.0 } else { 1.0 };
+            [(tx.nb.get_at(x, y, j), 1.0 / diag), (tx.nb.get2_at(x, y, j), 0.25 / diag)]
+        })
+    };
+    for i in 0..fill.pixels.len() {
+        let q = fill.pixels[i].pixel;
+        let (mut sum, mut weight) = (Vec3::ZERO, 0.0);
+        for (r, wt) in ring(q) {
+            let Some(r) = r else { continue };
+            let s = slot[r];
+            let c = if s != NONE {
+                if !known[s as usize] {
+                    continue;
+                }
+                rgb[s as usize]
+            } else if clean(r) {
+                Vec3::new(tx.rgb[0][r], tx.rgb[1][r], tx.rgb[2][r])
+            } else {
+                continue;
+            };
+            sum += c * wt;
+            weight += wt;
+        }
+        rgb[i] = if weight > 0.0 { sum / weight } else { Vec3::from(fill.pixels[i].rgb) };
+        known[i] = true;
+    }
+    // Relaxation: each sweep averages every filled pixel with its known 8-neighbours.
+    for _ in 0..SMOOTH_SWEEPS {
+        let next: Vec<Vec3> = (0..fill.pixels.len())
+            .into_par_iter()
+            .map(|i| {
+                let q = fill.pixels[i].pixel;
+                let (mut sum, mut weight) = (rgb[i], 1.0);
+                for r in tx.nb.all(q) {
+                    let s = slot[r];
+                    if s != NONE {
+                        sum += rgb[s as usize];
+                        weight += 1.0;
+                    } else if clean(r) {
+                        sum += Vec3::new(tx.rgb[0][r], tx.rgb[1][r], tx.rgb[2][r]);
+                        weight += 1.0;
+                    }
+                }
+                sum / weight
+            })
+            .collect();
+        rgb = next;
+    }
+    for (f, c) in fill.pixels.iter_mut().zip(rgb) {
+        f.rgb = c.to_array();
+    }
+}
+
+/// Relaxation sweeps of [`smooth`].
+const SMOOTH_SWEEPS: usize = 8;
+
+/// 8-connected parts of the fill, each as fill indices in the fill's (breadth-first) order.
+fn components(nb: &Neighbours, fill: &Fill, slot: &[u32]) -> Vec<Vec<u32>> {
+    let m = fill.pixels.len();
+    let mut label = vec![NONE; m];
+    let mut count = 0u32;
+    let mut stack = Vec::new();
+    for start in 0..m {
+        if label[start] != NONE {
+            continue;
+        }
+        label[start] = count;
+        stack.push(start);
+        while let Some(i) = stack.pop() {
+            for q in nb.all(fill.pixels[i].pixel) {
+                let j = slot[q];
+                if j != NONE && label[j as usize] == NONE {
+                    label[j as usize] = count;
+                    stack.push(j as usize);
+                }
+            }
+        }
+        count += 1;
+    }
+    let mut parts = vec![Vec::new(); count as usize];
+    for (i, &l) in label.iter().enumerate() {
+        parts[l as usize].push(i as u32);
+    }
+    // Largest first: rayon then balances the long ones.
+    parts.sort_by_key(|p| std::cmp::Reverse(p.len()));
+    parts
+}
