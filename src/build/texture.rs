@@ -52,6 +52,10 @@ const HOLE_SAMPLES: usize = 256;
 /// (features lie in [0, 1); a good match costs ~1e-4).
 const INVALID: f32 = 0.05;
 const UNCOVERED: f32 = 0.02;
+/// A part whose best offset scores worse than this, or whose visible ring has fewer samples,
+/// is blended instead of copied: nothing around it says what texture continues.
+const POOR_MATCH: f32 = 3e-3;
+const MIN_RING: usize = 24;
 /// Offsets kept per part: each pixel takes the first that lands on visible surface.
 const OFFSETS: usize = 4;
 
@@ -67,6 +71,11 @@ impl Texture<'_> {
     fn pixel(&self, y: Vec3) -> usize {
         let (i, j) = self.nb.mapping().pixel_of(y.as_dvec3());
         j * self.nb.width() + i
+    }
+
+    #[inline]
+    fn colour(&self, p: usize) -> Vec3 {
+        Vec3::new(self.rgb[0][p], self.rgb[1][p], self.rgb[2][p])
     }
 
     /// Point of pixel `p` (the unit direction when infinitely far: its tangent plane stands in).
@@ -132,13 +141,47 @@ pub fn synthesise(tx: &Texture, k: u32, fill: &mut Fill) {
         groups.extend(by_surface.into_values());
     }
     let alpha = (4.0 * std::f32::consts::PI / n as f32).sqrt();
-    let chosen: Vec<(u32, usize)> =
-        groups.par_iter().flat_map_iter(|g| copy_group(tx, fill, &clean, g, alpha)).collect();
-    for (i, c) in chosen {
-        let f = &mut fill.pixels[i as usize];
-        f.colour = c;
-        f.rgb = [tx.rgb[0][c], tx.rgb[1][c], tx.rgb[2][c]];
+    let copies: Vec<Transfer> = groups.par_iter().map(|g| copy_group(tx, fill, &clean, g, alpha)).collect();
+    let mut shading = std::collections::HashMap::new();
+    let mut copied = vec![false; fill.pixels.len()];
+    for c in &copies {
+        for &(i, p) in &c.sources {
+            let f = &mut fill.pixels[i as usize];
+            f.colour = p;
+            f.rgb = [tx.rgb[0][p], tx.rgb[1][p], tx.rgb[2][p]];
+            copied[i as usize] = true;
+        }
+        shading.extend(c.shading.iter().copied());
     }
+    // The copy brings its source's lighting: the ratio between the ring and its copy (a shadow,
+    // a lamp's glow) is carried smoothly across the hole.
+    let log_ratio =
+        diffuse(tx, fill, &slot, vec![Vec3::ZERO; fill.pixels.len()], |r| shading.get(&r).copied());
+    for ((f, g), _) in fill.pixels.iter_mut().zip(log_ratio).zip(&copied).filter(|(_, &c)| c) {
+        let g = g.clamp(Vec3::splat(-MAX_LOG_RATIO), Vec3::splat(MAX_LOG_RATIO));
+        f.rgb = (Vec3::from(f.rgb) * g.exp()).to_array();
+    }
+    // What no offset continues (too little texture around it, or none that matches) is blended.
+    if copied.iter().any(|c| !c) {
+        let start = fill.pixels.iter().map(|f| Vec3::from(f.rgb)).collect();
+        let rgb = diffuse(tx, fill, &slot, start, |r| clean[r].then(|| tx.colour(r)));
+        for ((f, c), _) in fill.pixels.iter_mut().zip(rgb).zip(&copied).filter(|(_, &c)| !c) {
+            f.rgb = c.to_array();
+        }
+    }
+}
+
+/// Largest shading correction of a copy, as a log ratio (a factor of 2 either way).
+const MAX_LOG_RATIO: f32 = std::f32::consts::LN_2;
+
+/// Small colour added before taking ratios (dark pixels have noisy ratios).
+const RATIO_EPS: f32 = 0.02;
+
+/// What one part of the fill copies: a source per pixel (fill index, source pixel) and the
+/// shading ratio (log) between the visible ring and its copy, per ring pixel.
+struct Transfer {
+    sources: Vec<(u32, usize)>,
+    shading: Vec<(usize, Vec3)>,
 }
 
 /// Up to `count` items spread evenly over `items`.
@@ -148,7 +191,8 @@ fn spread<T: Copy>(items: &[T], count: usize) -> impl Iterator<Item = T> + '_ {
 }
 
 /// Offsets for one part of the fill on one surface, and the source each pixel takes.
-fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f32) -> Vec<(u32, usize)> {
+fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f32) -> Transfer {
+    let none = Transfer { sources: Vec::new(), shading: Vec::new() };
     let first = fill.pixels[group[0] as usize];
     let plane = Plane::new(tx, first.pixel, first.depth, first.surface);
     let surface = tx.surface[first.surface];
@@ -169,10 +213,11 @@ fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f
     ring.sort_unstable();
     ring.dedup();
     if ring.is_empty() || hole.is_empty() {
-        return Vec::new();
+        return none;
     }
+    let ring_pixels = ring;
     let ring: Vec<(Vec3, Vec3)> =
-        spread(&ring, RING_SAMPLES).map(|r| (tx.point(r, tx.depth[r]), tx.feature(r))).collect();
+        spread(&ring_pixels, RING_SAMPLES).map(|r| (tx.point(r, tx.depth[r]), tx.feature(r))).collect();
     let hole_samples: Vec<Vec3> = spread(&hole, HOLE_SAMPLES).collect();
     // Scale: the pixel's footprint on the plane at the hole's centre, and the hole's extent.
     let centre = hole_samples.iter().copied().sum::<Vec3>() / hole_samples.len() as f32;
@@ -180,7 +225,7 @@ fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f
     let cos = (-plane.n.dot(centre.normalize_or_zero())).max(0.2);
     let footprint = alpha * centre.length() / cos;
     if !(footprint > 0.0 && footprint.is_finite() && extent.is_finite()) {
-        return Vec::new();
+        return none;
     }
     let score = |t: Vec3, ring_n: usize, hole_n: usize| -> f32 {
         let mut sum = 0.0;
@@ -197,7 +242,7 @@ fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f
     };
     // Coarse grid over a disc a few hole sizes wide, then each of the best few refined by
     // halving steps down to half a pixel.
-    let reach = 2.0 * extent + 16.0 * footprint;
+    let reach = 4.0 * extent + 32.0 * footprint;
     let mut step = (2.0 * footprint).max(reach / 24.0);
     let cells = (reach / step).ceil() as i32;
     let mut best: Vec<(f32, Vec3)> = Vec::new();
@@ -229,17 +274,43 @@ fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f
         }
     }
     best.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if std::env::var_os("POMC_DEBUG_FILL").is_some() {
+        eprintln!(
+            "group {} px ring {} extent {:.3} fp {:.4} best {:?}",
+            group.len(),
+            ring.len(),
+            extent,
+            footprint,
+            best.iter().take(3).map(|b| b.0).collect::<Vec<_>>()
+        );
+    }
+    if ring.len() < MIN_RING || best.first().is_none_or(|b| b.0 > POOR_MATCH) {
+        return none;
+    }
     let mut offsets: Vec<Vec3> = Vec::new();
     for (_, t) in best {
         if offsets.len() < OFFSETS && offsets.iter().all(|o| (*o - t).length() > 2.0 * footprint) {
             offsets.push(t);
         }
     }
-    group
+    let sources = group
         .iter()
         .zip(&hole)
         .filter_map(|(&i, &x)| offsets.iter().map(|&t| tx.pixel(x + t)).find(|&p| valid(p)).map(|p| (i, p)))
-        .collect()
+        .collect();
+    let rgb = |p: usize| Vec3::new(tx.rgb[0][p], tx.rgb[1][p], tx.rgb[2][p]).max(Vec3::ZERO);
+    let shading = match offsets.first() {
+        Some(&t) => ring_pixels
+            .iter()
+            .filter_map(|&r| {
+                let p = tx.pixel(tx.point(r, tx.depth[r]) + t);
+                let e = Vec3::splat(RATIO_EPS);
+                valid(p).then(|| ((rgb(r) + e) / (rgb(p) + e)).ln()).map(|g| (r, g))
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    Transfer { sources, shading }
 }
 
 /// A source must lie on the plane being continued (elsewhere the surface curves away).
@@ -260,16 +331,34 @@ pub fn smooth(tx: &Texture, k: u32, fill: &mut Fill) {
     if fill.pixels.is_empty() {
         return;
     }
-    let n = tx.nb.len();
-    let mut slot = vec![NONE; n];
+    let mut slot = vec![NONE; tx.nb.len()];
     for (i, f) in fill.pixels.iter().enumerate() {
         slot[f.pixel] = i as u32;
     }
     let clean = |p: usize| tx.layer_of[p] == k && tx.nb.all(p).all(|r| tx.layer_of[r] == k);
+    let start = fill.pixels.iter().map(|f| Vec3::from(f.rgb)).collect();
+    let rgb = diffuse(tx, fill, &slot, start, |r| {
+        clean(r).then(|| Vec3::new(tx.rgb[0][r], tx.rgb[1][r], tx.rgb[2][r]))
+    });
+    for (f, c) in fill.pixels.iter_mut().zip(rgb) {
+        f.rgb = c.to_array();
+    }
+}
+
+/// A value per filled pixel spread from the pixels around the fill that have one (`known`):
+/// inwards from the border (the fill's breadth-first order), each pixel takes the
+/// distance-weighted mean of the known pixels in its 5 × 5 neighbourhood, then relaxation
+/// sweeps average each with its 8 neighbours. Pixels nothing reaches keep their `value`.
+fn diffuse(
+    tx: &Texture,
+    fill: &Fill,
+    slot: &[u32],
+    mut value: Vec<Vec3>,
+    known: impl Fn(usize) -> Option<Vec3> + Sync,
+) -> Vec<Vec3> {
     let w = tx.nb.width();
-    let mut known = vec![false; fill.pixels.len()];
-    let mut rgb: Vec<Vec3> = vec![Vec3::ZERO; fill.pixels.len()];
-    // The fill's 5 × 5 neighbourhood: one and two steps along the 8 directions (weights 1/d²).
+    let m = fill.pixels.len();
+    let mut done = vec![false; m];
     let ring = |q: usize| {
         let (x, y) = (q % w, q / w);
         (0..8).flat_map(move |j| {
@@ -277,56 +366,43 @@ pub fn smooth(tx: &Texture, k: u32, fill: &mut Fill) {
             [(tx.nb.get_at(x, y, j), 1.0 / diag), (tx.nb.get2_at(x, y, j), 0.25 / diag)]
         })
     };
-    for i in 0..fill.pixels.len() {
-        let q = fill.pixels[i].pixel;
+    for i in 0..m {
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0);
-        for (r, wt) in ring(q) {
+        for (r, wt) in ring(fill.pixels[i].pixel) {
             let Some(r) = r else { continue };
             let s = slot[r];
-            let c = if s != NONE {
-                if !known[s as usize] {
-                    continue;
-                }
-                rgb[s as usize]
-            } else if clean(r) {
-                Vec3::new(tx.rgb[0][r], tx.rgb[1][r], tx.rgb[2][r])
-            } else {
-                continue;
-            };
-            sum += c * wt;
-            weight += wt;
+            let v = if s != NONE { done[s as usize].then(|| value[s as usize]) } else { known(r) };
+            if let Some(v) = v {
+                sum += v * wt;
+                weight += wt;
+            }
         }
-        rgb[i] = if weight > 0.0 { sum / weight } else { Vec3::from(fill.pixels[i].rgb) };
-        known[i] = true;
+        if weight > 0.0 {
+            value[i] = sum / weight;
+            done[i] = true;
+        }
     }
-    // Relaxation: each sweep averages every filled pixel with its known 8-neighbours.
     for _ in 0..SMOOTH_SWEEPS {
-        let next: Vec<Vec3> = (0..fill.pixels.len())
+        value = (0..m)
             .into_par_iter()
             .map(|i| {
-                let q = fill.pixels[i].pixel;
-                let (mut sum, mut weight) = (rgb[i], 1.0);
-                for r in tx.nb.all(q) {
+                let (mut sum, mut weight) = (value[i], 1.0);
+                for r in tx.nb.all(fill.pixels[i].pixel) {
                     let s = slot[r];
-                    if s != NONE {
-                        sum += rgb[s as usize];
-                        weight += 1.0;
-                    } else if clean(r) {
-                        sum += Vec3::new(tx.rgb[0][r], tx.rgb[1][r], tx.rgb[2][r]);
+                    let v = if s != NONE { Some(value[s as usize]) } else { known(r) };
+                    if let Some(v) = v {
+                        sum += v;
                         weight += 1.0;
                     }
                 }
                 sum / weight
             })
             .collect();
-        rgb = next;
     }
-    for (f, c) in fill.pixels.iter_mut().zip(rgb) {
-        f.rgb = c.to_array();
-    }
+    value
 }
 
-/// Relaxation sweeps of [`smooth`].
+/// Relaxation sweeps of [`diffuse`].
 const SMOOTH_SWEEPS: usize = 8;
 
 /// 8-connected parts of the fill, each as fill indices in the fill's (breadth-first) order.
