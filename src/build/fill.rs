@@ -378,21 +378,17 @@ fn trusted_plane(cx: &FillContext, p: usize) -> bool {
 }
 
 /// Depth at pixel `q` of the surface of source pixel `s` continued behind the occluder: the ray
-/// through `q` meets the tangent plane at `s`. A ray that runs away from the plane (the ground,
-/// above its horizon) does not meet the surface: `None`, another surface or a farther layer
-/// shows there. When the hit is implausible (far beyond `s`: a noisy normal seen edge-on) or
-/// there is no normal, the source's depth is kept.
+/// through `q` meets the tangent plane at `s`. A ray that misses the plane, or meets it only far
+/// beyond `s` (the ground near its horizon, seen from a seed below), does not continue the
+/// surface: `None`, another surface or a farther layer shows there. A seed without a normal
+/// keeps its depth.
 fn continue_surface(cx: &FillContext, s: usize, q: usize) -> Option<f32> {
     let ds = cx.depth[s];
     if ds.is_infinite() {
         return Some(f32::INFINITY);
     }
-    if let Some(t) = plane_hit(cx, s, q) {
-        return Some(t);
-    }
-    let nrm = cx.normals[s];
-    if nrm != Vec3::ZERO && nrm.dot(cx.dirs[q]) > -1e-3 {
-        return None;
+    if cx.normals[s] != Vec3::ZERO {
+        return plane_hit(cx, s, q);
     }
     Some(ds.max(cx.depth[q] * 1.0001))
 }

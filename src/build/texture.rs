@@ -127,9 +127,13 @@ pub fn synthesise(tx: &Texture, k: u32, fill: &mut Fill) {
     }
     // Visible pixels of the layer none of whose neighbours is hidden by a nearer layer: colours
     // free of the occluder's (anti-aliased borders mix them in), the only sources.
+    let w = tx.nb.width();
     let clean: Vec<bool> = (0..n)
         .into_par_iter()
-        .map(|p| tx.layer_of[p] == k && tx.nb.all(p).all(|r| tx.layer_of[r] == k))
+        .map(|p| {
+            let (x, y) = (p % w, p / w);
+            tx.layer_of[p] == k && (0..8).all(|j| tx.nb.get_at(x, y, j).map_or(true, |r| tx.layer_of[r] == k))
+        })
         .collect();
     // Parts, split by the surface they continue (a hole behind a box shows floor and wall).
     let mut groups: Vec<Vec<u32>> = Vec::new();
@@ -141,8 +145,9 @@ pub fn synthesise(tx: &Texture, k: u32, fill: &mut Fill) {
         groups.extend(by_surface.into_values());
     }
     let alpha = (4.0 * std::f32::consts::PI / n as f32).sqrt();
-    let copies: Vec<Transfer> = groups.par_iter().map(|g| copy_group(tx, fill, &clean, g, alpha)).collect();
-    let mut shading = std::collections::HashMap::new();
+    let copies: Vec<Transfer> =
+        groups.par_iter().map(|g| copy_group(tx, k, fill, &clean, g, alpha)).collect();
+    let mut shading = Vec::new();
     let mut copied = vec![false; fill.pixels.len()];
     for c in &copies {
         for &(i, p) in &c.sources {
@@ -153,10 +158,13 @@ pub fn synthesise(tx: &Texture, k: u32, fill: &mut Fill) {
         }
         shading.extend(c.shading.iter().copied());
     }
+    shading.sort_unstable_by_key(|e| e.0);
+    shading.dedup_by_key(|e| e.0);
     // The copy brings its source's lighting: the ratio between the ring and its copy (a shadow,
     // a lamp's glow) is carried smoothly across the hole.
-    let log_ratio =
-        diffuse(tx, fill, &slot, vec![Vec3::ZERO; fill.pixels.len()], |r| shading.get(&r).copied());
+    let log_ratio = diffuse(tx, fill, &slot, vec![Vec3::ZERO; fill.pixels.len()], &copied, false, |r| {
+        shading.binary_search_by_key(&r, |e| e.0).ok().map(|i| shading[i].1)
+    });
     for ((f, g), _) in fill.pixels.iter_mut().zip(log_ratio).zip(&copied).filter(|(_, &c)| c) {
         let g = g.clamp(Vec3::splat(-MAX_LOG_RATIO), Vec3::splat(MAX_LOG_RATIO));
         f.rgb = (Vec3::from(f.rgb) * g.exp()).to_array();
@@ -164,7 +172,8 @@ pub fn synthesise(tx: &Texture, k: u32, fill: &mut Fill) {
     // What no offset continues (too little texture around it, or none that matches) is blended.
     if copied.iter().any(|c| !c) {
         let start = fill.pixels.iter().map(|f| Vec3::from(f.rgb)).collect();
-        let rgb = diffuse(tx, fill, &slot, start, |r| clean[r].then(|| tx.colour(r)));
+        let blend: Vec<bool> = copied.iter().map(|c| !c).collect();
+        let rgb = diffuse(tx, fill, &slot, start, &blend, true, |r| clean[r].then(|| tx.colour(r)));
         for ((f, c), _) in fill.pixels.iter_mut().zip(rgb).zip(&copied).filter(|(_, &c)| !c) {
             f.rgb = c.to_array();
         }
@@ -191,7 +200,7 @@ fn spread<T: Copy>(items: &[T], count: usize) -> impl Iterator<Item = T> + '_ {
 }
 
 /// Offsets for one part of the fill on one surface, and the source each pixel takes.
-fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f32) -> Transfer {
+fn copy_group(tx: &Texture, k: u32, fill: &Fill, clean: &[bool], group: &[u32], alpha: f32) -> Transfer {
     let none = Transfer { sources: Vec::new(), shading: Vec::new() };
     let first = fill.pixels[group[0] as usize];
     let plane = Plane::new(tx, first.pixel, first.depth, first.surface);
@@ -201,11 +210,14 @@ fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f
     // deep), with their colours.
     let hole: Vec<Vec3> =
         group.iter().map(|&i| fill.pixels[i as usize]).map(|f| tx.point(f.pixel, f.depth)).collect();
+    let w = tx.nb.width();
     let mut ring: Vec<usize> = group
-        .iter()
-        .flat_map(|&i| {
-            let q = fill.pixels[i as usize].pixel;
-            let (x, y) = (q % tx.nb.width(), q / tx.nb.width());
+        .par_iter()
+        .map(|&i| fill.pixels[i as usize].pixel)
+        // Only pixels on the hole's border reach visible surface within two steps.
+        .filter(|&q| (0..8).any(|j| tx.nb.get_at(q % w, q / w, j).is_some_and(|r| tx.layer_of[r] == k)))
+        .flat_map_iter(|q| {
+            let (x, y) = (q % w, q / w);
             (0..8).flat_map(move |j| [tx.nb.get_at(x, y, j), tx.nb.get2_at(x, y, j)]).flatten()
         })
         .filter(|&r| valid(r))
@@ -227,18 +239,24 @@ fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f
     if !(footprint > 0.0 && footprint.is_finite() && extent.is_finite()) {
         return none;
     }
-    let score = |t: Vec3, ring_n: usize, hole_n: usize| -> f32 {
+    // Mean mismatch of the ring carried by `t`, plus the share of the hole it leaves uncovered;
+    // `INFINITY` as soon as it cannot beat `bound`.
+    let score = |t: Vec3, ring_n: usize, hole_n: usize, bound: f32| -> f32 {
+        let (ring_n, hole_n) = (ring.len().min(ring_n), hole_samples.len().min(hole_n));
+        let cap = bound * ring_n as f32;
         let mut sum = 0.0;
         for (x, feat) in spread(&ring, ring_n) {
             let p = tx.pixel(x + t);
             sum += if valid(p) { (tx.feature(p) - feat).length_squared() } else { INVALID };
+            if sum >= cap {
+                return f32::INFINITY;
+            }
         }
         let mut uncovered = 0;
         for x in spread(&hole_samples, hole_n) {
             uncovered += !valid(tx.pixel(x + t)) as u32;
         }
-        sum / ring.len().min(ring_n) as f32
-            + UNCOVERED * uncovered as f32 / hole_samples.len().min(hole_n) as f32
+        sum / ring_n as f32 + UNCOVERED * uncovered as f32 / hole_n as f32
     };
     // Coarse grid over a disc a few hole sizes wide, then each of the best few refined by
     // halving steps down to half a pixel.
@@ -252,13 +270,13 @@ fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f
             if t.length() > reach || t.length() < 2.0 * footprint {
                 continue;
             }
-            best.push((score(t, 64, 32), t));
+            best.push((score(t, 64, 32, f32::INFINITY), t));
         }
     }
     best.sort_by(|a, b| a.0.total_cmp(&b.0));
     best.truncate(2 * OFFSETS);
     for c in &mut best {
-        c.0 = score(c.1, RING_SAMPLES, HOLE_SAMPLES);
+        c.0 = score(c.1, RING_SAMPLES, HOLE_SAMPLES, f32::INFINITY);
     }
     while step > 0.5 * footprint {
         step *= 0.5;
@@ -266,7 +284,7 @@ fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f
             let centre = c.1;
             for (a, b) in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)] {
                 let t = centre + plane.e1 * (a as f32 * step) + plane.e2 * (b as f32 * step);
-                let s = score(t, RING_SAMPLES, HOLE_SAMPLES);
+                let s = score(t, RING_SAMPLES, HOLE_SAMPLES, c.0);
                 if s < c.0 {
                     *c = (s, t);
                 }
@@ -274,17 +292,7 @@ fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f
         }
     }
     best.sort_by(|a, b| a.0.total_cmp(&b.0));
-    if std::env::var_os("POMC_DEBUG_FILL").is_some() {
-        eprintln!(
-            "group {} px ring {} extent {:.3} fp {:.4} best {:?}",
-            group.len(),
-            ring.len(),
-            extent,
-            footprint,
-            best.iter().take(3).map(|b| b.0).collect::<Vec<_>>()
-        );
-    }
-    if ring.len() < MIN_RING || best.first().is_none_or(|b| b.0 > POOR_MATCH) {
+    if ring.len() < MIN_RING || best.first().map_or(true, |b| b.0 > POOR_MATCH) {
         return none;
     }
     let mut offsets: Vec<Vec3> = Vec::new();
@@ -294,7 +302,7 @@ fn copy_group(tx: &Texture, fill: &Fill, clean: &[bool], group: &[u32], alpha: f
         }
     }
     let sources = group
-        .iter()
+        .par_iter()
         .zip(&hole)
         .filter_map(|(&i, &x)| offsets.iter().map(|&t| tx.pixel(x + t)).find(|&p| valid(p)).map(|p| (i, p)))
         .collect();
@@ -337,7 +345,7 @@ pub fn smooth(tx: &Texture, k: u32, fill: &mut Fill) {
     }
     let clean = |p: usize| tx.layer_of[p] == k && tx.nb.all(p).all(|r| tx.layer_of[r] == k);
     let start = fill.pixels.iter().map(|f| Vec3::from(f.rgb)).collect();
-    let rgb = diffuse(tx, fill, &slot, start, |r| {
+    let rgb = diffuse(tx, fill, &slot, start, &vec![true; fill.pixels.len()], false, |r| {
         clean(r).then(|| Vec3::new(tx.rgb[0][r], tx.rgb[1][r], tx.rgb[2][r]))
     });
     for (f, c) in fill.pixels.iter_mut().zip(rgb) {
@@ -347,32 +355,40 @@ pub fn smooth(tx: &Texture, k: u32, fill: &mut Fill) {
 
 /// A value per filled pixel spread from the pixels around the fill that have one (`known`):
 /// inwards from the border (the fill's breadth-first order), each pixel takes the
-/// distance-weighted mean of the known pixels in its 5 × 5 neighbourhood, then relaxation
+/// distance-weighted mean of its known 8-neighbours, then relaxation
 /// sweeps average each with its 8 neighbours. Pixels nothing reaches keep their `value`.
 fn diffuse(
     tx: &Texture,
     fill: &Fill,
     slot: &[u32],
     mut value: Vec<Vec3>,
+    solve: &[bool],
+    others_known: bool,
     known: impl Fn(usize) -> Option<Vec3> + Sync,
 ) -> Vec<Vec3> {
     let w = tx.nb.width();
     let m = fill.pixels.len();
     let mut done = vec![false; m];
+    // 8-neighbours, weighted 1/d².
     let ring = |q: usize| {
         let (x, y) = (q % w, q / w);
-        (0..8).flat_map(move |j| {
-            let diag = if j >= 4 { 2.0 } else { 1.0 };
-            [(tx.nb.get_at(x, y, j), 1.0 / diag), (tx.nb.get2_at(x, y, j), 0.25 / diag)]
-        })
+        (0..8).map(move |j| (tx.nb.get_at(x, y, j), if j >= 4 { 0.5 } else { 1.0 }))
     };
-    for i in 0..m {
+    // A neighbour's value: a filled pixel's once solved (or fixed), else what is known there.
+    let at = |r: usize, value: &[Vec3], done: &[bool]| {
+        let s = slot[r];
+        if s == NONE {
+            known(r)
+        } else if solve[s as usize] {
+            done[s as usize].then(|| value[s as usize])
+        } else {
+            others_known.then(|| value[s as usize])
+        }
+    };
+    for i in (0..m).filter(|&i| solve[i]) {
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0);
         for (r, wt) in ring(fill.pixels[i].pixel) {
-            let Some(r) = r else { continue };
-            let s = slot[r];
-            let v = if s != NONE { done[s as usize].then(|| value[s as usize]) } else { known(r) };
-            if let Some(v) = v {
+            if let Some(v) = r.and_then(|r| at(r, &value, &done)) {
                 sum += v * wt;
                 weight += wt;
             }
@@ -382,15 +398,19 @@ fn diffuse(
             done[i] = true;
         }
     }
+    let all = vec![true; m];
     for _ in 0..SMOOTH_SWEEPS {
         value = (0..m)
             .into_par_iter()
             .map(|i| {
+                if !solve[i] {
+                    return value[i];
+                }
+                let q = fill.pixels[i].pixel;
+                let (x, y) = (q % w, q / w);
                 let (mut sum, mut weight) = (value[i], 1.0);
-                for r in tx.nb.all(fill.pixels[i].pixel) {
-                    let s = slot[r];
-                    let v = if s != NONE { Some(value[s as usize]) } else { known(r) };
-                    if let Some(v) = v {
+                for j in 0..8 {
+                    if let Some(v) = tx.nb.get_at(x, y, j).and_then(|r| at(r, &value, &all)) {
                         sum += v;
                         weight += 1.0;
                     }
@@ -403,7 +423,7 @@ fn diffuse(
 }
 
 /// Relaxation sweeps of [`diffuse`].
-const SMOOTH_SWEEPS: usize = 8;
+const SMOOTH_SWEEPS: usize = 4;
 
 /// 8-connected parts of the fill, each as fill indices in the fill's (breadth-first) order.
 fn components(nb: &Neighbours, fill: &Fill, slot: &[u32]) -> Vec<Vec<u32>> {
