@@ -52,9 +52,11 @@ const HOLE_SAMPLES: usize = 256;
 /// (features lie in [0, 1); a good match costs ~1e-4).
 const INVALID: f32 = 0.05;
 const UNCOVERED: f32 = 0.02;
-/// A part whose best offset scores worse than this, or whose visible ring has fewer samples,
-/// is blended instead of copied: nothing around it says what texture continues.
-const POOR_MATCH: f32 = 3e-3;
+/// A part is copied when its best offset's ring mismatch is at most this share of what random
+/// texture would give, and the ring varies more than `PLAIN` (else it is a plain surface) and has
+/// `MIN_RING` pixels at least; otherwise it is blended: nothing says what texture continues.
+const COPY_MATCH: f32 = 0.5;
+const PLAIN: f32 = 1e-4;
 const MIN_RING: usize = 24;
 /// Offsets kept per part: each pixel takes the first that lands on visible surface.
 const OFFSETS: usize = 4;
@@ -239,9 +241,9 @@ fn copy_group(tx: &Texture, k: u32, fill: &Fill, clean: &[bool], group: &[u32], 
     if !(footprint > 0.0 && footprint.is_finite() && extent.is_finite()) {
         return none;
     }
-    // Mean mismatch of the ring carried by `t`, plus the share of the hole it leaves uncovered;
-    // `INFINITY` as soon as it cannot beat `bound`.
-    let score = |t: Vec3, ring_n: usize, hole_n: usize, bound: f32| -> f32 {
+    // Mean mismatch of the ring carried by `t` and the share of the hole it leaves uncovered;
+    // `None` as soon as their sum cannot beat `bound`.
+    let parts = |t: Vec3, ring_n: usize, hole_n: usize, bound: f32| -> Option<(f32, f32)> {
         let (ring_n, hole_n) = (ring.len().min(ring_n), hole_samples.len().min(hole_n));
         let cap = bound * ring_n as f32;
         let mut sum = 0.0;
@@ -249,14 +251,17 @@ fn copy_group(tx: &Texture, k: u32, fill: &Fill, clean: &[bool], group: &[u32], 
             let p = tx.pixel(x + t);
             sum += if valid(p) { (tx.feature(p) - feat).length_squared() } else { INVALID };
             if sum >= cap {
-                return f32::INFINITY;
+                return None;
             }
         }
         let mut uncovered = 0;
         for x in spread(&hole_samples, hole_n) {
             uncovered += !valid(tx.pixel(x + t)) as u32;
         }
-        sum / ring_n as f32 + UNCOVERED * uncovered as f32 / hole_n as f32
+        Some((sum / ring_n as f32, uncovered as f32 / hole_n as f32))
+    };
+    let score = |t: Vec3, ring_n: usize, hole_n: usize, bound: f32| {
+        parts(t, ring_n, hole_n, bound).map_or(f32::INFINITY, |(m, u)| m + UNCOVERED * u)
     };
     // Coarse grid over a disc a few hole sizes wide, then each of the best few refined by
     // halving steps down to half a pixel.
@@ -292,7 +297,14 @@ fn copy_group(tx: &Texture, k: u32, fill: &Fill, clean: &[bool], group: &[u32], 
         }
     }
     best.sort_by(|a, b| a.0.total_cmp(&b.0));
-    if ring.len() < MIN_RING || best.first().map_or(true, |b| b.0 > POOR_MATCH) {
+    // Copy only what matches clearly better than texture at random would (twice the ring's
+    // variance) and covers most of the part; a plain surface (no variance) is blended.
+    let mean = ring.iter().map(|r| r.1).sum::<Vec3>() / ring.len() as f32;
+    let random = 2.0 * ring.iter().map(|r| (r.1 - mean).length_squared()).sum::<f32>() / ring.len() as f32;
+    let clear = best.first().and_then(|b| parts(b.1, RING_SAMPLES, HOLE_SAMPLES, f32::INFINITY)).is_some_and(
+        |(mismatch, uncovered)| mismatch <= COPY_MATCH * random && uncovered <= 0.5 && random >= PLAIN,
+    );
+    if ring.len() < MIN_RING || !clear {
         return none;
     }
     let mut offsets: Vec<Vec3> = Vec::new();
@@ -369,10 +381,13 @@ fn diffuse(
     let w = tx.nb.width();
     let m = fill.pixels.len();
     let mut done = vec![false; m];
-    // 8-neighbours, weighted 1/d².
+    // One and two steps along the 8 directions, weighted 1/d².
     let ring = |q: usize| {
         let (x, y) = (q % w, q / w);
-        (0..8).map(move |j| (tx.nb.get_at(x, y, j), if j >= 4 { 0.5 } else { 1.0 }))
+        (0..8).flat_map(move |j| {
+            let diag = if j >= 4 { 2.0 } else { 1.0 };
+            [(tx.nb.get_at(x, y, j), 1.0 / diag), (tx.nb.get2_at(x, y, j), 0.25 / diag)]
+        })
     };
     // A neighbour's value: a filled pixel's once solved (or fixed), else what is known there.
     let at = |r: usize, value: &[Vec3], done: &[bool]| {
@@ -423,7 +438,7 @@ fn diffuse(
 }
 
 /// Relaxation sweeps of [`diffuse`].
-const SMOOTH_SWEEPS: usize = 4;
+const SMOOTH_SWEEPS: usize = 8;
 
 /// 8-connected parts of the fill, each as fill indices in the fill's (breadth-first) order.
 fn components(nb: &Neighbours, fill: &Fill, slot: &[u32]) -> Vec<Vec<u32>> {
