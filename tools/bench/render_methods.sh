@@ -19,7 +19,7 @@ pomc=$target/release/pomc
 "$target/release/pomc-fixtures" rgbd "$work/in" "$width" >/dev/null
 # The fixtures put the room's panorama centre 1.2 m above the world origin.
 "$pomc" build --colour "$work/in/colour.png" --depth "$work/in/depth.exr" -o "$work/pano" --no-pack --quiet \
-  --center 0 0 1.2
+  --center 0,0,1.2
 cp -r "$work/pano" "$work/stored"
 layers=$("$pomc" info "$work/stored" --json | python3 -c 'import json,sys; print(len(json.load(sys.stdin)["layers"]))')
 for k in $(seq 0 $((layers - 1))); do

@@ -34,7 +34,7 @@ for case in "exact $work/exact/colour.png $work/exact/depth.exr" \
   "anti-aliased $work/aa-colour.png $work/aa-depth.exr" \
   "noisy $work/exact/colour.png $work/noisy-depth.exr"; do
   read -r name colour depth <<< "$case"
-  "$pomc" build --colour "$colour" --depth "$depth" -o "$work/$name" --center 0 0 1.2 --json \
+  "$pomc" build --colour "$colour" --depth "$depth" -o "$work/$name" --center 0,0,1.2 --json \
     | python3 -c "import json,sys; d=json.load(sys.stdin); print('$name: mixed pixels', d['mixed_pixels'], 'layers', [(l['name'], l['own_pixels']) for l in d['layers']])"
   holes=""
   for v in "0,0.5,1.2 2,0,0.4" "-0.35,-0.35,1.2 -1.4,1.5,0.65" "0.5,0,1.2 3,1,0.4" "0,-0.5,1.2 2,0,0.4"; do

@@ -3,12 +3,14 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use glam::DVec3;
 use pomc::build::input::{self, Convention, DepthKind, Preset};
 use pomc::build::{self, BuildOptions, Classify, FillColour};
 use pomc::layer_io::ReadLimits;
 use pomc::manifest::Transform;
 use pomc::panorama::{self, SaveOptions};
 
+use crate::args::parse_vec3;
 use crate::output::Output;
 use crate::Failure;
 
@@ -88,8 +90,8 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "thesis")]
     convention: ConventionArg,
     /// Position of the panorama centre in the world, metres: x,y,z.
-    #[arg(long, value_delimiter = ',', num_args = 3, allow_negative_numbers = true)]
-    center: Option<Vec<f64>>,
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    center: Option<DVec3>,
     /// Freedom radius (m): cameras within it see no holes.
     #[arg(long, default_value_t = 0.5)]
     freedom_radius: f64,
@@ -173,7 +175,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let t = Instant::now();
     let mut transforms = Vec::new();
     if let Some(c) = &args.center {
-        transforms.push(Transform::Translate([c[0], c[1], c[2]]));
+        transforms.push(Transform::Translate(c.to_array()));
     }
     transforms.extend(convention(args.convention).transforms());
     let manifest = build::manifest(&built, rgbd.mapping.kind(), args.freedom_radius, transforms);

@@ -12,6 +12,7 @@ use pomc::render::{
     SplatOptions,
 };
 
+use crate::args::parse_vec3;
 use crate::output::Output;
 use crate::Failure;
 
@@ -110,15 +111,6 @@ fn frame_name(name: &std::path::Path, index: usize) -> Option<PathBuf> {
     let start = s[..end].rfind(|c| c != '#').map_or(0, |i| i + 1);
     let width = end - start;
     Some(PathBuf::from(format!("{}{index:0width$}{}", &s[..start], &s[end..])))
-}
-
-fn parse_vec3(s: &str) -> Result<DVec3, String> {
-    let v: Vec<f64> =
-        s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
-    match v.as_slice() {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(DVec3::new(*x, *y, *z)),
-        _ => Err(format!("expected three finite numbers x,y,z, got `{s}`")),
-    }
 }
 
 fn parse_size(s: &str) -> Result<(usize, usize), String> {

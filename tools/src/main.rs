@@ -3,6 +3,7 @@
 //!
 //! Exit codes: 0 success, 1 the input is invalid (`validate`), 2 usage, I/O or processing error.
 
+mod args;
 mod cmd_build;
 mod cmd_convert;
 mod cmd_info;

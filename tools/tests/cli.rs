@@ -187,3 +187,39 @@ fn closed_stdout_is_not_a_panic() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(out.status.code(), Some(0), "{stderr}");
 }
+
+/// One vector syntax everywhere: `--center` takes `x,y,z` like `--eye`, negatives included, and
+/// the translation lands in the manifest; the old three-value form is a usage error.
+#[test]
+fn vectors_are_x_y_z_everywhere() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-rgbd");
+    let out = tempfile::tempdir().unwrap();
+    let pano = out.path().join("pano");
+    let (colour, depth) = (root.join("colour.png"), root.join("depth.exr"));
+    let build = |center: &[&str], dest: &Path| {
+        let mut args =
+            vec!["build", "--colour", colour.to_str().unwrap(), "--depth", depth.to_str().unwrap()];
+        args.extend_from_slice(center);
+        args.extend_from_slice(&["-o", dest.to_str().unwrap(), "--json", "--fill-colour", "nearest"]);
+        pomc(&args)
+    };
+    let run = build(&["--center", "-1,2.5,-0.25"], &pano);
+    assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
+    let manifest = std::fs::read_to_string(pano.join("panorama.xml")).unwrap();
+    assert!(manifest.contains(r#"<Translate vector="-1 2.5 -0.25"/>"#), "{manifest}");
+    let old = build(&["--center", "1", "2", "3"], &out.path().join("old"));
+    assert_eq!(old.status.code(), Some(2), "{}", String::from_utf8_lossy(&old.stdout));
+    let render = pomc(&[
+        "render",
+        pano.to_str().unwrap(),
+        "-o",
+        out.path().join("v.png").to_str().unwrap(),
+        "--eye",
+        "-0.2,0.1,1.3",
+        "--look-at",
+        "-1,2.5,-0.25",
+        "--size",
+        "64x32",
+    ]);
+    assert_eq!(render.status.code(), Some(0), "{}", String::from_utf8_lossy(&render.stderr));
+}
