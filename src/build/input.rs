@@ -14,8 +14,9 @@ use crate::mapping::{AnyMapping, Mapping, MappingKind};
 /// How depth values are stored.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DepthEncoding {
-    /// Metres per stored unit (16-bit PNG); ignored for float EXR unless set explicitly.
-    pub scale: f64,
+    /// Metres per stored unit; `None`: float EXR depth is in metres, and integer (PNG) depth is
+    /// refused, as its unit cannot be guessed.
+    pub scale: Option<f64>,
     /// Stored value meaning "no depth" (besides 0, NaN and negatives, which always do).
     pub invalid: Option<f64>,
     /// Distance along the ray, or planar z-depth (cube faces: along the face axis).
@@ -24,7 +25,7 @@ pub struct DepthEncoding {
 
 impl Default for DepthEncoding {
     fn default() -> Self {
-        DepthEncoding { scale: 1.0, invalid: None, kind: DepthKind::Ray }
+        DepthEncoding { scale: None, invalid: None, kind: DepthKind::Ray }
     }
 }
 
@@ -52,10 +53,16 @@ impl Preset {
     pub fn encoding(self) -> DepthEncoding {
         let ray = DepthKind::Ray;
         match self {
-            Preset::Matterport3d => DepthEncoding { scale: 1.0 / 4000.0, invalid: Some(0.0), kind: ray },
-            Preset::Stanford2d3ds => DepthEncoding { scale: 1.0 / 512.0, invalid: Some(65535.0), kind: ray },
-            Preset::Structured3d => DepthEncoding { scale: 1.0 / 1000.0, invalid: Some(0.0), kind: ray },
-            Preset::Pano3d => DepthEncoding { scale: 1.0, invalid: None, kind: ray },
+            Preset::Matterport3d => {
+                DepthEncoding { scale: Some(1.0 / 4000.0), invalid: Some(0.0), kind: ray }
+            }
+            Preset::Stanford2d3ds => {
+                DepthEncoding { scale: Some(1.0 / 512.0), invalid: Some(65535.0), kind: ray }
+            }
+            Preset::Structured3d => {
+                DepthEncoding { scale: Some(1.0 / 1000.0), invalid: Some(0.0), kind: ray }
+            }
+            Preset::Pano3d => DepthEncoding { scale: Some(1.0), invalid: None, kind: ray },
         }
     }
 }
@@ -103,6 +110,12 @@ pub enum InputError {
     SizeMismatch { colour: PathBuf, cw: usize, ch: usize, depth: PathBuf, dw: usize, dh: usize },
     #[error("{path}: z-depth needs a cube-map input (an equirect has no image plane); use --depth-kind ray")]
     ZDepthOnEquirect { path: PathBuf },
+    #[error(
+        "{path}: integer depth has no unit; give --depth-scale (metres per stored unit, e.g. 0.001 for \
+         millimetres) or a dataset --preset (matterport3d, stanford2d3ds, structured3d), or store float \
+         metres in an OpenEXR"
+    )]
+    DepthScaleNeeded { path: PathBuf },
 }
 
 impl InputError {
@@ -114,6 +127,7 @@ impl InputError {
             InputError::NotAPanorama { .. } => "INPUT_NOT_PANORAMA",
             InputError::SizeMismatch { .. } => "INPUT_SIZE_MISMATCH",
             InputError::ZDepthOnEquirect { .. } => "INPUT_Z_DEPTH_EQUIRECT",
+            InputError::DepthScaleNeeded { .. } => "INPUT_DEPTH_SCALE_NEEDED",
         }
     }
 }
@@ -165,18 +179,21 @@ pub fn read_depth(
     enc: &DepthEncoding,
     limits: &ReadLimits,
 ) -> Result<(usize, usize, Vec<f32>), InputError> {
-    let (w, h, raw) = if is_exr(path) {
+    let (w, h, raw, scale) = if is_exr(path) {
         let layer = layer_io::read_exr(path, limits)?;
         let ch = ["Z", "Y", "R", "depth", "D"]
             .iter()
             .find_map(|n| layer.channel(n))
             .or_else(|| (layer.channels.len() == 1).then(|| &layer.channels[0]))
             .ok_or_else(|| InputError::NoDepthChannel { path: path.to_path_buf() })?;
-        (layer.width, layer.height, ch.data.clone())
+        (layer.width, layer.height, ch.data.clone(), enc.scale.unwrap_or(1.0))
     } else {
+        // Integer depth has a dataset-specific unit: read without one it builds silently into
+        // garbage (millimetres taken for metres put everything beyond d_dirmin).
+        let scale = enc.scale.ok_or_else(|| InputError::DepthScaleNeeded { path: path.to_path_buf() })?;
         let img = open_image(path, limits)?.to_luma16();
         let (w, h) = (img.width() as usize, img.height() as usize);
-        (w, h, img.into_raw().into_iter().map(f32::from).collect())
+        (w, h, img.into_raw().into_iter().map(f32::from).collect(), scale)
     };
     let depth = raw
         .into_iter()
@@ -185,7 +202,7 @@ pub fn read_depth(
             if invalid {
                 f32::NAN
             } else {
-                (v as f64 * enc.scale) as f32
+                (v as f64 * scale) as f32
             }
         })
         .collect();
@@ -252,4 +269,27 @@ pub fn load(
         None => None,
     };
     Ok(RgbdInput { mapping, rgb, depth: d, normals })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 16-bit PNG depth without a unit is refused with the fix; with one it is read in metres.
+    #[test]
+    fn integer_depth_needs_a_unit() {
+        let path = std::env::temp_dir().join(format!("pomc-depth16-{}.png", std::process::id()));
+        let img =
+            image::ImageBuffer::<image::Luma<u16>, _>::from_fn(8, 4, |x, _| image::Luma([1000 + x as u16]));
+        img.save(&path).unwrap();
+        let limits = ReadLimits::default();
+        let err = read_depth(&path, &DepthEncoding::default(), &limits).unwrap_err();
+        assert_eq!(err.code(), "INPUT_DEPTH_SCALE_NEEDED");
+        assert!(err.to_string().contains("--depth-scale") && err.to_string().contains("--preset"), "{err}");
+        let mm = DepthEncoding { scale: Some(0.001), ..DepthEncoding::default() };
+        let (w, h, d) = read_depth(&path, &mm, &limits).unwrap();
+        assert_eq!((w, h), (8, 4));
+        assert_eq!(d[3], 1.003);
+        std::fs::remove_file(&path).ok();
+    }
 }

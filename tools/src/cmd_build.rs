@@ -138,7 +138,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let start = Instant::now();
     let mut enc = args.preset.map(preset).map(Preset::encoding).unwrap_or_default();
     if let Some(s) = args.depth_scale {
-        enc.scale = s;
+        enc.scale = Some(s);
     }
     if let Some(i) = args.depth_invalid {
         enc.invalid = Some(i);
