@@ -11,6 +11,7 @@ fn io_err(path: &Path, source: std::io::Error) -> Error {
 
 /// Write a file atomically: the content goes to a temporary file next to `path`, is flushed to
 /// disk, then renamed over `path`. A crash leaves either the old file or the new one, never a mix.
+/// Missing parent directories are created, as for a panorama directory.
 pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
@@ -19,6 +20,7 @@ pub fn write_atomic(
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
+    std::fs::create_dir_all(dir).map_err(|e| io_err(path, e))?;
     let mut builder = tempfile::Builder::new();
     builder.prefix(".pomc-tmp-");
     // Temp files are private (0600) by default; the file we leave behind is an ordinary output,
@@ -72,6 +74,18 @@ mod tests {
         assert_eq!(std::fs::read(&p).unwrap(), b"two");
         let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names.len(), 1, "temp files left behind: {names:?}");
+    }
+
+    #[test]
+    fn missing_parent_directories_are_created() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a/b/c.png");
+        write_bytes_atomic(&p, b"x").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"x");
+        // A parent that is a file is an error naming the output, not a panic.
+        let blocked = dir.path().join("a/b/c.png/d.png");
+        let e = write_bytes_atomic(&blocked, b"x").unwrap_err();
+        assert!(e.to_string().contains("d.png"), "{e}");
     }
 
     #[cfg(unix)]

@@ -223,3 +223,15 @@ fn vectors_are_x_y_z_everywhere() {
     ]);
     assert_eq!(render.status.code(), Some(0), "{}", String::from_utf8_lossy(&render.stderr));
 }
+
+/// Every output path may name directories that do not exist yet: `render` creates them as `build`
+/// does.
+#[test]
+fn outputs_create_their_parent_directories() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path());
+    let out = dir.path().join("new/sub/view.png");
+    let run = pomc(&["render", dir.path().to_str().unwrap(), "-o", out.to_str().unwrap(), "--size", "64x32"]);
+    assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(out.is_file());
+}
