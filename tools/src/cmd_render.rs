@@ -240,6 +240,10 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let pano = Panorama::open(&args.pano)?;
     let to_world = pano.manifest.local_to_world();
     let centre = render::centre(to_world);
+    // Distance of an eye from the centre in the panorama's own frame, where the freedom radius is.
+    let (to_local, radius) = (to_world.inverse(), pano.manifest.freedom_radius);
+    let offset = |eye: DVec3| to_local.transform_point3(eye).length();
+    let outside = |eye: DVec3| offset(eye) > radius * (1.0 + 1e-9);
     let single = [Shot { eye: args.eye.unwrap_or(centre), look_at: args.look_at }];
     let shots: &[Shot] = shots.as_deref().unwrap_or(&single);
     // Every camera is checked before the layers are read.
@@ -276,7 +280,8 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
             stages[format!("{name}_s")] = serde_json::json!(seconds);
         }
         frames.push(serde_json::json!({
-            "output": colour, "eye": shot.eye.to_array(), "holes": r.holes, "hole_ratio": r.hole_ratio,
+            "output": colour, "eye": shot.eye.to_array(), "eye_offset": offset(shot.eye),
+            "inside_freedom_radius": !outside(shot.eye), "holes": r.holes, "hole_ratio": r.hole_ratio,
             "counts": r.counts, "stages": stages,
         }));
         if let Some(p) = &progress {
@@ -306,6 +311,9 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
             "method": method,
             "camera": format!("{:?}", args.camera).to_lowercase(),
             "eye": shots[0].eye.to_array(),
+            "freedom_radius": radius,
+            "eye_offset": offset(shots[0].eye),
+            "inside_freedom_radius": !outside(shots[0].eye),
             "width": r.width,
             "height": r.height,
             "layers": r.layers,
@@ -324,6 +332,8 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
             "width": r.width,
             "height": r.height,
             "layers": r.layers,
+            "freedom_radius": radius,
+            "frames_outside_freedom_radius": shots.iter().filter(|s| outside(s.eye)).count(),
             "frames": frames,
             "max_hole_ratio": worst_holes,
             "stages": {
@@ -353,6 +363,13 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
             100.0 * report["max_hole_ratio"].as_f64().unwrap_or(0.0),
             args.output.display()
         ));
+        let far = shots.iter().filter(|s| outside(s.eye)).count();
+        if far > 0 {
+            out.say(format!(
+                "note: {far} of {} frames have the eye outside the freedom radius ({radius} m): holes are expected there",
+                shots.len()
+            ));
+        }
     } else {
         let eye = shots[0].eye;
         out.say(format!(
@@ -367,6 +384,12 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
             100.0 * r.hole_ratio,
             colour.display()
         ));
+        if outside(eye) {
+            out.say(format!(
+                "note: the eye is {:.3} m from the centre, outside the freedom radius ({radius} m): holes are expected",
+                offset(eye)
+            ));
+        }
     }
     Ok(0)
 }

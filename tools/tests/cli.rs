@@ -235,3 +235,31 @@ fn outputs_create_their_parent_directories() {
     assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
     assert!(out.is_file());
 }
+
+/// An eye outside the freedom radius renders, and says so: holes are expected there.
+#[test]
+fn render_says_when_the_eye_is_outside_the_freedom_radius() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path());
+    let pano = dir.path().to_str().unwrap();
+    let manifest = Panorama::open(dir.path()).unwrap().manifest;
+    let (radius, c) =
+        (manifest.freedom_radius, manifest.local_to_world().transform_point3(glam::DVec3::ZERO));
+    let view = |eye: &str, json: bool| {
+        let out = dir.path().join("v.png");
+        let mut a = vec!["render", pano, "-o", out.to_str().unwrap(), "--size", "64x32", "--eye", eye];
+        if json {
+            a.push("--json");
+        }
+        pomc(&a)
+    };
+    let far = format!("{},{},{}", c.x + 3.0 * radius, c.y, c.z);
+    let v = json(&view(&far, true));
+    assert_eq!(v["inside_freedom_radius"], false, "{v}");
+    assert!((v["eye_offset"].as_f64().unwrap() - 3.0 * radius).abs() < 1e-6, "{v}");
+    let human = view(&far, false);
+    assert!(String::from_utf8_lossy(&human.stdout).contains("outside the freedom radius"));
+    let near = format!("{},{},{}", c.x + 0.5 * radius, c.y, c.z);
+    assert_eq!(json(&view(&near, true))["inside_freedom_radius"], true);
+    assert!(!String::from_utf8_lossy(&view(&near, false).stdout).contains("outside"));
+}
