@@ -198,9 +198,13 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     }
     out.json(&report);
     for l in &built.report.layers {
+        let depth = match l.depth_range {
+            Some((lo, hi)) => format!("depth {lo:.3}–{hi:.3} m"),
+            None => "no finite depth".to_string(),
+        };
         out.say(format!(
-            "{:>14} {:>10} order {}: {} px seen, {} px filled, depth {:?}",
-            l.name, l.role, l.order, l.own_pixels, l.filled_pixels, l.depth_range
+            "{:>14} {:>10} order {}: {} px seen, {} px filled, {depth}",
+            l.name, l.role, l.order, l.own_pixels, l.filled_pixels
         ));
     }
     out.say(format!(

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use pomc::layer::Sample;
 use pomc::layer_io::{self, ReadLimits};
-use pomc::manifest::LayerSource;
+use pomc::manifest::{LayerSource, Transform};
 use pomc::panorama::Panorama;
 
 use crate::output::Output;
@@ -76,7 +76,7 @@ fn panorama_info(path: &Path, stats: bool, out: Output) -> Result<u8, Failure> {
         m.freedom_radius,
         m.layers.len()
     ));
-    out.say(format!("  LocalToWorld: {:?}", l2w));
+    out.say(format!("  LocalToWorld: {}", describe_transforms(&m.transforms)));
     for (k, decl) in m.layers.iter().enumerate() {
         let file = match &decl.source {
             LayerSource::Native { file } => file.clone(),
@@ -116,8 +116,11 @@ fn panorama_info(path: &Path, stats: bool, out: Output) -> Result<u8, Failure> {
                 inside += 1;
             }
             let channels: Vec<_> = img.channels.iter().map(|c| c.name.clone()).collect();
+            let depth =
+                if lo <= hi { format!("depth {lo:.3}–{hi:.3} m") } else { "no finite depth".to_string() };
+            let names = channels.join(",");
             line += &format!(
-                " {}x{} domain {:.2}% depth [{lo}, {hi}] m, {inf} infinite, {unknown} unknown, channels {channels:?}",
+                " {}x{} domain {:.2}%, {depth}, {inf} infinite, {unknown} unknown, channels {names}",
                 img.width,
                 img.height,
                 100.0 * inside as f64 / (img.width * img.height).max(1) as f64
@@ -139,4 +142,23 @@ fn panorama_info(path: &Path, stats: bool, out: Output) -> Result<u8, Failure> {
         "local_to_world_cols": cols, "layers": layers,
     }));
     Ok(0)
+}
+
+/// The LocalToWorld operations as a person reads them: `Translate(0, 0, 1.2) · Scale(-1, 1, 1)`
+/// (document order; the last is applied to points first), or `identity`.
+fn describe_transforms(ops: &[Transform]) -> String {
+    let v = |a: &[f64; 3]| format!("{}, {}, {}", a[0], a[1], a[2]);
+    let parts: Vec<String> = ops
+        .iter()
+        .map(|t| match t {
+            Transform::Translate(a) => format!("Translate({})", v(a)),
+            Transform::Scale(a) => format!("Scale({})", v(a)),
+            Transform::Rotate { axis, angle_deg } => format!("Rotate(axis {}, {angle_deg}°)", v(axis)),
+        })
+        .collect();
+    if parts.is_empty() {
+        "identity".to_string()
+    } else {
+        parts.join(" · ")
+    }
 }

@@ -263,3 +263,33 @@ fn render_says_when_the_eye_is_outside_the_freedom_radius() {
     assert_eq!(json(&view(&near, true))["inside_freedom_radius"], true);
     assert!(!String::from_utf8_lossy(&view(&near, false).stdout).contains("outside"));
 }
+
+/// Human output prints numbers as a person reads them: no Rust debug formatting.
+#[test]
+fn human_output_has_no_debug_formatting() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path());
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-rgbd");
+    let built = dir.path().join("built");
+    let runs = [
+        pomc(&["info", dir.path().to_str().unwrap(), "--stats"]),
+        pomc(&[
+            "build",
+            "--colour",
+            root.join("colour.png").to_str().unwrap(),
+            "--depth",
+            root.join("depth.exr").to_str().unwrap(),
+            "-o",
+            built.to_str().unwrap(),
+            "--fill-colour",
+            "nearest",
+        ]),
+    ];
+    for run in runs {
+        assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
+        let text = String::from_utf8_lossy(&run.stdout);
+        for artefact in ["Some(", "None", "x_axis", "DMat4", "[inf", "[\"", "F16 {"] {
+            assert!(!text.contains(artefact), "{artefact:?} in:\n{text}");
+        }
+    }
+}
