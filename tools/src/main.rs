@@ -23,7 +23,7 @@ use output::Output;
 #[command(
     name = "pomc",
     version,
-    about = "Layered omnidirectional RGB-D panoramas (POMC): build, validate, inspect, convert, pack"
+    about = "Layered omnidirectional RGB-D panoramas (POMC): build, validate, inspect, convert, pack, mesh, render"
 )]
 struct Cli {
     /// Machine-readable JSON on stdout (no progress bars).
@@ -50,9 +50,9 @@ enum Command {
     Pack(cmd_pack::PackArgs),
     /// Restore full canvases of packed layers.
     Unpack(cmd_pack::UnpackArgs),
-    /// Adaptive quadtree mesh of a layer: error, encoded size, PLY/OBJ/glTF export.
+    /// Adaptive quadtree meshes of the layers: error, encoded size, PLY/OBJ/glTF scene export.
     Mesh(cmd_mesh::Args),
-    /// Render a view from a camera near the panorama centre (point splatting).
+    /// Render views from cameras near the panorama centre (point splatting or mesh rasterisation).
     Render(cmd_render::Args),
 }
 

@@ -293,3 +293,60 @@ fn human_output_has_no_debug_formatting() {
         }
     }
 }
+
+/// Long options (`--name`) in a text, and `--output` for a `-o`.
+fn long_options(text: &str) -> std::collections::BTreeSet<String> {
+    let mut found = std::collections::BTreeSet::new();
+    for (i, _) in text.match_indices("--") {
+        let name: String = text[i + 2..]
+            .chars()
+            .take_while(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || *c == '-')
+            .collect();
+        let before = text[..i].chars().last();
+        if name.chars().next().is_some_and(|c| c.is_ascii_lowercase()) && before != Some('-') {
+            found.insert(format!("--{name}"));
+        }
+    }
+    if text.contains(" -o ") || text.contains("[-o ") {
+        found.insert("--output".to_string());
+    }
+    found
+}
+
+/// The README's command table and `pomc CMD --help` name the same commands and options.
+#[test]
+fn help_agrees_with_the_readme() {
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md")).unwrap();
+    let top = String::from_utf8(pomc(&["--help"]).stdout).unwrap();
+    let mut commands = Vec::new();
+    for row in readme.lines().filter(|l| l.starts_with("| `pomc ")) {
+        // The first cell ends at the first `|` not escaped as `\|`.
+        let cell_end =
+            row[1..].match_indices('|').map(|(i, _)| i + 1).find(|&i| &row[i - 1..i] != "\\").unwrap();
+        let usage = &row[1..cell_end];
+        let command = usage.split('`').nth(1).unwrap().split_whitespace().nth(1).unwrap().to_string();
+        let help = String::from_utf8(pomc(&[&command, "--help"]).stdout).unwrap();
+        // Option lines of the help: `  -o, --output <OUTPUT>  …` or `      --json  …`.
+        let options: String = help
+            .lines()
+            .map(str::trim_start)
+            .filter(|l| l.starts_with("--") || (l.starts_with('-') && l.get(2..3) == Some(",")))
+            .map(|l| l.split_whitespace().find(|w| w.starts_with("--")).unwrap_or(""))
+            .collect::<Vec<_>>()
+            .join(" ");
+        let mut in_help = long_options(&options);
+        for global in ["--help", "--json", "--quiet", "--version"] {
+            in_help.remove(global);
+        }
+        let mut in_readme = long_options(usage);
+        in_readme.remove("--json");
+        assert_eq!(in_readme, in_help, "`pomc {command}`: README table vs --help");
+        assert!(top.contains(&format!("  {command} ")), "`pomc --help` does not list {command}");
+        commands.push(command);
+    }
+    for line in top.lines().skip_while(|l| !l.starts_with("Commands:")).skip(1).take_while(|l| !l.is_empty())
+    {
+        let name = line.split_whitespace().next().unwrap();
+        assert!(name == "help" || commands.iter().any(|c| c == name), "README table lacks `pomc {name}`");
+    }
+}
