@@ -18,6 +18,7 @@
 //! - [`fsutil`]: atomic writes and bounded reads.
 
 pub mod build;
+pub mod colour;
 pub mod continuity;
 pub mod error;
 pub mod fsutil;

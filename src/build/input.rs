@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 use super::RgbdInput;
+use crate::colour::{srgb_to_linear, ColourSpace};
 use crate::layer_io::{self, ReadLimits};
 use crate::manifest::Transform;
 use crate::mapping::{AnyMapping, Mapping, MappingKind};
@@ -160,14 +161,26 @@ fn open_image(path: &Path, limits: &ReadLimits) -> Result<image::DynamicImage, I
     reader.decode().map_err(|e| err(&e))
 }
 
-/// Colour as planar RGB f32 (8/16-bit images scaled to [0, 1], float images as stored).
-pub fn read_colour(path: &Path, limits: &ReadLimits) -> Result<(usize, usize, [Vec<f32>; 3]), InputError> {
-    let img = open_image(path, limits)?.to_rgb32f();
+/// Colour as planar linear RGB f32: 8/16-bit images are decoded from sRGB unless `space` says
+/// linear, float images (OpenEXR, Radiance HDR) are linear as stored.
+pub fn read_colour(
+    path: &Path,
+    space: ColourSpace,
+    limits: &ReadLimits,
+) -> Result<(usize, usize, [Vec<f32>; 3]), InputError> {
+    let img = open_image(path, limits)?;
+    let float = matches!(img, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_));
+    let decode = match space {
+        ColourSpace::Auto => !float,
+        ColourSpace::Srgb => true,
+        ColourSpace::Linear => false,
+    };
+    let img = img.to_rgb32f();
     let (w, h) = (img.width() as usize, img.height() as usize);
     let mut rgb = [Vec::with_capacity(w * h), Vec::with_capacity(w * h), Vec::with_capacity(w * h)];
     for px in img.pixels() {
         for (plane, v) in rgb.iter_mut().zip(px.0) {
-            plane.push(v);
+            plane.push(if decode { srgb_to_linear(v) } else { v });
         }
     }
     Ok((w, h, rgb))
@@ -222,12 +235,13 @@ pub fn z_to_ray(m: &AnyMapping, depth: &mut [f32]) {
 /// Load colour + depth (+ optional normals EXR) into an [`RgbdInput`].
 pub fn load(
     colour: &Path,
+    space: ColourSpace,
     depth: &Path,
     normals: Option<&Path>,
     enc: &DepthEncoding,
     limits: &ReadLimits,
 ) -> Result<RgbdInput, InputError> {
-    let (cw, ch, rgb) = read_colour(colour, limits)?;
+    let (cw, ch, rgb) = read_colour(colour, space, limits)?;
     let (dw, dh, mut d) = read_depth(depth, enc, limits)?;
     if (cw, ch) != (dw, dh) {
         return Err(InputError::SizeMismatch {

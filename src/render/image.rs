@@ -91,9 +91,7 @@ impl Frame {
 /// The PNG tone map: clamp linear values to `[0, 1]`, then the sRGB transfer function
 /// (IEC 61966-2-1), rounded to 8 bits. No exposure, no curve: a linear 0.5 is sRGB 188.
 pub fn tone_map(linear: f32) -> u8 {
-    let x = if linear.is_nan() { 0.0 } else { linear.clamp(0.0, 1.0) };
-    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
-    (s * 255.0).round().clamp(0.0, 255.0) as u8
+    crate::colour::srgb8(linear)
 }
 
 /// Which file a path asks for, by extension.

@@ -6,6 +6,7 @@ use std::time::Instant;
 use glam::DVec3;
 use pomc::build::input::{self, Convention, DepthKind, Preset};
 use pomc::build::{self, BuildOptions, Classify, FillColour};
+use pomc::colour::ColourSpace;
 use pomc::layer_io::ReadLimits;
 use pomc::manifest::Transform;
 use pomc::panorama::{self, SaveOptions};
@@ -51,6 +52,16 @@ enum ClassifyArg {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum ColourSpaceArg {
+    /// sRGB for 8/16-bit images, linear for float ones
+    Auto,
+    /// sRGB-encoded values
+    Srgb,
+    /// Linear values
+    Linear,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 enum FillColourArg {
     /// Continue the hidden surface's texture: patches matched in its plane
     Exemplar,
@@ -65,6 +76,10 @@ pub struct Args {
     /// Colour panorama (PNG, JPEG, EXR, HDR), equirect 2:1 or 3×2 cube map.
     #[arg(long)]
     colour: PathBuf,
+    /// Encoding of an 8/16-bit colour image: auto (sRGB for PNG/JPEG, linear for EXR/HDR), srgb or
+    /// linear. Layers are linear; sRGB is decoded on read.
+    #[arg(long, value_enum, default_value = "auto")]
+    colour_space: ColourSpaceArg,
     /// Depth panorama: float EXR (channel Z, or any single channel) or 16-bit PNG.
     #[arg(long)]
     depth: PathBuf,
@@ -144,11 +159,22 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         enc.invalid = Some(i);
     }
     enc.kind = if args.depth_kind == KindArg::Z { DepthKind::Z } else { DepthKind::Ray };
+    let space = match args.colour_space {
+        ColourSpaceArg::Auto => ColourSpace::Auto,
+        ColourSpaceArg::Srgb => ColourSpace::Srgb,
+        ColourSpaceArg::Linear => ColourSpace::Linear,
+    };
     let bar = out.spinner("reading");
     let t = Instant::now();
-    let rgbd =
-        input::load(&args.colour, &args.depth, args.normals_in.as_deref(), &enc, &ReadLimits::default())
-            .map_err(pomc::Error::from)?;
+    let rgbd = input::load(
+        &args.colour,
+        space,
+        &args.depth,
+        args.normals_in.as_deref(),
+        &enc,
+        &ReadLimits::default(),
+    )
+    .map_err(pomc::Error::from)?;
     let read_s = t.elapsed().as_secs_f64();
 
     let mut options = BuildOptions {

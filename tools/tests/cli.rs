@@ -350,3 +350,43 @@ fn help_agrees_with_the_readme() {
         assert!(name == "help" || commands.iter().any(|c| c == name), "README table lacks `pomc {name}`");
     }
 }
+
+/// Colour management: an sRGB PNG is decoded to linear layers and a PNG render encodes it again, so
+/// a render from the centre gives back the input's codes (not display values taken for linear ones,
+/// which came out washed out: 142 → 192). EXR input is linear as stored.
+#[test]
+fn srgb_in_srgb_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (128u32, 64u32);
+    let codes = [[142u8, 129, 113], [30, 200, 90], [250, 5, 128], [0, 0, 0]];
+    // Four vertical bands of one code each, so a render's filters see no edge in each band's middle.
+    let band = |x: u32| codes[(x * 4 / w) as usize];
+    let png = image::RgbImage::from_fn(w, h, |x, _| image::Rgb(band(x)));
+    png.save(dir.path().join("c.png")).unwrap();
+    let mut depth = pomc::layer::LayerImage::new(w as usize, h as usize);
+    depth.set_channel("Z", pomc::layer::SampleType::F32, vec![2.0; (w * h) as usize]);
+    pomc::layer_io::write_exr(&dir.path().join("d.exr"), &depth, &Default::default()).unwrap();
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let run = pomc(&["build", "--colour", &p("c.png"), "--depth", &p("d.exr"), "-o", &p("pano")]);
+    assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
+    let layer =
+        pomc::layer_io::read_exr(&dir.path().join("pano/background.exr"), &Default::default()).unwrap();
+    let r = &layer.channel("R").unwrap().data;
+    assert!(
+        (r[0] - pomc::colour::srgb_to_linear(142.0 / 255.0)).abs() < 1e-3,
+        "layer R {} is not linear",
+        r[0]
+    );
+    let run = pomc(&["render", &p("pano"), "-o", &p("v.png"), "--camera", "equirect", "--size", "128x64"]);
+    assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
+    let out = image::open(dir.path().join("v.png")).unwrap().to_rgb8();
+    for (x, y, px) in out.enumerate_pixels() {
+        // Away from the band edges and the poles, where every band meets (the renderer's filter
+        // reaches a couple of pixels).
+        if (x % (w / 4)) < 4 || (x % (w / 4)) >= w / 4 - 4 || y < 4 || y >= h - 4 {
+            continue;
+        }
+        let want = band(x);
+        assert!((0..3).all(|c| px.0[c].abs_diff(want[c]) <= 1), "pixel ({x}, {y}): {:?} vs {want:?}", px.0);
+    }
+}

@@ -126,12 +126,7 @@ fn cube_strip_uvs(mesh: &LayerMesh, t: &[u32; 3], ids: &[u32; 3], uv: &mut [[f64
     }
 }
 
-/// Linear → sRGB-encoded 8-bit.
-pub fn srgb8(v: f32) -> u8 {
-    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
-    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
-    (s * 255.0 + 0.5) as u8
-}
+pub use crate::colour::srgb8;
 
 /// Output formats, chosen by file extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
