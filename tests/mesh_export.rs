@@ -46,6 +46,27 @@ fn ply_and_obj_have_the_declared_counts() {
     }
 }
 
+/// OBJ is Y-up like glTF (importers take +Y as up): the room's 2.8 m height lies along y, its
+/// 5.5 m depth (world y) along z.
+#[test]
+fn obj_is_y_up() {
+    let (_, img, m) = meshes().swap_remove(0);
+    let obj = String::from_utf8(export::to_bytes(&m, &img, Some(world()), Format::Obj).unwrap()).unwrap();
+    let mut lo = [f64::MAX; 3];
+    let mut hi = [f64::MIN; 3];
+    for v in obj.lines().filter_map(|l| l.strip_prefix("v ")) {
+        for (k, x) in v.split_whitespace().map(|x| x.parse::<f64>().unwrap()).enumerate() {
+            lo[k] = lo[k].min(x);
+            hi[k] = hi[k].max(x);
+        }
+    }
+    let extent: Vec<f64> = (0..3).map(|k| hi[k] - lo[k]).collect();
+    assert!((extent[1] - 2.8).abs() < 0.05, "height along y: {extent:?}");
+    assert!((extent[2] - 5.5).abs() < 0.05, "depth along z: {extent:?}");
+    // World z = 0 (the centre's floor offset aside) maps to y: the floor is at world z 1.2 − 1.2 = 0.
+    assert!(lo[1].abs() < 0.05, "floor at y = {}", lo[1]);
+}
+
 #[test]
 fn glb_is_well_formed_and_passes_the_khronos_validator() {
     let dir = tempfile::tempdir().unwrap();

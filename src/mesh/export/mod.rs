@@ -195,8 +195,8 @@ pub type Files = Vec<(String, Vec<u8>)>;
 /// The files of `layers` as a scene in `format` — the main file `STEM.EXT` first (then, for OBJ,
 /// `STEM.mtl` and one `STEM_NAME.png` texture per layer) — and the number of vertices written for each
 /// layer (0 when left out; seam and pole copies included). Positions are in world
-/// coordinates when `local_to_world` is given (panorama-local otherwise); glTF output is additionally
-/// converted to Y-up.
+/// coordinates when `local_to_world` is given (panorama-local otherwise); glTF and OBJ output is
+/// additionally converted to Y-up (what their importers expect; PLY stays Z-up).
 pub fn scene_files(
     layers: &[SceneLayer],
     local_to_world: Option<DMat4>,
@@ -209,7 +209,7 @@ pub fn scene_files(
         return Err(MeshError::Export("the mesh has no triangles (no layer has any)".into()));
     }
     let mut transform = local_to_world.unwrap_or(DMat4::IDENTITY);
-    if format == Format::Glb {
+    if matches!(format, Format::Glb | Format::Obj) {
         transform = gltf::z_up_to_y_up() * transform;
     }
     let meshes: Vec<ExportMesh> = layers.iter().map(|l| prepare_layer(l, transform)).collect();
