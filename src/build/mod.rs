@@ -386,18 +386,9 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
     lap("fill", &mut stages);
     if o.fill_colour != FillColour::Nearest {
         progress("fill colour");
-        let tx = texture::Texture {
-            nb: &nb,
-            dirs: &dirs,
-            depth: &depth,
-            normals: &normals,
-            layer_of: &layer_of,
-            surface: &seg.id,
-            rgb: &input.rgb,
-        };
         fills.par_iter_mut().enumerate().for_each(|(k, f)| match o.fill_colour {
-            FillColour::Exemplar => texture::synthesise(&tx, k as u32, f),
-            _ => texture::smooth(&tx, k as u32, f),
+            FillColour::Exemplar => texture::synthesise(&cx, k as u32, f),
+            _ => texture::smooth(&cx, k as u32, f),
         });
         lap("fill colour", &mut stages);
     }

@@ -9,7 +9,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::fill::Fill;
+use super::fill::{Fill, FillContext};
 use crate::mapping::{Mapping, Neighbours};
 
 /// How the fill is coloured.
@@ -26,19 +26,6 @@ pub enum FillColour {
     /// pixels around it, then a few relaxation sweeps smooth it: the border's colours blend
     /// across the hole without streaks or texture.
     Smooth,
-}
-
-/// What the colour synthesis reads.
-pub struct Texture<'a> {
-    pub nb: &'a Neighbours,
-    pub dirs: &'a [Vec3],
-    pub depth: &'a [f32],
-    pub normals: &'a [Vec3],
-    pub layer_of: &'a [u32],
-    /// Surface (segment) id per pixel: a fill copies from its own surface only.
-    pub surface: &'a [u32],
-    /// Linear RGB, planar.
-    pub rgb: &'a [Vec<f32>; 3],
 }
 
 const NONE: u32 = u32::MAX;
@@ -61,7 +48,7 @@ const MIN_RING: usize = 24;
 /// Offsets kept per part: each pixel takes the first that lands on visible surface.
 const OFFSETS: usize = 4;
 
-impl Texture<'_> {
+impl FillContext<'_> {
     /// Colour compressed to [0, 1): HDR highlights must not outweigh the texture in a match.
     #[inline]
     fn feature(&self, p: usize) -> Vec3 {
@@ -103,7 +90,7 @@ struct Plane {
 }
 
 impl Plane {
-    fn new(tx: &Texture, q: usize, depth: f32, surface: usize) -> Plane {
+    fn new(tx: &FillContext, q: usize, depth: f32, surface: usize) -> Plane {
         let dq = tx.dirs[q];
         let finite = depth.is_finite();
         let ns = tx.normals[surface];
@@ -118,7 +105,7 @@ impl Plane {
 /// the visible ring around the part onto matching texture while landing the part itself on
 /// visible surface (a coarse grid search, refined by halving steps). Each pixel then copies the
 /// pixel its first valid offset lands on. Parts are independent, so they run in parallel.
-pub fn synthesise(tx: &Texture, k: u32, fill: &mut Fill) {
+pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
     if fill.pixels.is_empty() {
         return;
     }
@@ -202,7 +189,7 @@ fn spread<T: Copy>(items: &[T], count: usize) -> impl Iterator<Item = T> + '_ {
 }
 
 /// Offsets for one part of the fill on one surface, and the source each pixel takes.
-fn copy_group(tx: &Texture, k: u32, fill: &Fill, clean: &[bool], group: &[u32], alpha: f32) -> Transfer {
+fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u32], alpha: f32) -> Transfer {
     let none = Transfer { sources: Vec::new(), shading: Vec::new() };
     let first = fill.pixels[group[0] as usize];
     let plane = Plane::new(tx, first.pixel, first.depth, first.surface);
@@ -334,7 +321,7 @@ fn copy_group(tx: &Texture, k: u32, fill: &Fill, clean: &[bool], group: &[u32], 
 }
 
 /// A source must lie on the plane being continued (elsewhere the surface curves away).
-fn on_plane(tx: &Texture, plane: &Plane, p: usize) -> bool {
+fn on_plane(tx: &FillContext, plane: &Plane, p: usize) -> bool {
     let d = tx.depth[p];
     if !plane.finite {
         return d.is_infinite();
@@ -347,7 +334,7 @@ fn on_plane(tx: &Texture, plane: &Plane, p: usize) -> bool {
 }
 
 /// Colour the fill of layer `k` by [`FillColour::Smooth`].
-pub fn smooth(tx: &Texture, k: u32, fill: &mut Fill) {
+pub fn smooth(tx: &FillContext, k: u32, fill: &mut Fill) {
     if fill.pixels.is_empty() {
         return;
     }
@@ -370,7 +357,7 @@ pub fn smooth(tx: &Texture, k: u32, fill: &mut Fill) {
 /// distance-weighted mean of its known 8-neighbours, then relaxation
 /// sweeps average each with its 8 neighbours. Pixels nothing reaches keep their `value`.
 fn diffuse(
-    tx: &Texture,
+    tx: &FillContext,
     fill: &Fill,
     slot: &[u32],
     mut value: Vec<Vec3>,

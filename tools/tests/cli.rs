@@ -17,6 +17,16 @@ fn json(out: &Output) -> serde_json::Value {
         .unwrap_or_else(|e| panic!("stdout is not JSON ({e}): {}", String::from_utf8_lossy(&out.stdout)))
 }
 
+/// `pomc build` of the bundled RGB-D room into `out`, with `extra` options.
+fn build_bundled(out: &Path, extra: &[&str]) -> Output {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-rgbd");
+    let (colour, depth) = (root.join("colour.png"), root.join("depth.exr"));
+    let mut args = vec!["build", "--colour", colour.to_str().unwrap(), "--depth", depth.to_str().unwrap()];
+    args.extend_from_slice(&["-o", out.to_str().unwrap()]);
+    args.extend_from_slice(extra);
+    pomc(&args)
+}
+
 fn room(dir: &Path) {
     let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
     pomc_fixtures::layers::write_room(dir, &m).unwrap();
@@ -192,16 +202,10 @@ fn closed_stdout_is_not_a_panic() {
 /// the translation lands in the manifest; the old three-value form is a usage error.
 #[test]
 fn vectors_are_x_y_z_everywhere() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-rgbd");
     let out = tempfile::tempdir().unwrap();
     let pano = out.path().join("pano");
-    let (colour, depth) = (root.join("colour.png"), root.join("depth.exr"));
     let build = |center: &[&str], dest: &Path| {
-        let mut args =
-            vec!["build", "--colour", colour.to_str().unwrap(), "--depth", depth.to_str().unwrap()];
-        args.extend_from_slice(center);
-        args.extend_from_slice(&["-o", dest.to_str().unwrap(), "--json", "--fill-colour", "nearest"]);
-        pomc(&args)
+        build_bundled(dest, &[center, &["--json", "--fill-colour", "nearest"]].concat())
     };
     let run = build(&["--center", "-1,2.5,-0.25"], &pano);
     assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
@@ -269,21 +273,9 @@ fn render_says_when_the_eye_is_outside_the_freedom_radius() {
 fn human_output_has_no_debug_formatting() {
     let dir = tempfile::tempdir().unwrap();
     room(dir.path());
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-rgbd");
-    let built = dir.path().join("built");
     let runs = [
         pomc(&["info", dir.path().to_str().unwrap(), "--stats"]),
-        pomc(&[
-            "build",
-            "--colour",
-            root.join("colour.png").to_str().unwrap(),
-            "--depth",
-            root.join("depth.exr").to_str().unwrap(),
-            "-o",
-            built.to_str().unwrap(),
-            "--fill-colour",
-            "nearest",
-        ]),
+        build_bundled(&dir.path().join("built"), &["--fill-colour", "nearest"]),
     ];
     for run in runs {
         assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
