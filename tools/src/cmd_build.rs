@@ -164,7 +164,9 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         ColourSpaceArg::Srgb => ColourSpace::Srgb,
         ColourSpaceArg::Linear => ColourSpace::Linear,
     };
-    let bar = out.spinner("reading");
+    // Reading, the build's stages (`fill colour` unless nearest), writing: a bar with an ETA.
+    let stages = 9 - (args.fill_colour == FillColourArg::Nearest) as u64;
+    let bar = out.progress(stages, "reading");
     let t = Instant::now();
     let rgbd = input::load(
         &args.colour,
@@ -194,10 +196,14 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     };
     options.segment.edges.jump = args.jump;
     options.segment.edges.fold_deg = (!args.no_fold).then_some(args.fold_deg);
-    let built = build::build(&rgbd, &options, &|stage| bar.set_message(stage.to_string()))
-        .map_err(pomc::Error::from)?;
+    let built = build::build(&rgbd, &options, &|stage| {
+        bar.set_message(stage.to_string());
+        bar.inc(1);
+    })
+    .map_err(pomc::Error::from)?;
 
     bar.set_message("writing");
+    bar.inc(1);
     let t = Instant::now();
     let mut transforms = Vec::new();
     if let Some(c) = &args.center {

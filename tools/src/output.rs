@@ -33,7 +33,7 @@ impl Output {
             bar.set_draw_target(ProgressDrawTarget::hidden());
         }
         bar.set_style(
-            ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed_precise}")
+            ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed_precise}, ETA {eta}")
                 .expect("static template")
                 .progress_chars("=> "),
         );
