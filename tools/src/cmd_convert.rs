@@ -26,10 +26,11 @@ pub enum To {
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Input: PNG (8/16-bit), JPEG, EXR or HDR image, or a layer EXR (one with a `Z` channel).
+    /// Input: PNG (8/16-bit), JPEG, EXR or HDR image, a layer EXR (one with a `Z` channel), or a
+    /// panorama (directory or panorama.xml: every layer converted, packed layers unpacked first).
     /// A 2:1 input is an equirect; any other shape is a cube map in `--in-layout`.
     input: PathBuf,
-    /// Output file; the format follows the extension (.png, .jpg/.jpeg, .exr, .hdr). Float images written
+    /// Output file (a directory for a panorama); the format follows the extension (.png, .jpg/.jpeg, .exr, .hdr). Float images written
     /// to PNG/JPEG are clamped to [0, 1] (no tone mapping); 16-bit PNGs stay 16-bit.
     #[arg(short, long)]
     output: PathBuf,
@@ -95,6 +96,9 @@ impl Pixels {
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let total = Instant::now();
+    if args.input.is_dir() || args.input.file_name().is_some_and(|n| n == "panorama.xml") {
+        return run_panorama(&args, out, total);
+    }
     if !args.input.is_file() {
         return Err(fail(
             "CONVERT_NOT_FOUND",
@@ -327,6 +331,76 @@ fn run_layer(args: &Args, opts: SampleOptions, out: Output, total: Instant) -> R
             timings: [decode_ms, resample_ms, encode_ms, ms(total)],
         },
     );
+    Ok(0)
+}
+
+/// Convert a whole panorama: every layer (packed ones read as full canvases) to the other mapping,
+/// written as a panorama (sparse layers packed again) with the manifest's mapping changed. A POMC
+/// cube map is in the canonical layout.
+fn run_panorama(args: &Args, out: Output, total: Instant) -> Result<u8, Failure> {
+    use pomc::manifest::MappingKind;
+    use pomc::panorama::{self, Panorama, SaveOptions};
+    if args.layout != CubeLayout::Canonical || args.in_layout.is_some_and(|l| l != CubeLayout::Canonical) {
+        return Err(fail(
+            "CONVERT_USAGE",
+            "a POMC cube map is in the canonical layout: --layout and --in-layout do not apply to panoramas"
+                .into(),
+        ));
+    }
+    let pano = Panorama::open(&args.input)?;
+    let target = match args.to {
+        To::Cube => MappingKind::Cube,
+        To::Equirect => MappingKind::LatLong,
+    };
+    if pano.manifest.mapping.kind == target {
+        return Err(fail(
+            "CONVERT_USAGE",
+            format!("{}: is already a {} panorama", args.input.display(), target.primary_name()),
+        ));
+    }
+    // Depth (`Z`) is never blended across discontinuities: layers get the depth treatment.
+    let opts = SampleOptions {
+        filter: args.interp,
+        depth_channel: None,
+        coverage_channel: None,
+        max_relative_jump: args.depth_jump,
+    };
+    let count = pano.manifest.layers.len();
+    let bar = out.progress(count as u64, "converting");
+    let mut images = Vec::with_capacity(count);
+    let mut sizes = (0, 0, 0, 0);
+    for k in 0..count {
+        let layer = pano.read_layer(k, &ReadLimits::default())?;
+        let (from, to, size) = plan(args, layer.width, layer.height)?;
+        let converted = resample::convert_layer(&layer, from, to, size, &opts)
+            .map_err(|e| fail(e.code(), format!("{}: layer {k}: {e}", args.input.display())))?;
+        sizes = (layer.width, layer.height, converted.width, converted.height);
+        images.push(converted);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let mut manifest = pano.manifest.clone();
+    manifest.mapping.kind = target;
+    for decl in &mut manifest.layers {
+        decl.packing = None;
+    }
+    panorama::write_panorama(&args.output, &manifest, &images, &SaveOptions::default())?;
+    out.json(&serde_json::json!({
+        "kind": "panorama", "input": args.input, "output": args.output,
+        "to": target.primary_name(), "layers": count,
+        "input_size": [sizes.0, sizes.1], "output_size": [sizes.2, sizes.3],
+        "total_ms": ms(total),
+    }));
+    out.say(format!(
+        "converted a panorama of {count} layer(s) {}x{} -> {} {}x{} in {:.0} ms -> {}",
+        sizes.0,
+        sizes.1,
+        target.primary_name(),
+        sizes.2,
+        sizes.3,
+        ms(total),
+        args.output.display()
+    ));
     Ok(0)
 }
 

@@ -382,3 +382,37 @@ fn srgb_in_srgb_out() {
         assert!((0..3).all(|c| px.0[c].abs_diff(want[c]) <= 1), "pixel ({x}, {y}): {:?} vs {want:?}", px.0);
     }
 }
+
+/// `convert` takes a panorama: every layer to the other mapping (packed ones unpacked, then packed
+/// again), a valid panorama out, and the same view from the centre as the input's.
+#[test]
+fn convert_takes_a_panorama() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("eq");
+    room(&src);
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let run = pomc(&["convert", src.to_str().unwrap(), "-o", &p("cube"), "--to", "cube", "--json"]);
+    assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
+    assert_eq!(json(&run)["layers"], 2);
+    let cube = Panorama::open(&dir.path().join("cube")).unwrap();
+    assert_eq!(cube.manifest.mapping.kind, pomc::manifest::MappingKind::Cube);
+    assert!(cube.manifest.layers[1].packing.is_some(), "the sparse objects layer is packed again");
+    let check = pomc(&["validate", &p("cube"), "--json"]);
+    assert_eq!(json(&check)["errors"], 0, "{}", String::from_utf8_lossy(&check.stdout));
+    assert_eq!(json(&check)["warnings"], 0, "{}", String::from_utf8_lossy(&check.stdout));
+    let view = |pano: &str, out: &str| {
+        let r = pomc(&["render", pano, "-o", out, "--camera", "equirect", "--size", "256x128"]);
+        assert_eq!(r.status.code(), Some(0), "{}", String::from_utf8_lossy(&r.stderr));
+        image::open(out).unwrap().to_rgb8()
+    };
+    let (a, b) = (view(src.to_str().unwrap(), &p("a.png")), view(&p("cube"), &p("b.png")));
+    let diff: u64 = a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| x.abs_diff(*y) as u64).sum();
+    let mean = diff as f64 / a.as_raw().len() as f64;
+    assert!(
+        mean < 4.0,
+        "mean difference {mean} codes between the views of the input and the converted panorama"
+    );
+    // Converting to the mapping it already has is a usage error.
+    let same = pomc(&["convert", src.to_str().unwrap(), "-o", &p("same"), "--to", "equirect"]);
+    assert_eq!(same.status.code(), Some(2));
+}
