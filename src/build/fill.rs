@@ -23,9 +23,7 @@ use crate::mapping::{opposite, Neighbours};
 pub struct FillPixel {
     pub pixel: usize,
     pub depth: f32,
-    /// The visible pixel whose colour it takes (the nearest one, or the exemplar's match).
-    pub colour: usize,
-    /// Its linear RGB: the colour pixel's, or synthesised ([`super::texture`]).
+    /// Its linear RGB: the nearest visible pixel's, then as [`super::texture`] colours it.
     pub rgb: [f32; 3],
     /// The seed whose surface it continues (its plane and normal).
     pub surface: usize,
@@ -231,8 +229,7 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
         let rival = rivals.get(slot_of[q] as usize).unwrap_or(&none);
         let Some((s, d)) = pick_surface(cx, &centroid, own, rival, q) else { continue };
         let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
-        let rgb = [cx.rgb[0][c], cx.rgb[1][c], cx.rgb[2][c]];
-        fill.pixels.push(FillPixel { pixel: q, depth: d, colour: c, rgb, surface: s });
+        fill.pixels.push(FillPixel { pixel: q, depth: d, rgb: cx.colour(c).to_array(), surface: s });
         fill.max_angle = fill.max_angle.max(angle_of[q]);
     }
     keep_continuous(cx, k, &mut fill);

@@ -2,7 +2,7 @@
 //! there, so the fill continues the hidden surface's texture rather than smearing its border.
 //! The default copies the surface from elsewhere by a few dominant offsets in its own plane
 //! (after He & Sun, "Statistics of patch offsets for image completion", ECCV 2012): a wall's
-//! checker or a floor's bricks continue in phase and with the right perspective (spec §7 step 6,
+//! checker or a floor's bricks continue in phase and with the right perspective (spec §7.2 step 7,
 //! `docs/build.md`). Offsets are 3D vectors and sources are looked up by direction, so seams,
 //! poles and cube-face edges need no special case.
 
@@ -23,7 +23,7 @@ pub enum FillColour {
     /// textured surfaces come out as streaks.
     Nearest,
     /// Inwards from the border, each filled pixel takes the distance-weighted mean of the known
-    /// pixels around it, then a few relaxation sweeps smooth it: the border's colours blend
+    /// pixels around it, then relaxation sweeps smooth it: the border's colours blend
     /// across the hole without streaks or texture.
     Smooth,
 }
@@ -52,7 +52,7 @@ impl FillContext<'_> {
     /// Colour compressed to [0, 1): HDR highlights must not outweigh the texture in a match.
     #[inline]
     fn feature(&self, p: usize) -> Vec3 {
-        let c = Vec3::new(self.rgb[0][p], self.rgb[1][p], self.rgb[2][p]).max(Vec3::ZERO);
+        let c = self.colour(p).max(Vec3::ZERO);
         c / (Vec3::ONE + c)
     }
 
@@ -62,8 +62,9 @@ impl FillContext<'_> {
         j * self.nb.width() + i
     }
 
+    /// Input linear RGB of pixel `p`.
     #[inline]
-    fn colour(&self, p: usize) -> Vec3 {
+    pub(super) fn colour(&self, p: usize) -> Vec3 {
         Vec3::new(self.rgb[0][p], self.rgb[1][p], self.rgb[2][p])
     }
 
@@ -110,20 +111,8 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
         return;
     }
     let n = tx.nb.len();
-    let mut slot = vec![NONE; n];
-    for (i, f) in fill.pixels.iter().enumerate() {
-        slot[f.pixel] = i as u32;
-    }
-    // Visible pixels of the layer none of whose neighbours is hidden by a nearer layer: colours
-    // free of the occluder's (anti-aliased borders mix them in), the only sources.
-    let w = tx.nb.width();
-    let clean: Vec<bool> = (0..n)
-        .into_par_iter()
-        .map(|p| {
-            let (x, y) = (p % w, p / w);
-            tx.layer_of[p] == k && (0..8).all(|j| tx.nb.get_at(x, y, j).map_or(true, |r| tx.layer_of[r] == k))
-        })
-        .collect();
+    let slot = slots(tx, fill);
+    let clean = clean_pixels(tx, k);
     // Parts, split by the surface they continue (a hole behind a box shows floor and wall).
     let mut groups: Vec<Vec<u32>> = Vec::new();
     for part in components(tx.nb, fill, &slot) {
@@ -140,9 +129,7 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
     let mut copied = vec![false; fill.pixels.len()];
     for c in &copies {
         for &(i, p) in &c.sources {
-            let f = &mut fill.pixels[i as usize];
-            f.colour = p;
-            f.rgb = [tx.rgb[0][p], tx.rgb[1][p], tx.rgb[2][p]];
+            fill.pixels[i as usize].rgb = tx.colour(p).to_array();
             copied[i as usize] = true;
         }
         shading.extend(c.shading.iter().copied());
@@ -167,6 +154,28 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
             f.rgb = c.to_array();
         }
     }
+}
+
+/// Index into `fill.pixels` of every canvas pixel filled, `NONE` elsewhere.
+fn slots(tx: &FillContext, fill: &Fill) -> Vec<u32> {
+    let mut slot = vec![NONE; tx.nb.len()];
+    for (i, f) in fill.pixels.iter().enumerate() {
+        slot[f.pixel] = i as u32;
+    }
+    slot
+}
+
+/// Visible pixels of layer `k` none of whose neighbours is hidden by a nearer layer: colours free
+/// of the occluder's (anti-aliased borders mix them in), the only ones a fill takes colour from.
+fn clean_pixels(tx: &FillContext, k: u32) -> Vec<bool> {
+    let w = tx.nb.width();
+    (0..tx.nb.len())
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % w, p / w);
+            tx.layer_of[p] == k && (0..8).all(|j| tx.nb.get_at(x, y, j).map_or(true, |r| tx.layer_of[r] == k))
+        })
+        .collect()
 }
 
 /// Largest shading correction of a copy, as a log ratio (a factor of 2 either way).
@@ -213,12 +222,19 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
         .collect();
     ring.sort_unstable();
     ring.dedup();
-    if ring.is_empty() || hole.is_empty() {
-        return none;
-    }
     let ring_pixels = ring;
     let ring: Vec<(Vec3, Vec3)> =
         spread(&ring_pixels, RING_SAMPLES).map(|r| (tx.point(r, tx.depth[r]), tx.feature(r))).collect();
+    if ring.len() < MIN_RING {
+        return none;
+    }
+    // Copy only what matches clearly better than texture at random would (twice the ring's
+    // variance); a plain surface (no variance) is blended.
+    let mean = ring.iter().map(|r| r.1).sum::<Vec3>() / ring.len() as f32;
+    let random = 2.0 * ring.iter().map(|r| (r.1 - mean).length_squared()).sum::<f32>() / ring.len() as f32;
+    if random < PLAIN {
+        return none;
+    }
     let hole_samples: Vec<Vec3> = spread(&hole, HOLE_SAMPLES).collect();
     // Scale: the pixel's footprint on the plane at the hole's centre, and the hole's extent.
     let centre = hole_samples.iter().copied().sum::<Vec3>() / hole_samples.len() as f32;
@@ -284,14 +300,11 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
         }
     }
     best.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // Copy only what matches clearly better than texture at random would (twice the ring's
-    // variance) and covers most of the part; a plain surface (no variance) is blended.
-    let mean = ring.iter().map(|r| r.1).sum::<Vec3>() / ring.len() as f32;
-    let random = 2.0 * ring.iter().map(|r| (r.1 - mean).length_squared()).sum::<f32>() / ring.len() as f32;
-    let clear = best.first().and_then(|b| parts(b.1, RING_SAMPLES, HOLE_SAMPLES, f32::INFINITY)).is_some_and(
-        |(mismatch, uncovered)| mismatch <= COPY_MATCH * random && uncovered <= 0.5 && random >= PLAIN,
-    );
-    if ring.len() < MIN_RING || !clear {
+    let clear = best
+        .first()
+        .and_then(|b| parts(b.1, RING_SAMPLES, HOLE_SAMPLES, f32::INFINITY))
+        .is_some_and(|(mismatch, uncovered)| mismatch <= COPY_MATCH * random && uncovered <= 0.5);
+    if !clear {
         return none;
     }
     let mut offsets: Vec<Vec3> = Vec::new();
@@ -305,7 +318,7 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
         .zip(&hole)
         .filter_map(|(&i, &x)| offsets.iter().map(|&t| tx.pixel(x + t)).find(|&p| valid(p)).map(|p| (i, p)))
         .collect();
-    let rgb = |p: usize| Vec3::new(tx.rgb[0][p], tx.rgb[1][p], tx.rgb[2][p]).max(Vec3::ZERO);
+    let rgb = |p: usize| tx.colour(p).max(Vec3::ZERO);
     let shading = match offsets.first() {
         Some(&t) => ring_pixels
             .iter()
@@ -338,14 +351,10 @@ pub fn smooth(tx: &FillContext, k: u32, fill: &mut Fill) {
     if fill.pixels.is_empty() {
         return;
     }
-    let mut slot = vec![NONE; tx.nb.len()];
-    for (i, f) in fill.pixels.iter().enumerate() {
-        slot[f.pixel] = i as u32;
-    }
-    let clean = |p: usize| tx.layer_of[p] == k && tx.nb.all(p).all(|r| tx.layer_of[r] == k);
+    let (slot, clean) = (slots(tx, fill), clean_pixels(tx, k));
     let start = fill.pixels.iter().map(|f| Vec3::from(f.rgb)).collect();
     let rgb = diffuse(tx, fill, &slot, start, &vec![true; fill.pixels.len()], false, |r| {
-        clean(r).then(|| Vec3::new(tx.rgb[0][r], tx.rgb[1][r], tx.rgb[2][r]))
+        clean[r].then(|| tx.colour(r))
     });
     for (f, c) in fill.pixels.iter_mut().zip(rgb) {
         f.rgb = c.to_array();
@@ -353,8 +362,8 @@ pub fn smooth(tx: &FillContext, k: u32, fill: &mut Fill) {
 }
 
 /// A value per filled pixel spread from the pixels around the fill that have one (`known`):
-/// inwards from the border (the fill's breadth-first order), each pixel takes the
-/// distance-weighted mean of its known 8-neighbours, then relaxation
+/// inwards from the border (the fill's breadth-first order), each pixel takes the mean of the
+/// known pixels one and two steps away along the 8 directions, weighted 1/d², then relaxation
 /// sweeps average each with its 8 neighbours. Pixels nothing reaches keep their `value`.
 fn diffuse(
     tx: &FillContext,
