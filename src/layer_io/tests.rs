@@ -319,7 +319,9 @@ fn thesis_layer_without_alpha_uses_negative_depth() {
     let l = read_thesis_layer(&map, &depth, None, &ReadLimits::default()).unwrap();
     let r = l.channel("R").unwrap();
     assert_eq!(r.sample_type, SampleType::F16);
-    assert_eq!((r.data[5] * 255.0).round(), 5.0);
+    // sRGB-decoded to linear: code 5 is 0.00152 linear, and encodes back to 5.
+    assert!((r.data[5] - crate::colour::srgb_to_linear(5.0 / 255.0)).abs() < 1e-5, "{}", r.data[5]);
+    assert_eq!(crate::colour::srgb8(r.data[5]), 5);
     assert_eq!(l.channel("Z").unwrap().sample_type, SampleType::F32);
     let a = l.coverage().unwrap();
     assert_eq!((a[0], a[1]), (1.0, 0.0));
@@ -369,7 +371,25 @@ fn thesis_16_bit_colour_is_float() {
     let l = read_thesis_layer(&map, &depth, None, &ReadLimits::default()).unwrap();
     let r = l.channel("R").unwrap();
     assert_eq!(r.sample_type, SampleType::F32);
-    assert_eq!(r.data[3], 3000.0 / 65535.0);
+    assert_eq!(r.data[3], crate::colour::srgb_to_linear(3000.0 / 65535.0));
+}
+
+/// Every 8-bit thesis code is decoded to linear and stored as half precisely enough that sRGB
+/// encoding gives the code back; alpha is coverage and is not decoded.
+#[test]
+fn thesis_8_bit_codes_round_trip_through_linear_half() {
+    let d = tmp();
+    let (map, depth) = (d.path().join("c.png"), d.path().join("c_d.exr"));
+    let img = image::RgbaImage::from_fn(256, 2, |x, _| image::Rgba([x as u8, 0, 255, x as u8]));
+    img.save(&map).unwrap();
+    write_depth(&depth, 256, 2, "Z");
+    let l = read_thesis_layer(&map, &depth, None, &ReadLimits::default()).unwrap();
+    let (r, a) = (&l.channel("R").unwrap().data, &l.channel("A").unwrap().data);
+    for code in 0..256usize {
+        assert_eq!(crate::colour::srgb8(r[code]) as usize, code);
+        assert_eq!((a[code] * 255.0).round() as usize, code);
+    }
+    assert!((r[128] - 0.2158).abs() < 1e-3, "mid-grey code 128 is 0.216 linear, got {}", r[128]);
 }
 
 /// Found by the `layer_exr` fuzz target: a B44 chunk that makes the `exr` crate's decoder

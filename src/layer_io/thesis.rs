@@ -1,10 +1,9 @@
 //! The thesis form of a layer (spec §4.7): a colour image (`mapname`, PNG), a depth EXR
 //! (`depthname`) and optionally a normals EXR, all of the same size.
 //!
-//! Thesis colour is display-referred sRGB: the 8-bit codes are stored as they are, divided by 255
-//! (no linearisation), so that a thesis panorama converted to the native form keeps its exact
-//! colours. 8-bit codes become `F16` samples (half has enough precision to give the code back);
-//! 16-bit codes become `F32` (code / 65535).
+//! Thesis colour is sRGB-encoded like every 8/16-bit image pomc reads ([`crate::colour`]): R, G, B
+//! are decoded to linear on read (alpha is coverage, kept as is). 8-bit codes become `F16` samples
+//! (half is precise enough that re-encoding gives the code back); 16-bit codes become `F32`.
 
 use std::path::Path;
 
@@ -13,6 +12,7 @@ use image::{DynamicImage, ImageReader};
 use super::exr::{io_error, read_exr};
 use super::halfbits::{f32_to_half, half_to_f32};
 use super::{LayerIoError, ReadLimits};
+use crate::colour::srgb_to_linear;
 use crate::layer::{LayerImage, SampleType};
 
 /// Depth channel names tried in order; otherwise a single-channel file's only channel.
@@ -79,7 +79,7 @@ fn read_colour(path: &Path, limits: &ReadLimits) -> Result<LayerImage, LayerIoEr
     Ok(colour_layer(img))
 }
 
-/// Planar colour channels, with the thesis encoding (codes / max, no linearisation).
+/// Planar colour channels: R, G, B decoded from sRGB to linear, A as coverage.
 fn colour_layer(img: DynamicImage) -> LayerImage {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let alpha = img.color().has_alpha();
@@ -98,19 +98,22 @@ fn colour_layer(img: DynamicImage) -> LayerImage {
 }
 
 fn planes_u8(img: &DynamicImage, alpha: bool) -> Vec<Vec<f32>> {
-    // Quantised to half: exact enough that round(x·255) gives the code back.
-    let f = |c: u8| half_to_f32(f32_to_half(f32::from(c) / 255.0));
+    // Quantised to half: exact enough that sRGB encoding gives the code back.
+    let half = |x: f32| half_to_f32(f32_to_half(x));
+    let f = |c: u8| half(srgb_to_linear(f32::from(c) / 255.0));
+    let a = |c: u8| half(f32::from(c) / 255.0);
     if alpha {
-        split(img.to_rgba8().pixels().map(|p| p.0.map(f)), 4)
+        split(img.to_rgba8().pixels().map(|p| [f(p[0]), f(p[1]), f(p[2]), a(p[3])]), 4)
     } else {
         split(img.to_rgb8().pixels().map(|p| p.0.map(f)), 3)
     }
 }
 
 fn planes_u16(img: &DynamicImage, alpha: bool) -> Vec<Vec<f32>> {
-    let f = |c: u16| f32::from(c) / 65535.0;
+    let f = |c: u16| srgb_to_linear(f32::from(c) / 65535.0);
+    let a = |c: u16| f32::from(c) / 65535.0;
     if alpha {
-        split(img.to_rgba16().pixels().map(|p| p.0.map(f)), 4)
+        split(img.to_rgba16().pixels().map(|p| [f(p[0]), f(p[1]), f(p[2]), a(p[3])]), 4)
     } else {
         split(img.to_rgb16().pixels().map(|p| p.0.map(f)), 3)
     }
