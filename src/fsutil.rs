@@ -1,4 +1,5 @@
-//! File-system helpers: atomic writes (temp file in the same directory + rename) and bounded reads.
+//! File-system helpers: atomic writes of files (temp file in the same directory + rename) and of
+//! whole directories (temp sibling directory + swap, under a lock), and bounded reads.
 
 use std::io::Write;
 use std::path::Path;
@@ -59,6 +60,137 @@ pub fn read_limited(path: &Path, limit: u64) -> Result<Vec<u8>, Error> {
         ));
     }
     std::fs::read(path).map_err(|e| io_err(path, e))
+}
+
+/// An exclusive lock on writing directory `dir`, held until dropped: the hidden file
+/// `.NAME.pomc-lock` beside it, locked with `flock` (released by the OS if the process dies).
+/// The file itself is left in place: deleting it would let a waiting writer and a new one each
+/// lock a different file.
+pub struct DirLock {
+    _file: std::fs::File,
+}
+
+/// The parent and file name of `dir` as absolute paths (`.` and `..` resolved when they exist).
+fn split_dir(dir: &Path) -> Result<(std::path::PathBuf, std::ffi::OsString), Error> {
+    let abs = std::path::absolute(dir).map_err(|e| io_err(dir, e))?;
+    let abs = abs.canonicalize().unwrap_or(abs);
+    match (abs.parent(), abs.file_name()) {
+        (Some(p), Some(n)) => Ok((p.to_path_buf(), n.to_os_string())),
+        _ => Err(io_err(dir, std::io::Error::other("cannot write a panorama over the root directory"))),
+    }
+}
+
+fn sibling(parent: &Path, name: &std::ffi::OsStr, tag: &str) -> std::path::PathBuf {
+    let mut s = std::ffi::OsString::from(".");
+    s.push(name);
+    s.push(tag);
+    parent.join(s)
+}
+
+/// Lock `dir` against other writers (waits for the current one) and remove what killed writers
+/// left beside it (`.NAME.pomc-tmp-*` and `.NAME.pomc-old-*` directories).
+pub fn lock_dir(dir: &Path) -> Result<DirLock, Error> {
+    let (parent, name) = split_dir(dir)?;
+    std::fs::create_dir_all(&parent).map_err(|e| io_err(&parent, e))?;
+    let lock_path = sibling(&parent, &name, ".pomc-lock");
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&lock_path)
+        .map_err(|e| io_err(&lock_path, e))?;
+    // `File::lock` needs Rust 1.89 (MSRV 1.80); elsewhere than Unix writers are not serialised.
+    #[cfg(unix)]
+    rustix::fs::flock(&file, rustix::fs::FlockOperation::LockExclusive)
+        .map_err(|e| io_err(&lock_path, e.into()))?;
+    let stale: Vec<std::ffi::OsString> = [".pomc-tmp-", ".pomc-old-"]
+        .iter()
+        .map(|t| sibling(Path::new(""), &name, t).into_os_string())
+        .collect();
+    if let Ok(entries) = std::fs::read_dir(&parent) {
+        for e in entries.flatten() {
+            let n = e.file_name();
+            let is_stale = stale.iter().any(|s| n.as_encoded_bytes().starts_with(s.as_encoded_bytes()));
+            if is_stale && e.file_type().is_ok_and(|t| t.is_dir()) {
+                let _ = std::fs::remove_dir_all(e.path());
+            }
+        }
+    }
+    Ok(DirLock { _file: file })
+}
+
+/// A fresh, empty temporary sibling of `dir` to write its new content into (call with the lock
+/// of [`lock_dir`] held); [`swap_in`] then puts it in place.
+pub fn temp_sibling(dir: &Path) -> Result<tempfile::TempDir, Error> {
+    let (parent, name) = split_dir(dir)?;
+    let prefix = sibling(Path::new(""), &name, ".pomc-tmp-");
+    let tmp = tempfile::Builder::new().prefix(&prefix).tempdir_in(&parent).map_err(|e| io_err(dir, e))?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // Like a directory made by `mkdir` under the usual umask, not the private 0700 of temp dirs.
+        std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o755))
+            .map_err(|e| io_err(dir, e))?;
+    }
+    Ok(tmp)
+}
+
+/// Put the fully written directory `new` (from [`temp_sibling`]) in place of `dir`, which may
+/// exist. On Linux the two are exchanged in one step (`renameat2(RENAME_EXCHANGE)`), so a crash
+/// leaves the old directory or the new one; elsewhere the old one is first moved aside. The old
+/// content is then deleted.
+pub fn swap_in(new: tempfile::TempDir, dir: &Path) -> Result<(), Error> {
+    let (parent, name) = split_dir(dir)?;
+    let target = parent.join(&name);
+    let new = new.keep();
+    sync_dir(&new);
+    let result = if target.exists() {
+        exchange(&new, &target)
+    } else {
+        std::fs::rename(&new, &target).map(|()| None).map_err(|e| io_err(dir, e))
+    };
+    match result {
+        Ok(old) => {
+            sync_dir(&parent);
+            if let Some(old) = old {
+                let _ = std::fs::remove_dir_all(old);
+            }
+            Ok(())
+        }
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&new);
+            Err(e)
+        }
+    }
+}
+
+/// Exchange `new` and `target`; returns where the old content now is.
+fn exchange(new: &Path, target: &Path) -> Result<Option<std::path::PathBuf>, Error> {
+    #[cfg(target_os = "linux")]
+    {
+        use rustix::fs::{renameat_with, RenameFlags, CWD};
+        match renameat_with(CWD, new, CWD, target, RenameFlags::EXCHANGE) {
+            Ok(()) => return Ok(Some(new.to_path_buf())),
+            // Filesystems without RENAME_EXCHANGE fall back to two renames.
+            Err(e) if e == rustix::io::Errno::INVAL || e == rustix::io::Errno::NOSYS => {}
+            Err(e) => return Err(io_err(target, e.into())),
+        }
+    }
+    let (parent, name) = split_dir(target)?;
+    let old = sibling(&parent, &name, &format!(".pomc-old-{}", std::process::id()));
+    std::fs::rename(target, &old).map_err(|e| io_err(target, e))?;
+    if let Err(e) = std::fs::rename(new, target) {
+        let _ = std::fs::rename(&old, target);
+        return Err(io_err(target, e));
+    }
+    Ok(Some(old))
+}
+
+/// Flush a directory's entries to disk (best effort: not every platform can open directories).
+fn sync_dir(dir: &Path) {
+    if let Ok(f) = std::fs::File::open(dir) {
+        let _ = f.sync_all();
+    }
 }
 
 #[cfg(test)]

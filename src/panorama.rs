@@ -4,14 +4,17 @@
 //! relative to the directory and must stay inside it ([`Panorama::resolve`]). Reading a layer
 //! gives its full canvas whatever the storage (native EXR, thesis PNG+EXR, patch-packed atlas).
 
-use rayon::prelude::*;
+mod save;
+
 use std::path::{Component, Path, PathBuf};
 
 use crate::error::Error;
 use crate::layer::LayerImage;
-use crate::layer_io::{self, ReadLimits, WriteOptions};
-use crate::manifest::{self, LayerDecl, LayerSource, Manifest, Packing};
-use crate::pack::{self, PackOptions, PackedLayer};
+use crate::layer_io::{self, ReadLimits};
+use crate::manifest::{self, LayerDecl, LayerSource, Manifest};
+use crate::pack::{self, PackedLayer};
+
+pub use save::{write_panorama, SaveOptions};
 
 /// File name of the manifest inside a panorama directory.
 pub const MANIFEST_NAME: &str = "panorama.xml";
@@ -32,6 +35,8 @@ pub enum PanoramaError {
     SizeMismatch { file: PathBuf, index: usize, declared: (usize, usize), found: (usize, usize) },
     #[error("{file}: layer {index} is packed but its canvas size is not declared; add width and height to the <Layer>")]
     PackedWithoutCanvas { file: PathBuf, index: usize },
+    #[error("{path}: the output exists and is not a directory; give a directory for the panorama")]
+    OutputNotDirectory { path: PathBuf },
 }
 
 impl PanoramaError {
@@ -42,6 +47,7 @@ impl PanoramaError {
             PanoramaError::NoSuchLayer { .. } => "PANORAMA_NO_SUCH_LAYER",
             PanoramaError::SizeMismatch { .. } => "LAYER_SIZE_MISMATCH",
             PanoramaError::PackedWithoutCanvas { .. } => "PATCH_CANVAS_UNDECLARED",
+            PanoramaError::OutputNotDirectory { .. } => "OUTPUT_NOT_DIRECTORY",
         }
     }
 }
@@ -156,7 +162,7 @@ impl Panorama {
 }
 
 /// Lexical and physical containment check of `file` inside `dir`.
-fn resolve_inside(dir: &Path, file: &str) -> Option<PathBuf> {
+pub(crate) fn resolve_inside(dir: &Path, file: &str) -> Option<PathBuf> {
     let rel = Path::new(file);
     if file.is_empty() || rel.is_absolute() {
         return None;
@@ -183,91 +189,6 @@ fn resolve_inside(dir: &Path, file: &str) -> Option<PathBuf> {
         }
     }
     Some(joined)
-}
-
-/// How [`write_panorama`] stores layers.
-#[derive(Clone, Copy, Debug)]
-pub struct SaveOptions {
-    /// Patch-pack layers whose atlas would be smaller than `pack_threshold` × their canvas.
-    pub pack: bool,
-    /// Pack only when the atlas is at most this fraction of the canvas (default 0.5).
-    pub pack_threshold: f64,
-    pub pack_options: PackOptions,
-    pub exr: WriteOptions,
-}
-
-impl Default for SaveOptions {
-    fn default() -> Self {
-        SaveOptions {
-            pack: true,
-            pack_threshold: 0.5,
-            pack_options: PackOptions::default(),
-            exr: WriteOptions::default(),
-        }
-    }
-}
-
-/// Write a native panorama: one EXR per layer (named after the layer's `Image file`) and the
-/// manifest last, each atomically. `manifest.layers[k]` must be `Native` sources; the canvas
-/// sizes and packing tables are filled in from `layers`.
-pub fn write_panorama(
-    dir: &Path,
-    manifest: &Manifest,
-    layers: &[LayerImage],
-    options: &SaveOptions,
-) -> Result<Manifest, Error> {
-    std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
-    let mut out = manifest.clone();
-    // Layers are packed and encoded in parallel (each EXR encode is parallel too, but packing and
-    // the small layers are not).
-    let written: Vec<Result<(String, Option<Packing>), Error>> = out
-        .layers
-        .par_iter()
-        .zip(layers)
-        .enumerate()
-        .map(|(k, (decl, image))| {
-            let file = match &decl.source {
-                LayerSource::Native { file } => file.clone(),
-                LayerSource::Thesis { .. } => format!("layer{k}.exr"),
-            };
-            let path = resolve_inside(dir, &file).ok_or_else(|| PanoramaError::PathEscapes {
-                manifest: dir.join(MANIFEST_NAME),
-                file: file.clone(),
-                dir: dir.to_path_buf(),
-            })?;
-            let canvas = image.width as f64 * image.height as f64;
-            // An atlas never holds fewer pixels than the domain: a layer fuller than the
-            // threshold is not worth cutting up.
-            let worth_packing = options.pack
-                && (image.domain().iter().filter(|&&m| m).count() as f64) <= options.pack_threshold * canvas;
-            let packed =
-                if worth_packing { Some(pack::pack_layer(image, &options.pack_options)?) } else { None };
-            match packed {
-                Some(p) if (p.atlas_area() as f64) <= options.pack_threshold * canvas => {
-                    layer_io::write_exr(&path, &p.atlas, &options.exr)?;
-                    let packing = Packing {
-                        atlas_width: p.atlas.width as u32,
-                        atlas_height: p.atlas.height as u32,
-                        patches: p.patches,
-                    };
-                    Ok((file, Some(packing)))
-                }
-                _ => {
-                    layer_io::write_exr(&path, image, &options.exr)?;
-                    Ok((file, None))
-                }
-            }
-        })
-        .collect();
-    for ((decl, image), result) in out.layers.iter_mut().zip(layers).zip(written) {
-        let (file, packing) = result?;
-        decl.source = LayerSource::Native { file };
-        decl.width = Some(image.width as u32);
-        decl.height = Some(image.height as u32);
-        decl.packing = packing;
-    }
-    crate::fsutil::write_bytes_atomic(&dir.join(MANIFEST_NAME), out.to_xml().as_bytes())?;
-    Ok(out)
 }
 
 #[cfg(test)]

@@ -175,3 +175,35 @@ fn versions() {
         assert_eq!(codes, ["MANIFEST_VERSION_UNSUPPORTED"], "{bad}");
     }
 }
+
+/// `<Mesh>` is a typed part of a layer (spec §2, §8.1): read without warnings, written back,
+/// allowed once, all three attributes required, any encoding kept for the reader to skip.
+#[test]
+fn mesh_element_is_typed_and_round_trips() {
+    let xml = |mesh: &str| {
+        format!(
+            "<Panorama version=\"1\"><Mapping type=\"LatLongMapping\"/><Freedom radius=\"0.5\"/>\
+             <Layer><Image file=\"a.exr\"/>{mesh}</Layer></Panorama>"
+        )
+    };
+    let codes = |x: &str| diagnose(x.as_bytes(), "m").diagnostics.iter().map(|d| d.code).collect::<Vec<_>>();
+    let ok = xml("<Mesh file=\"a.pomcmesh\" encoding=\"quadtree-bfs-zstd\" version=\"1\"/>");
+    assert!(codes(&ok).is_empty(), "{:?}", codes(&ok));
+    let m = diagnose(ok.as_bytes(), "m").manifest.unwrap();
+    let decl = m.layers[0].mesh.clone().unwrap();
+    assert!(decl.is_quadtree_v1() && decl.file == "a.pomcmesh" && m.layers[0].extra.is_empty());
+    let again = diagnose(m.to_xml().as_bytes(), "m").manifest.unwrap();
+    assert_eq!(again.layers[0].mesh, Some(decl));
+
+    let other = xml("<Mesh file=\"a.obj\" encoding=\"wavefront\" version=\"7\"/>");
+    let m = diagnose(other.as_bytes(), "m").manifest.unwrap();
+    assert!(!m.layers[0].mesh.as_ref().unwrap().is_quadtree_v1());
+    assert!(m.to_xml().contains("encoding=\"wavefront\""));
+
+    let twice =
+        xml("<Mesh file=\"a\" encoding=\"e\" version=\"1\"/><Mesh file=\"b\" encoding=\"e\" version=\"1\"/>");
+    assert_eq!(codes(&twice), ["MANIFEST_DUPLICATE_ELEMENT"]);
+    assert_eq!(codes(&xml("<Mesh file=\"a\" version=\"1\"/>")), ["MANIFEST_MISSING_ATTRIBUTE"]);
+    let escape = xml("<Mesh file=\"../../etc/passwd\" encoding=\"quadtree-bfs-zstd\" version=\"1\"/>");
+    assert_eq!(codes(&escape), ["MANIFEST_FILE_NAME_UNSAFE"]);
+}

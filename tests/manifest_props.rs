@@ -1,8 +1,8 @@
 //! Properties: `diagnose` never panics on any bytes, and `parse(to_xml(m)) == m` (origins aside).
 
 use pomc::manifest::{
-    diagnose, parse, LayerDecl, LayerOrigin, LayerSource, Manifest, MappingDecl, MappingKind, Packing, Role,
-    Transform,
+    diagnose, parse, LayerDecl, LayerOrigin, LayerSource, Manifest, MappingDecl, MappingKind, MeshDecl,
+    Packing, Role, Transform,
 };
 use pomc::pack::Patch;
 use proptest::prelude::*;
@@ -79,8 +79,9 @@ fn layer(order: u32) -> impl Strategy<Value = LayerDecl> {
         prop::option::of(1u32..20),
         prop::option::of(packing()),
         prop::sample::select(vec![vec![], vec!["<Mask file=\"m.png\"/>".to_string()]]),
+        prop::option::of(mesh_decl()),
     )
-        .prop_map(|(name, role, order, source, size, depth_range, mip_levels, packing, extra)| {
+        .prop_map(|(name, role, order, source, size, depth_range, mip_levels, packing, extra, mesh)| {
             LayerDecl {
                 name,
                 role,
@@ -91,10 +92,16 @@ fn layer(order: u32) -> impl Strategy<Value = LayerDecl> {
                 depth_range,
                 mip_levels,
                 packing,
+                mesh,
                 extra,
                 origin: LayerOrigin::default(),
             }
         })
+}
+
+fn mesh_decl() -> impl Strategy<Value = MeshDecl> {
+    ("[a-z][a-z0-9_]{0,8}\\.pomcmesh", prop::sample::select(vec!["quadtree-bfs-zstd", "x-other"]), "[1-3]")
+        .prop_map(|(file, encoding, version)| MeshDecl { file, encoding: encoding.to_string(), version })
 }
 
 fn manifest() -> impl Strategy<Value = Manifest> {

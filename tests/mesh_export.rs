@@ -168,3 +168,52 @@ fn the_sky_goes_on_a_dome_of_the_given_radius() {
     let far = room.depth().unwrap().iter().copied().filter(|d| d.is_finite()).fold(0.0f32, f32::max);
     assert_eq!(mesh::default_sky_radius([room, &img]), 10.0 * far as f64);
 }
+
+/// Textures are cropped to what each mesh uses (spec §8.9): a sparse layer's texture is a fraction
+/// of its canvas, and every vertex still reads its own pixel's colour from the cropped texture.
+#[test]
+fn textures_are_cropped_and_still_address_each_vertex_pixel() {
+    for (k, (_, img, mesh)) in meshes().into_iter().enumerate() {
+        let rgb8 = export::colour_rgb8(&img);
+        let w = img.width;
+        let code = |id: u32| {
+            let i = 3 * id as usize;
+            [rgb8[i], rgb8[i + 1], rgb8[i + 2]]
+        };
+        // Vertex "colour" = its source pixel's id, to look its code up after cropping.
+        let full = export::prepare(&mesh, DMat4::IDENTITY, &|id| [id as f32, 0.0, 0.0]);
+        let mut e = full.clone();
+        let t = export::texture::crop(&img, &mut e);
+        // How many vertices read their own pixel's code from `(uvs, texture)` (nearest texel).
+        let reads = |uvs: &[[f32; 2]], tex: &[u8], tw: usize, th: usize| {
+            let (mut same, mut checked) = (0usize, 0usize);
+            for (uv, c) in uvs.iter().zip(&e.colours) {
+                let id = c[0] as u32;
+                if id as usize >= img.width * img.height {
+                    continue; // a pole vertex
+                }
+                let x = ((uv[0].rem_euclid(1.0) * tw as f32) as usize).min(tw - 1);
+                let y = ((uv[1] * th as f32) as usize).min(th - 1);
+                let i = 3 * (y * tw + x);
+                checked += 1;
+                same += usize::from(tex[i..i + 3] == code(id));
+            }
+            (same, checked)
+        };
+        let (same, checked) = reads(&e.uvs, &t.rgb, t.width as usize, t.height as usize);
+        let uncropped = reads(&full.uvs, &rgb8, w, img.height);
+        // Exactly the vertices that read their pixel before (nearly all: vertices of the strips
+        // joining cube faces read the face they are drawn on, seam and pole copies a neighbour).
+        assert_eq!((same, checked), uncropped, "case {k}: {}x{} wraps {}", t.width, t.height, t.wraps);
+        assert!(same as f64 >= 0.95 * checked as f64, "case {k}: {same} of {checked}");
+        let fraction = (t.width * t.height) as f64 / (w * img.height) as f64;
+        eprintln!(
+            "case {k}: texture {}x{} = {:.3} of the canvas, wraps {}",
+            t.width, t.height, fraction, t.wraps
+        );
+        // The room's objects: below the centre and all round it (the equirect crop keeps every column).
+        if k % 2 == 1 {
+            assert!(fraction < 0.75, "case {k}: objects layer texture {fraction:.3} of its canvas");
+        }
+    }
+}

@@ -47,7 +47,7 @@ pub const CODES: &[(&str, Severity, &str)] = &[
     (NUMBER_INVALID, Severity::Error, "A numeric attribute does not parse, is not finite, is out of range, or has the wrong number of components."),
     (MAPPING_MISSING, Severity::Error, "There is no `<Mapping>` element."),
     (MAPPING_UNKNOWN, Severity::Error, "`<Mapping type>` names no known parametrisation."),
-    (DUPLICATE_ELEMENT, Severity::Error, "An element allowed once (TransformGroup, Mapping, Freedom, Packing) appears more than once."),
+    (DUPLICATE_ELEMENT, Severity::Error, "An element allowed once (TransformGroup, Mapping, Freedom, Packing, Mesh) appears more than once."),
     (ROTATE_AXIS_ZERO, Severity::Error, "A `<Rotate>` axis has zero length."),
     (SCALE_ZERO, Severity::Error, "A `<Scale>` component is zero: LocalToWorld would not be invertible."),
     (FREEDOM_INVALID, Severity::Error, "The freedom radius is not a finite number greater than 0."),

@@ -133,6 +133,34 @@ pub struct Packing {
     pub patches: Vec<Patch>,
 }
 
+/// `<Mesh file encoding version>`: a layer's stored mesh (spec §8.1). Kept whatever its encoding;
+/// readers use it only when [`MeshDecl::is_quadtree_v1`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MeshDecl {
+    pub file: String,
+    pub encoding: String,
+    pub version: String,
+}
+
+impl MeshDecl {
+    /// The encoding of spec §8.4.
+    pub const QUADTREE_ENCODING: &'static str = "quadtree-bfs-zstd";
+
+    /// A quadtree mesh (spec §8.4, version 1) stored in `file`.
+    pub fn quadtree(file: &str) -> Self {
+        MeshDecl {
+            file: file.to_string(),
+            encoding: Self::QUADTREE_ENCODING.to_string(),
+            version: "1".to_string(),
+        }
+    }
+
+    /// Whether this is the encoding this reader knows.
+    pub fn is_quadtree_v1(&self) -> bool {
+        self.encoding == Self::QUADTREE_ENCODING && self.version == "1"
+    }
+}
+
 /// One `<Layer>`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LayerDecl {
@@ -148,6 +176,8 @@ pub struct LayerDecl {
     pub depth_range: Option<(f32, f32)>,
     pub mip_levels: Option<u32>,
     pub packing: Option<Packing>,
+    /// `<Mesh>`: a stored mesh of the layer (spec §8.1).
+    pub mesh: Option<MeshDecl>,
     /// Child elements this reader does not know, kept verbatim (their source text, entities
     /// unexpanded) and written back by [`Manifest::to_xml`]; each must be well-formed element text.
     pub extra: Vec<String>,
@@ -167,6 +197,7 @@ impl LayerDecl {
             depth_range: None,
             mip_levels: None,
             packing: None,
+            mesh: None,
             extra: Vec::new(),
             origin: LayerOrigin::default(),
         }

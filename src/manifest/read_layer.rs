@@ -1,5 +1,6 @@
 //! `<Layer>` and what it holds: one source (`<Image>` or the thesis's `<Textures>`), an optional
-//! `<Packing>` table, and unknown children kept verbatim in [`LayerDecl::extra`].
+//! `<Packing>` table, an optional `<Mesh>`, and unknown children kept verbatim in
+//! [`LayerDecl::extra`].
 
 use std::collections::HashMap;
 
@@ -7,11 +8,11 @@ use super::codes;
 use super::file_name::unsafe_reason;
 use super::number;
 use super::read::{Ctx, El};
-use super::{LayerDecl, LayerOrigin, LayerSource, Origin, Packing, Role};
+use super::{LayerDecl, LayerOrigin, LayerSource, MeshDecl, Origin, Packing, Role};
 use crate::pack::Patch;
 
 const LAYER_ATTRIBUTES: &[&str] = &["name", "role", "order", "width", "height", "depthrange", "miplevels"];
-const LAYER_CHILDREN: &[&str] = &["Image", "Textures", "Packing"];
+const LAYER_CHILDREN: &[&str] = &["Image", "Textures", "Packing", "Mesh"];
 
 const ROLES: &[Role] =
     &[Role::Background, Role::Object, Role::Floor, Role::Ceiling, Role::Wall, Role::Infinity, Role::Light];
@@ -32,6 +33,7 @@ pub fn layer(ctx: &mut Ctx, el: &El) -> Option<LayerDecl> {
 
     let mut sources: Vec<(El, Option<LayerSource>)> = Vec::new();
     let mut packing: Option<(Packing, Vec<Origin>)> = None;
+    let mut mesh = None;
     let mut extra = Vec::new();
     for child in el.children() {
         match child.name() {
@@ -39,6 +41,8 @@ pub fn layer(ctx: &mut Ctx, el: &El) -> Option<LayerDecl> {
             "Textures" => sources.push((child.clone(), textures(ctx, &child))),
             "Packing" if packing.is_some() => ctx.duplicate(&child, "Layer"),
             "Packing" => packing = Some(packing_table(ctx, &child)),
+            "Mesh" if mesh.is_some() => ctx.duplicate(&child, "Layer"),
+            "Mesh" => mesh = Some(mesh_decl(ctx, &child)),
             _ => {
                 ctx.unknown_element(&child, "Layer", LAYER_CHILDREN);
                 extra.push(ctx.text[child.node.range()].to_string());
@@ -69,6 +73,7 @@ pub fn layer(ctx: &mut Ctx, el: &El) -> Option<LayerDecl> {
         depth_range,
         mip_levels,
         packing,
+        mesh: mesh.flatten(),
         extra,
         origin: LayerOrigin { layer: origin(ctx, el), patches },
     })
@@ -162,6 +167,15 @@ fn textures(ctx: &mut Ctx, el: &El) -> Option<LayerSource> {
         _ => None,
     };
     Some(LayerSource::Thesis { mapname: mapname?, depthname: depthname?, normals })
+}
+
+/// `<Mesh>`: all three attributes required; any encoding is kept (readers skip unknown ones).
+fn mesh_decl(ctx: &mut Ctx, el: &El) -> Option<MeshDecl> {
+    ctx.leaf(el, &["file", "encoding", "version"]);
+    let file = file_attr(ctx, el, "file", "layer0.pomcmesh");
+    let encoding = ctx.required(el, "encoding", MeshDecl::QUADTREE_ENCODING).map(|(v, _)| v.to_string());
+    let version = ctx.required(el, "version", "1").map(|(v, _)| v.to_string());
+    Some(MeshDecl { file: file?, encoding: encoding?, version: version? })
 }
 
 fn packing_table(ctx: &mut Ctx, el: &El) -> (Packing, Vec<Origin>) {

@@ -107,6 +107,15 @@ fn write_layer(out: &mut String, l: &LayerDecl) {
     if let Some(p) = &l.packing {
         write_packing(out, p);
     }
+    if let Some(m) = &l.mesh {
+        let _ = writeln!(
+            out,
+            "    <Mesh file=\"{}\" encoding=\"{}\" version=\"{}\"/>",
+            escape_attr(&m.file),
+            escape_attr(&m.encoding),
+            escape_attr(&m.version)
+        );
+    }
     for e in &l.extra {
         let _ = writeln!(out, "    {e}");
     }

@@ -20,6 +20,7 @@ pub mod quadtree;
 pub mod sat;
 pub mod simplify;
 pub mod stitch;
+pub mod stored;
 pub mod triangulate;
 
 use std::time::Instant;

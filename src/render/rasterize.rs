@@ -170,20 +170,6 @@ pub enum MeshSource {
     Built,
 }
 
-/// The file of a layer's stored mesh, if its declaration references one in the encoding this
-/// reader knows (`quadtree-bfs-zstd`, version 1); other `<Mesh>` elements are ignored (spec §8.1).
-pub fn stored_mesh_file(pano: &Panorama, index: usize) -> Option<String> {
-    let decl = pano.manifest.layers.get(index)?;
-    decl.extra.iter().find_map(|text| {
-        let doc = roxmltree::Document::parse(text).ok()?;
-        let e = doc.root_element();
-        let ok = e.tag_name().name() == "Mesh"
-            && e.attribute("encoding") == Some("quadtree-bfs-zstd")
-            && e.attribute("version") == Some("1");
-        ok.then(|| e.attribute("file").map(str::to_string)).flatten()
-    })
-}
-
 /// Geometry of each layer, where its mesh came from, and the warnings about stored meshes ignored.
 pub type PanoramaMeshes = (Vec<LayerGeometry>, Vec<MeshSource>, Vec<String>);
 
@@ -205,11 +191,12 @@ pub fn panorama_meshes(
         .enumerate()
         .map(|(index, l)| {
             let mut warning = None;
-            if let Some(file) = stored_mesh_file(pano, index) {
-                match decode_stored(pano, &file, l) {
-                    Ok(m) => return Ok((LayerGeometry::new(index, m, l, o.jump)?, MeshSource::Stored, None)),
-                    Err(e) => warning = Some(format!("layer {index}: stored mesh {file} ignored: {e}")),
+            match mesh::stored::read_stored(pano, index, l.image, &l.mapping) {
+                Some(Ok(m)) => {
+                    return Ok((LayerGeometry::new(index, m, l, o.jump)?, MeshSource::Stored, None))
                 }
+                Some(Err(e)) => warning = Some(format!("layer {index}: {e}")),
+                None => {}
             }
             let m = mesh::mesh_layer(l.image, &l.mapping, params).map_err(|e| mesh_error(index, e))?;
             Ok((LayerGeometry::new(index, m.mesh, l, o.jump)?, MeshSource::Built, warning))
@@ -223,14 +210,6 @@ pub fn panorama_meshes(
         warnings.extend(w);
     }
     Ok((meshes, sources, warnings))
-}
-
-fn decode_stored(pano: &Panorama, file: &str, l: &RenderLayer) -> Result<LayerMesh, String> {
-    let path = pano.resolve(file).map_err(|e| e.to_string())?;
-    // The encoding is bounded by the canvas (spec §8.4); refuse anything much larger unread.
-    let limit = 1024 + (l.mapping.width() * l.mapping.height()) as u64 / 4;
-    let bytes = crate::fsutil::read_limited(&path, limit).map_err(|e| e.to_string())?;
-    mesh::encode::decode(&bytes, l.image, &l.mapping).map_err(|e| e.to_string())
 }
 
 /// Half-size of the footprint quads of border pixels, layer pixels: the splat's filter radius, over
@@ -1183,5 +1162,5 @@ pub fn render_mesh_auto(
 
 /// Whether a path names a panorama with at least one stored mesh (for reports).
 pub fn has_stored_meshes(pano: &Panorama) -> bool {
-    (0..pano.manifest.layers.len()).any(|k| stored_mesh_file(pano, k).is_some())
+    pano.manifest.layers.iter().any(|l| l.mesh.as_ref().is_some_and(|m| m.is_quadtree_v1()))
 }

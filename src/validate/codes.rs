@@ -37,6 +37,9 @@ pub const CODES: &[(&str, Severity, &str)] = &[
     ("PATCH_OVERLAP_ATLAS", Severity::Error, "Two patches overlap in the atlas."),
     ("PATCH_OVERLAP_CANVAS", Severity::Error, "Two patches overlap in the canvas."),
     ("PATCH_CANVAS_UNDECLARED", Severity::Error, "A packed layer does not declare its full canvas width and height."),
+    ("MESH_NOT_FOUND", Severity::Warning, "A stored mesh (`<Mesh file>`) does not exist; readers rebuild the mesh from the layer."),
+    ("MESH_UNREADABLE", Severity::Warning, "A stored mesh cannot be used: it leaves the panorama directory, is too large, or does not decode against its layer (spec §8.4); readers rebuild it."),
+    ("MESH_ENCODING_UNKNOWN", Severity::Info, "A `<Mesh>` uses an encoding or version this reader does not know; it is kept and ignored."),
 ];
 
 /// Every code the validator can report: the manifest's and its own.

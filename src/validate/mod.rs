@@ -176,8 +176,31 @@ fn check_layer(
         }
     };
     check_pixels(&image, &mapping, decl, options, &loc, issues);
+    check_mesh(pano, k, decl, &image, &mapping, &loc, issues);
     let domain = image.domain();
     Some((mapping, domain))
+}
+
+/// The layer's stored mesh, read as the renderer reads it ([`crate::mesh::stored`]).
+fn check_mesh(
+    pano: &Panorama,
+    k: usize,
+    decl: &LayerDecl,
+    image: &LayerImage,
+    mapping: &AnyMapping,
+    loc: &str,
+    issues: &mut Vec<Issue>,
+) {
+    let Some(m) = &decl.mesh else { return };
+    if !m.is_quadtree_v1() {
+        let msg = format!(
+            "<Mesh file=\"{}\"> uses encoding `{}` version `{}`, which this reader does not know; it is kept and ignored",
+            m.file, m.encoding, m.version
+        );
+        issues.push(issue("MESH_ENCODING_UNKNOWN", msg, format!("{loc} mesh {}", m.file)));
+    } else if let Some(Err(e)) = crate::mesh::stored::read_stored(pano, k, image, mapping) {
+        issues.push(issue(e.code, e.to_string(), format!("{loc} mesh {}", m.file)));
+    }
 }
 
 fn kind_shape(kind: MappingKind) -> &'static str {

@@ -301,8 +301,7 @@ fn store(pano: &Panorama, layers: &[Layer]) -> Result<(), Failure> {
         let (Some(bytes), Some(decl)) = (&l.encoded, manifest.layers.get_mut(l.index)) else { continue };
         let file = format!("{}.{}", stems[l.index], encode::EXTENSION);
         pomc::fsutil::write_bytes_atomic(&pano.dir.join(&file), bytes)?;
-        decl.extra.retain(|e| !e.trim_start().starts_with("<Mesh"));
-        decl.extra.push(format!("<Mesh file=\"{file}\" encoding=\"quadtree-bfs-zstd\" version=\"1\"/>"));
+        decl.mesh = Some(pomc::manifest::MeshDecl::quadtree(&file));
     }
     pomc::fsutil::write_bytes_atomic(&pano.manifest_path, manifest.to_xml().as_bytes())?;
     Ok(())

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use pomc::layer_io::ReadLimits;
 use pomc::pack::PackOptions;
-use pomc::panorama::{self, Panorama, SaveOptions};
+use pomc::panorama::{Panorama, SaveOptions};
 
 use crate::output::Output;
 use crate::Failure;
@@ -66,7 +66,7 @@ fn rewrite(
     bar.finish_and_clear();
     let read_s = start.elapsed().as_secs_f64();
     let t = Instant::now();
-    let written = panorama::write_panorama(output, &pano.manifest, &layers, options)?;
+    let written = pano.save(output, &layers, options)?;
     let write_s = t.elapsed().as_secs_f64();
 
     let mut rows = Vec::new();

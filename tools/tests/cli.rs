@@ -416,3 +416,48 @@ fn convert_takes_a_panorama() {
     let same = pomc(&["convert", src.to_str().unwrap(), "-o", &p("same"), "--to", "equirect"]);
     assert_eq!(same.status.code(), Some(2));
 }
+
+/// Killing `build` (over an existing output) or an in-place `pack`/`unpack` at any moment leaves a
+/// valid panorama (the old or the new one, spec §1.3), and the next run clears what was left.
+#[test]
+fn killed_writes_leave_a_whole_panorama() {
+    let dir = tempfile::tempdir().unwrap();
+    let pano = dir.path().join("pano");
+    let p = pano.to_str().unwrap();
+    assert_eq!(build_bundled(&pano, &["--quiet"]).status.code(), Some(0));
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-rgbd");
+    let (colour, depth) = (root.join("colour.png"), root.join("depth.exr"));
+    let (c, d) = (colour.to_str().unwrap(), depth.to_str().unwrap());
+    let runs: [Vec<&str>; 3] = [
+        vec!["unpack", p, "-o", p, "--quiet"],
+        vec!["pack", p, "-o", p, "--quiet"],
+        vec!["build", "--colour", c, "--depth", d, "-o", p, "--no-pack", "--quiet"],
+    ];
+    // Kill times spread over each command's own run time (measured here: machines differ).
+    for run in &runs {
+        let t = std::time::Instant::now();
+        assert_eq!(pomc(run).status.code(), Some(0));
+        let full = t.elapsed();
+        for k in 1..16u32 {
+            let mut child = Command::new(env!("CARGO_BIN_EXE_pomc")).args(run).spawn().unwrap();
+            std::thread::sleep(full * k / 16);
+            let _ = child.kill();
+            child.wait().unwrap();
+            let check = pomc(&["validate", p, "--json"]);
+            assert_eq!(
+                check.status.code(),
+                Some(0),
+                "{run:?} killed at {k}/16: {}",
+                String::from_utf8_lossy(&check.stdout)
+            );
+        }
+    }
+    assert_eq!(build_bundled(&pano, &["--quiet"]).status.code(), Some(0));
+    let left: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .chain(std::fs::read_dir(&pano).unwrap())
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("pomc-tmp") || n.contains("pomc-old"))
+        .collect();
+    assert!(left.is_empty(), "temporaries left: {left:?}");
+}

@@ -67,6 +67,85 @@ fn store_references_the_mesh_from_the_manifest() {
     assert_eq!(xml.matches("<Mesh").count(), 2);
 }
 
+/// `validate --json` of a panorama: (errors, warnings, codes).
+fn validate(pano: &Path) -> (u64, u64, Vec<String>) {
+    let out = pomc(&["validate", pano.to_str().unwrap(), "--json"]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let codes =
+        v["issues"].as_array().unwrap().iter().map(|i| i["code"].as_str().unwrap().to_string()).collect();
+    (v["errors"].as_u64().unwrap(), v["warnings"].as_u64().unwrap(), codes)
+}
+
+/// The render's mesh sources (`stored`/`built`) for one view of the mesh method.
+fn mesh_sources(pano: &Path) -> Value {
+    let view = pano.join("view.png");
+    let (p, v) = (pano.to_str().unwrap(), view.to_str().unwrap());
+    let out = pomc(&["render", p, "-o", v, "--method", "mesh", "--size", "64x36", "--json"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    std::fs::remove_file(&view).unwrap();
+    serde_json::from_slice::<Value>(&out.stdout).unwrap()["mesh"]["sources"].clone()
+}
+
+/// `<Mesh>` is part of the manifest (spec §8.1): validated without warnings, kept and copied by
+/// `pack` and `unpack` (into a new directory and in place), dropped by `convert` (the pixels
+/// change), and a broken one is a warning with its own code.
+#[test]
+fn stored_meshes_survive_every_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src");
+    room(&src, MappingKind::Equirect, 128, 64);
+    let s = src.to_str().unwrap();
+    assert_eq!(pomc(&["mesh", s, "--store", "--no-metric", "--quiet"]).status.code(), Some(0));
+    assert_eq!(validate(&src), (0, 0, vec![]));
+    let stored = serde_json::json!(["stored", "stored"]);
+    assert_eq!(mesh_sources(&src), stored);
+
+    for (cmd, name) in [("pack", "packed"), ("unpack", "unpacked")] {
+        let out_dir = dir.path().join(name);
+        let out = pomc(&[cmd, s, "-o", out_dir.to_str().unwrap(), "--quiet"]);
+        assert_eq!(out.status.code(), Some(0), "{cmd}: {}", String::from_utf8_lossy(&out.stderr));
+        for mesh in ["room.pomcmesh", "objects.pomcmesh"] {
+            assert_eq!(
+                std::fs::read(out_dir.join(mesh)).unwrap(),
+                std::fs::read(src.join(mesh)).unwrap(),
+                "{cmd}"
+            );
+        }
+        assert_eq!(validate(&out_dir), (0, 0, vec![]), "{cmd}");
+        assert_eq!(mesh_sources(&out_dir), stored, "{cmd}");
+    }
+    // In place: the mesh files stay (and are not truncated by copying onto themselves).
+    let packed = dir.path().join("packed");
+    let p = packed.to_str().unwrap();
+    assert_eq!(pomc(&["unpack", p, "-o", p, "--quiet"]).status.code(), Some(0));
+    assert_eq!(validate(&packed), (0, 0, vec![]));
+    assert_eq!(mesh_sources(&packed), stored);
+
+    // convert changes every pixel: the references go, the result validates.
+    let cube = dir.path().join("cube");
+    let out = pomc(&["convert", s, "-o", cube.to_str().unwrap(), "--to", "cube", "--quiet"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!std::fs::read_to_string(cube.join("panorama.xml")).unwrap().contains("<Mesh"));
+    assert_eq!(validate(&cube), (0, 0, vec![]));
+
+    // Broken meshes: a warning each, with its own code; the panorama stays valid.
+    std::fs::write(src.join("room.pomcmesh"), b"POMCMESH\x01garbage").unwrap();
+    std::fs::remove_file(src.join("objects.pomcmesh")).unwrap();
+    let (errors, warnings, mut codes) = validate(&src);
+    codes.sort();
+    assert_eq!((errors, warnings), (0, 2));
+    assert_eq!(codes, ["MESH_NOT_FOUND", "MESH_UNREADABLE"]);
+    // A mesh file outside the directory is a manifest error, like a layer file.
+    let xml = std::fs::read_to_string(src.join("panorama.xml")).unwrap();
+    std::fs::write(
+        src.join("panorama.xml"),
+        xml.replace("file=\"room.pomcmesh\"", "file=\"../../etc/passwd\""),
+    )
+    .unwrap();
+    let (errors, _, codes) = validate(&src);
+    assert!(errors >= 1 && codes.contains(&"MANIFEST_FILE_NAME_UNSAFE".to_string()), "{codes:?}");
+}
+
 #[test]
 fn mesh_errors_are_coded() {
     let out = pomc(&["mesh", "/nonexistent/pano", "--json"]);

@@ -1,6 +1,6 @@
 //! glTF 2.0 binary (`.glb`): one node and one mesh per layer, named after it, the nodes in painter's
 //! order (farthest first) under one scene; each mesh has positions + `TEXCOORD_0` + `u32` indices and its
-//! layer's colour as an embedded sRGB PNG base-colour texture (unlit; double-sided, except a sky dome,
+//! layer's colour as an embedded sRGB PNG base-colour texture, cropped ([`super::texture`]; unlit; double-sided, except a sky dome,
 //! whose triangles face the centre). Node `extras`: `layer` (manifest index), `sky_radius` for a dome.
 //!
 //! glTF is Y-up; POMC world space is Z-up (the thesis translates the panorama to `z = 1.15`), so callers
@@ -34,8 +34,9 @@ fn pad4(buf: &mut Vec<u8>, byte: u8) {
     }
 }
 
-/// The `.glb` bytes of layers (in painter's order), each with its prepared mesh and PNG texture.
-pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8])]) -> Result<Vec<u8>, MeshError> {
+/// The `.glb` bytes of layers (in painter's order), each with its prepared mesh, PNG texture and
+/// whether its texture coordinates wrap across `u = 1` (a repeating sampler; else clamped).
+pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8], bool)]) -> Result<Vec<u8>, MeshError> {
     if layers.is_empty() || layers.iter().any(|l| l.1.triangles.is_empty()) {
         return Err(MeshError::Export("the mesh has no triangles (glTF accessors cannot be empty)".into()));
     }
@@ -54,7 +55,7 @@ pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8])]) -> Result<Vec<u8>, M
     let f32s = |it: &mut dyn Iterator<Item = f32>| it.flat_map(f32::to_le_bytes).collect::<Vec<u8>>();
     let (mut nodes, mut meshes, mut materials, mut textures, mut images, mut accessors) =
         (vec![], vec![], vec![], vec![], vec![], vec![]);
-    for (k, (l, m, png)) in layers.iter().enumerate() {
+    for (k, &(l, m, png, wraps)) in layers.iter().enumerate() {
         let (mut mn, mut mx) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         for p in &m.positions {
             for c in 0..3 {
@@ -74,7 +75,7 @@ pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8])]) -> Result<Vec<u8>, M
             json!({"bufferView": idx, "componentType": 5125, "count": m.triangles.len() * 3, "type": "SCALAR"}),
         ]);
         images.push(json!({"bufferView": img, "mimeType": "image/png"}));
-        textures.push(json!({"sampler": 0, "source": k}));
+        textures.push(json!({"sampler": if wraps { 0 } else { 1 }, "source": k}));
         materials.push(json!({
             "name": l.name,
             "pbrMetallicRoughness": {"baseColorTexture": {"index": k}, "metallicFactor": 0.0, "roughnessFactor": 1.0},
@@ -100,7 +101,10 @@ pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8])]) -> Result<Vec<u8>, M
         "meshes": meshes,
         "materials": materials,
         "textures": textures,
-        "samplers": [{"magFilter": 9729, "minFilter": 9729, "wrapS": 10497, "wrapT": 33071}],
+        "samplers": [
+            {"magFilter": 9729, "minFilter": 9729, "wrapS": 10497, "wrapT": 33071},
+            {"magFilter": 9729, "minFilter": 9729, "wrapS": 33071, "wrapT": 33071}
+        ],
         "images": images,
         "accessors": accessors,
         "bufferViews": views,

@@ -14,6 +14,7 @@
 pub mod gltf;
 pub mod obj;
 pub mod ply;
+pub mod texture;
 
 use std::path::{Path, PathBuf};
 
@@ -212,13 +213,16 @@ pub fn scene_files(
     if matches!(format, Format::Glb | Format::Obj) {
         transform = gltf::z_up_to_y_up() * transform;
     }
-    let meshes: Vec<ExportMesh> = layers.iter().map(|l| prepare_layer(l, transform)).collect();
+    let mut meshes: Vec<ExportMesh> = layers.iter().map(|l| prepare_layer(l, transform)).collect();
     let mut counts = meshes.iter().map(|m| m.positions.len());
     let vertices =
         all.iter().map(|l| if l.mesh.triangles.is_empty() { 0 } else { counts.next().unwrap_or(0) });
     let vertices = vertices.collect();
-    let png =
-        |l: &SceneLayer| gltf::png_rgb8(l.image.width as u32, l.image.height as u32, &colour_rgb8(l.image));
+    // Textured formats get each layer's colour cropped to what its mesh uses (PLY has vertex colours).
+    let mut textures = || -> Result<Vec<(Vec<u8>, bool)>, MeshError> {
+        let crops = layers.iter().zip(meshes.iter_mut()).map(|(l, m)| texture::crop(l.image, m));
+        crops.map(|t| Ok((gltf::png_rgb8(t.width, t.height, &t.rgb)?, t.wraps))).collect()
+    };
     let files = match format {
         Format::Ply => {
             let parts: Vec<_> =
@@ -226,23 +230,26 @@ pub fn scene_files(
             vec![(format!("{stem}.ply"), ply::to_bytes(&parts))]
         }
         Format::Glb => {
-            let pngs = layers.iter().map(|l| png(l)).collect::<Result<Vec<_>, _>>()?;
-            let parts: Vec<_> =
-                layers.iter().zip(&meshes).zip(&pngs).map(|((l, m), p)| (*l, m, p.as_slice())).collect();
+            let pngs = textures()?;
+            let parts: Vec<_> = layers
+                .iter()
+                .zip(&meshes)
+                .zip(&pngs)
+                .map(|((l, m), (png, wraps))| (*l, m, png.as_slice(), *wraps))
+                .collect();
             vec![(format!("{stem}.glb"), gltf::to_glb(&parts)?)]
         }
         Format::Obj => {
+            let pngs = textures()?;
             let names = safe_names(&layers.iter().map(|l| &l.name).collect::<Vec<_>>());
-            let textures: Vec<String> = names.iter().map(|n| format!("{stem}_{n}.png")).collect();
+            let files_of: Vec<String> = names.iter().map(|n| format!("{stem}_{n}.png")).collect();
             let parts: Vec<_> = names.iter().map(String::as_str).zip(&meshes).collect();
             let mtl = format!("{stem}.mtl");
             let mut files = vec![
                 (format!("{stem}.obj"), obj::to_string(&parts, &mtl).into_bytes()),
-                (mtl, obj::mtl(&names, &textures).into_bytes()),
+                (mtl, obj::mtl(&names, &files_of).into_bytes()),
             ];
-            for (l, t) in layers.iter().zip(textures) {
-                files.push((t, png(l)?));
-            }
+            files.extend(files_of.into_iter().zip(pngs.into_iter().map(|(png, _)| png)));
             files
         }
     };

@@ -1,0 +1,318 @@
+//! Writing a panorama (spec §1.3) as a whole: the layers, stored meshes and manifest go into a
+//! temporary sibling directory that then replaces the output in one step, under a lock against
+//! concurrent writers (see `docs/security.md`). A crash or a kill leaves the old panorama or the
+//! new one, never a mix; what a killed writer left behind is removed by the next one.
+//!
+//! An output directory that also holds files which are not the panorama's own (say the input
+//! images of `build`) is never swapped away: there the files are written one by one (each
+//! atomically, the manifest last).
+
+use std::collections::HashSet;
+use std::path::Path;
+
+use rayon::prelude::*;
+
+use super::{resolve_inside, Panorama, PanoramaError, MANIFEST_NAME};
+use crate::error::Error;
+use crate::fsutil;
+use crate::layer::LayerImage;
+use crate::layer_io::{self, WriteOptions};
+use crate::manifest::{self, LayerSource, Manifest, Packing};
+use crate::pack::{self, PackOptions};
+
+/// How [`write_panorama`] stores layers.
+#[derive(Clone, Copy, Debug)]
+pub struct SaveOptions {
+    /// Patch-pack layers whose atlas would be smaller than `pack_threshold` × their canvas.
+    pub pack: bool,
+    /// Pack only when the atlas is at most this fraction of the canvas (default 0.5).
+    pub pack_threshold: f64,
+    pub pack_options: PackOptions,
+    pub exr: WriteOptions,
+}
+
+impl Default for SaveOptions {
+    fn default() -> Self {
+        SaveOptions {
+            pack: true,
+            pack_threshold: 0.5,
+            pack_options: PackOptions::default(),
+            exr: WriteOptions::default(),
+        }
+    }
+}
+
+/// Write a native panorama into `dir`: one EXR per layer (named after the layer's `Image file`,
+/// `layerK.exr` for thesis-form layers) and the manifest. The canvas sizes and packing tables are
+/// filled in from `layers` (full canvases). `<Mesh>` references are dropped: there is no panorama
+/// to copy their files from (see [`Panorama::save`]).
+pub fn write_panorama(
+    dir: &Path,
+    manifest: &Manifest,
+    layers: &[LayerImage],
+    options: &SaveOptions,
+) -> Result<Manifest, Error> {
+    save(dir, manifest, layers, options, None)
+}
+
+impl Panorama {
+    /// Write this panorama with `layers` (its layers' full canvases, as [`Panorama::read_layer`]
+    /// gives them) into `dir`, which may be this panorama's own directory, like
+    /// [`write_panorama`]; stored meshes are copied along with their `<Mesh>` references.
+    pub fn save(&self, dir: &Path, layers: &[LayerImage], options: &SaveOptions) -> Result<Manifest, Error> {
+        save(dir, &self.manifest, layers, options, Some(&self.dir))
+    }
+}
+
+fn save(
+    dir: &Path,
+    manifest: &Manifest,
+    layers: &[LayerImage],
+    options: &SaveOptions,
+    meshes_from: Option<&Path>,
+) -> Result<Manifest, Error> {
+    if std::fs::metadata(dir).is_ok_and(|m| !m.is_dir()) {
+        return Err(PanoramaError::OutputNotDirectory { path: dir.to_path_buf() }.into());
+    }
+    let _lock = fsutil::lock_dir(dir)?;
+    if has_foreign_entries(dir) {
+        remove_temp_files(dir);
+        return write_files(dir, manifest, layers, options, meshes_from);
+    }
+    let tmp = fsutil::temp_sibling(dir)?;
+    let written = write_files(tmp.path(), manifest, layers, options, meshes_from)?;
+    fsutil::swap_in(tmp, dir)?;
+    Ok(written)
+}
+
+/// Whether `dir` holds entries other than a panorama's own: its manifest, the files the manifest
+/// names, and temporaries of killed writes. A directory without a readable manifest holds only
+/// foreign entries (unless it is empty).
+fn has_foreign_entries(dir: &Path) -> bool {
+    let Ok(entries) = std::fs::read_dir(dir) else { return false };
+    let names: Vec<std::ffi::OsString> = entries.flatten().map(|e| e.file_name()).collect();
+    if names.is_empty() {
+        return false;
+    }
+    let manifest_path = dir.join(MANIFEST_NAME);
+    let Ok(bytes) = fsutil::read_limited(&manifest_path, super::MAX_MANIFEST_BYTES) else { return true };
+    let Ok(m) = manifest::parse(&bytes, &manifest_path.display().to_string()) else { return true };
+    let mut own: HashSet<String> = HashSet::from([MANIFEST_NAME.to_string()]);
+    let top =
+        |f: &str| Path::new(f).components().next().map(|c| c.as_os_str().to_string_lossy().into_owned());
+    for l in &m.layers {
+        let files: Vec<&str> = match &l.source {
+            LayerSource::Native { file } => vec![file],
+            LayerSource::Thesis { mapname, depthname, normals } => {
+                [Some(mapname.as_str()), Some(depthname.as_str()), normals.as_deref()]
+                    .into_iter()
+                    .flatten()
+                    .collect()
+            }
+        };
+        own.extend(files.into_iter().chain(l.mesh.as_ref().map(|m| m.file.as_str())).filter_map(top));
+    }
+    names.iter().any(|n| {
+        let n = n.to_string_lossy();
+        !own.contains(n.as_ref()) && !n.starts_with(".pomc-tmp-")
+    })
+}
+
+/// Remove temporaries of killed atomic file writes inside `dir` (with its lock held).
+fn remove_temp_files(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        if e.file_name().to_string_lossy().starts_with(".pomc-tmp-")
+            && e.file_type().is_ok_and(|t| t.is_file())
+        {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
+/// Write the layers, meshes and manifest into `dir` (each file atomically, the manifest last).
+fn write_files(
+    dir: &Path,
+    manifest: &Manifest,
+    layers: &[LayerImage],
+    options: &SaveOptions,
+    meshes_from: Option<&Path>,
+) -> Result<Manifest, Error> {
+    std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
+    let mut out = manifest.clone();
+    // Layers are packed and encoded in parallel (each EXR encode is parallel too, but packing and
+    // the small layers are not).
+    let written: Vec<Result<(String, Option<Packing>), Error>> = out
+        .layers
+        .par_iter()
+        .zip(layers)
+        .enumerate()
+        .map(|(k, (decl, image))| {
+            let file = match &decl.source {
+                LayerSource::Native { file } => file.clone(),
+                LayerSource::Thesis { .. } => format!("layer{k}.exr"),
+            };
+            let path = inside(dir, &file)?;
+            let canvas = image.width as f64 * image.height as f64;
+            // An atlas never holds fewer pixels than the domain: a layer fuller than the
+            // threshold is not worth cutting up.
+            let worth_packing = options.pack
+                && (image.domain().iter().filter(|&&m| m).count() as f64) <= options.pack_threshold * canvas;
+            let packed =
+                if worth_packing { Some(pack::pack_layer(image, &options.pack_options)?) } else { None };
+            match packed {
+                Some(p) if (p.atlas_area() as f64) <= options.pack_threshold * canvas => {
+                    layer_io::write_exr(&path, &p.atlas, &options.exr)?;
+                    let packing = Packing {
+                        atlas_width: p.atlas.width as u32,
+                        atlas_height: p.atlas.height as u32,
+                        patches: p.patches,
+                    };
+                    Ok((file, Some(packing)))
+                }
+                _ => {
+                    layer_io::write_exr(&path, image, &options.exr)?;
+                    Ok((file, None))
+                }
+            }
+        })
+        .collect();
+    for ((decl, image), result) in out.layers.iter_mut().zip(layers).zip(written) {
+        let (file, packing) = result?;
+        decl.source = LayerSource::Native { file };
+        decl.width = Some(image.width as u32);
+        decl.height = Some(image.height as u32);
+        decl.packing = packing;
+        let copied = match (&decl.mesh, meshes_from) {
+            (Some(m), Some(from)) => copy_mesh(from, dir, &m.file)?,
+            _ => false,
+        };
+        if !copied {
+            decl.mesh = None;
+        }
+    }
+    fsutil::write_bytes_atomic(&dir.join(MANIFEST_NAME), out.to_xml().as_bytes())?;
+    Ok(out)
+}
+
+fn inside(dir: &Path, file: &str) -> Result<std::path::PathBuf, Error> {
+    resolve_inside(dir, file).ok_or_else(|| {
+        PanoramaError::PathEscapes {
+            manifest: dir.join(MANIFEST_NAME),
+            file: file.to_string(),
+            dir: dir.to_path_buf(),
+        }
+        .into()
+    })
+}
+
+/// Copy a stored mesh file from panorama directory `from` to `to`; `false` when `from` has no
+/// usable file of that name (the reference is then dropped: readers would rebuild the mesh anyway).
+fn copy_mesh(from: &Path, to: &Path, file: &str) -> Result<bool, Error> {
+    let (Some(src), Ok(dst)) = (resolve_inside(from, file), inside(to, file)) else { return Ok(false) };
+    if !src.is_file() {
+        return Ok(false);
+    }
+    // Writing in place: the file is already where it belongs (copying it onto itself would
+    // truncate it).
+    if let (Ok(a), Ok(b)) = (src.canonicalize(), dst.canonicalize()) {
+        if a == b {
+            return Ok(true);
+        }
+    }
+    let bytes = std::fs::read(&src).map_err(|source| Error::Io { path: src.clone(), source })?;
+    fsutil::write_bytes_atomic(&dst, &bytes)?;
+    Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layer::SampleType;
+    use crate::manifest::{LayerDecl, MappingDecl, MappingKind};
+
+    /// A one-layer panorama whose layer file is `file`, at depth `z` everywhere.
+    fn pano(file: &str, z: f32) -> (Manifest, Vec<LayerImage>) {
+        let mut img = LayerImage::new(16, 8);
+        for c in ["R", "G", "B"] {
+            img.set_channel(c, SampleType::F16, vec![0.5; 128]);
+        }
+        img.set_channel("Z", SampleType::F32, vec![z; 128]);
+        let m = Manifest {
+            version: "1".into(),
+            transforms: Vec::new(),
+            mapping: MappingDecl { kind: MappingKind::LatLong },
+            freedom_radius: 0.5,
+            layers: vec![LayerDecl::native(file)],
+        };
+        (m, vec![img])
+    }
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn a_panorama_replaces_the_old_one_whole_and_cleans_up() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        let (m, l) = pano("a.exr", 2.0);
+        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        assert_eq!(names(&out), ["a.exr", "panorama.xml"]);
+        // A killed writer's temporaries beside and inside the output.
+        std::fs::create_dir(root.path().join(".out.pomc-tmp-dead")).unwrap();
+        std::fs::write(out.join(".pomc-tmp-x"), b"half").unwrap();
+        let (m, l) = pano("b.exr", 3.0);
+        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        // The old layer file went with the old panorama; only the lock file stays beside it.
+        assert_eq!(names(&out), ["b.exr", "panorama.xml"]);
+        assert_eq!(names(root.path()), [".out.pomc-lock", "out"]);
+        let p = Panorama::open(&out).unwrap();
+        assert_eq!(p.read_layer(0, &Default::default()).unwrap().depth().unwrap()[0], 3.0);
+    }
+
+    #[test]
+    fn foreign_files_are_kept_and_written_beside() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        std::fs::create_dir(&out).unwrap();
+        std::fs::write(out.join("colour.png"), b"input").unwrap();
+        let (m, l) = pano("a.exr", 2.0);
+        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        assert_eq!(names(&out), ["a.exr", "colour.png", "panorama.xml"]);
+        assert_eq!(std::fs::read(out.join("colour.png")).unwrap(), b"input");
+        let file = root.path().join("file");
+        std::fs::write(&file, b"x").unwrap();
+        let e = write_panorama(&file, &m, &l, &SaveOptions::default()).unwrap_err();
+        assert_eq!(e.code(), "OUTPUT_NOT_DIRECTORY");
+    }
+
+    #[test]
+    fn concurrent_writers_leave_one_whole_panorama() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        std::thread::scope(|s| {
+            for k in 0..4 {
+                let out = &out;
+                s.spawn(move || {
+                    let (m, l) = pano(&format!("l{k}.exr"), 1.0 + k as f32);
+                    write_panorama(out, &m, &l, &SaveOptions::default()).unwrap();
+                });
+            }
+        });
+        let p = Panorama::open(&out).unwrap();
+        let z = p.read_layer(0, &Default::default()).unwrap().depth().unwrap()[0];
+        let LayerSource::Native { file } = &p.manifest.layers[0].source else { panic!() };
+        assert_eq!(
+            file,
+            &format!("l{}.exr", z as usize - 1),
+            "the manifest and its layer come from one writer"
+        );
+        assert_eq!(names(&out).len(), 2, "{:?}", names(&out));
+    }
+}
