@@ -229,6 +229,25 @@ fn cases() -> Vec<Case> {
             );
             run(d)
         }),
+        ("MESH_NOT_FOUND", |d| {
+            write(d, "l0.exr", &layer(W, H));
+            let mesh = "<Mesh file=\"l0.pomcmesh\" encoding=\"quadtree-bfs-zstd\" version=\"1\"/>";
+            manifest(d, "LatLongMapping", &format!("  <Layer><Image file=\"l0.exr\"/>{mesh}</Layer>\n"));
+            run(d)
+        }),
+        ("MESH_UNREADABLE", |d| {
+            write(d, "l0.exr", &layer(W, H));
+            std::fs::write(d.join("l0.pomcmesh"), b"POMCMESH\x01 not a mesh").unwrap();
+            let mesh = "<Mesh file=\"l0.pomcmesh\" encoding=\"quadtree-bfs-zstd\" version=\"1\"/>";
+            manifest(d, "LatLongMapping", &format!("  <Layer><Image file=\"l0.exr\"/>{mesh}</Layer>\n"));
+            run(d)
+        }),
+        ("MESH_ENCODING_UNKNOWN", |d| {
+            write(d, "l0.exr", &layer(W, H));
+            let mesh = "<Mesh file=\"l0.obj\" encoding=\"wavefront-obj\" version=\"1\"/>";
+            manifest(d, "LatLongMapping", &format!("  <Layer><Image file=\"l0.exr\"/>{mesh}</Layer>\n"));
+            run(d)
+        }),
     ]
 }
 

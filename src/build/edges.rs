@@ -142,6 +142,68 @@ impl Links {
     }
 }
 
+/// Pixels on each side of a pair that [`ramp_pixels`] looks at: edges up to about `2 · SOFT`
+/// pixels wide.
+const SOFT: usize = 4;
+
+/// Pixels of depth edges spread over a few pixels (depth resized or blurred, or from a depth
+/// network), with the depth of the edge's farther side. Such a ramp of in-between depths joins the
+/// two surfaces, and the pair test passes on its gentler steps. Found along rows and columns: in
+/// the line of `2 · SOFT + 4` pixels centred on a pair, in inverse depth, the pair's step is the
+/// steepest (the first of equal ones), at least 4× the steps at both ends (the surfaces either side
+/// run on flat there), and the window spans a relative jump above `o.jump`; the pixels of the
+/// window more than a tenth of the way from both sides are the ramp, and take the depth of the far
+/// side's first pixel past it. A plane at a grazing angle
+/// changes inverse depth evenly, a crease or the limb of a curved object changes its slope
+/// gradually: neither is a ramp.
+pub fn ramp_pixels(nb: &Neighbours, depth: &[f32], o: &EdgeOptions) -> Vec<(usize, f32)> {
+    (0..nb.len())
+        .into_par_iter()
+        .flat_map_iter(|p| [0, 2].into_iter().flat_map(move |k| ramp_at(nb, depth, p, k, o)))
+        .collect()
+}
+
+/// [`ramp_pixels`] of the window centred on the pair `p`, `p + k`.
+fn ramp_at(nb: &Neighbours, depth: &[f32], p: usize, k: usize, o: &EdgeOptions) -> Vec<(usize, f32)> {
+    let inv = |i: usize| {
+        let d = depth[i];
+        (d > 0.0 && d.is_finite()).then(|| 1.0 / f64::from(d))
+    };
+    let (Some(a), Some(q)) = (inv(p), nb.get(p, k)) else { return Vec::new() };
+    let Some(b) = inv(q) else { return Vec::new() };
+    // The steepest step of a ramp spanning a jump over the window is at least this.
+    if (a - b).abs() / a.min(b) < o.jump / (2 * SOFT + 1) as f64 {
+        return Vec::new();
+    }
+    const N: usize = 2 * SOFT + 4;
+    let mid = SOFT + 1;
+    let (mut line, mut at) = ([0.0f64; N], [0usize; N]);
+    (line[mid], line[mid + 1], at[mid], at[mid + 1]) = (a, b, p, q);
+    for i in 1..=SOFT + 1 {
+        let (Some(pb), Some(qa)) = (nb.get(at[mid + 1 - i], opposite(k)), nb.get(at[mid + i], k)) else {
+            return Vec::new();
+        };
+        let (Some(x), Some(y)) = (inv(pb), inv(qa)) else { return Vec::new() };
+        (line[mid - i], line[mid + 1 + i], at[mid - i], at[mid + 1 + i]) = (x, y, pb, qa);
+    }
+    let step = |i: usize| (line[i + 1] - line[i]).abs();
+    let s = step(mid);
+    let steepest = (1..N - 2).all(|i| if i < mid { step(i) < s } else { step(i) <= s });
+    let flat_ends = 4.0 * step(0).max(step(N - 2)) < s;
+    let (near, far) = (line[1].max(line[N - 2]), line[1].min(line[N - 2]));
+    if !(steepest && flat_ends && (near - far) / far > o.jump) {
+        return Vec::new();
+    }
+    let margin = 0.1 * (near - far);
+    let ramp: Vec<usize> =
+        (1..N - 1).filter(|&i| line[i] < near - margin && line[i] > far + margin).collect();
+    let (Some(&first), Some(&last)) = (ramp.first(), ramp.last()) else { return Vec::new() };
+    // The ramp takes the depth of the far side's first pixel past it, which it then joins.
+    let beyond = if line[N - 2] < line[1] { last + 1 } else { first - 1 };
+    let d = (1.0 / line[beyond]) as f32;
+    ramp.into_iter().map(|i| (at[i], d)).collect()
+}
+
 /// Depth-only classification of the link between pixel `(x, y)` and its neighbour `k`.
 fn depth_link(nb: &Neighbours, depth: &[f32], x: usize, y: usize, k: usize, o: &EdgeOptions) -> Option<Link> {
     let p = y * nb.width() + x;
@@ -265,6 +327,44 @@ mod tests {
         assert_eq!(depth_link(&nb, &depth, 12, 3, 0, &o), Some(Link::Smooth));
     }
 
+    /// A step from 2 m to 5 m blurred over several pixels (a resized or estimated depth): the pair
+    /// test alone leaves in-between depths joined to a side (a rubber sheet) or as slivers of their
+    /// own; the ramp's pixels take the far side's depth, and then each row has exactly one jump.
+    #[test]
+    fn an_edge_spread_over_pixels_becomes_one_jump() {
+        let (w, h) = (64usize, 32usize);
+        let nb = Neighbours::new(AnyMapping::new(MappingKind::Equirect, w, h).unwrap());
+        let o = EdgeOptions::default();
+        let cuts = |links: &Links, y: usize| {
+            (20..44).filter(|&x| !links.continuous(y * w + x, 0)).collect::<Vec<_>>()
+        };
+        for sigma in [0.7f64, 1.0, 2.0] {
+            // Gaussian-blurred step at x = 32 (the other edge, at the seam, is left sharp).
+            let erf = |x: f64| (1.0 - (-1.2732 * x * x).exp()).sqrt().copysign(x);
+            let row: Vec<f32> = (0..w)
+                .map(|x| {
+                    let t = ((x as f64 + 0.5 - 32.0) / (sigma * std::f64::consts::SQRT_2)).clamp(-6.0, 6.0);
+                    (2.0 + 3.0 * 0.5 * (1.0 + erf(t))) as f32
+                })
+                .collect();
+            let mut depth: Vec<f32> = (0..w * h).map(|p| row[p % w]).collect();
+            let between = |d: &[f32]| (0..w).filter(|&x| d[16 * w + x] > 2.2 && d[16 * w + x] < 4.0).count();
+            assert!(between(&depth) >= 1, "sigma {sigma}: in-between depths");
+            let ramp = ramp_pixels(&nb, &depth, &o);
+            assert!(!ramp.is_empty(), "sigma {sigma}");
+            for (p, d) in ramp {
+                assert!((27..37).contains(&(p % w)) && d > 4.0 && d <= 5.0, "sigma {sigma}: {p} -> {d}");
+                depth[p] = d;
+            }
+            assert_eq!(between(&depth), 0, "sigma {sigma}: no in-between depth left");
+            let links = Links::compute(&nb, &depth, &o);
+            for y in 4..28 {
+                let c = cuts(&links, y);
+                assert!(c.len() == 1 && (28..34).contains(&c[0]), "sigma {sigma} row {y}: cuts at {c:?}");
+            }
+        }
+    }
+
     #[test]
     fn a_floor_at_grazing_angles_is_one_surface_up_to_its_last_row() {
         // The floor z = -1 seen from the centre, ending at the horizon in a far wall (d = 50).
@@ -287,5 +387,10 @@ mod tests {
         assert!(steep > 0, "the test must include grazing rows");
         // Its last row against the wall is a jump.
         assert_eq!(depth_link(&nb, &depth, 5, last, 3, &o), Some(Link::Jump));
+        // Nor is any of it a ramp between two surfaces: its inverse depth changes evenly.
+        assert!(
+            ramp_pixels(&nb, &depth, &o).iter().all(|&(p, _)| p / 64 < last),
+            "floor pixels taken as a ramp"
+        );
     }
 }

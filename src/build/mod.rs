@@ -52,6 +52,9 @@ pub struct BuildOptions {
     pub infinity: bool,
     /// Move mixed pixels (between a nearer and a farther surface, across jumps to both) to the farther.
     pub drop_mixed: bool,
+    /// Also treat depth edges spread over a few pixels (resized or estimated depth) as mixed pixels
+    /// ([`edges::ramp_pixels`]). Off by default: the limb of a near curved object looks the same.
+    pub soft_edges: bool,
     /// Extra fill band in pixels beyond the parallax band (reconstruction filters reach ~1-2 px).
     pub margin_px: f64,
     pub classify: Classify,
@@ -68,6 +71,7 @@ impl Default for BuildOptions {
             normals_out: false,
             infinity: true,
             drop_mixed: true,
+            soft_edges: false,
             margin_px: 2.0,
             classify: Classify::Depth,
             fill_colour: FillColour::default(),
@@ -275,9 +279,16 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
     // pixel across a jump from a nearer and from a farther neighbour, between them, belongs to
     // neither surface. It joins the farther side at its depth, so the edge between the two sides
     // (and who occludes whom) stays.
+    // Edges spread over several pixels (resized or blurred depth) are ramps of such pixels.
     let mut mixed_pixels = 0;
     if o.drop_mixed {
-        let mixed = mixed_pixels_of(&nb, &depth, &links);
+        let mut mixed = mixed_pixels_of(&nb, &depth, &links);
+        if o.soft_edges {
+            mixed.extend(edges::ramp_pixels(&nb, &depth, &o.segment.edges));
+        }
+        // A pixel found twice (along a row and a column) takes the farther depth.
+        mixed.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(b.1.total_cmp(&a.1)));
+        mixed.dedup_by_key(|m| m.0);
         if !mixed.is_empty() {
             mixed_pixels = mixed.len();
             for &(p, d) in &mixed {

@@ -141,6 +141,11 @@ pub struct Args {
     /// anti-aliased depth pass makes at edges) instead of treating them as unknown.
     #[arg(long)]
     keep_mixed: bool,
+    /// Depth edges spread over a few pixels (resized or network-estimated depth) are cut at their
+    /// steepest step: the in-between pixels join the far side. Off by default: the limb of a near
+    /// curved object looks the same and would be cut (docs/build.md, "Soft depth edges").
+    #[arg(long, conflicts_with = "keep_mixed")]
+    soft_edges: bool,
     /// Store every layer as a full canvas (no patch packing).
     #[arg(long)]
     no_pack: bool,
@@ -185,6 +190,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         normals_out: args.normals,
         infinity: !args.no_infinity,
         drop_mixed: !args.keep_mixed,
+        soft_edges: args.soft_edges,
         classify: if args.classify == ClassifyArg::Geometry { Classify::Geometry } else { Classify::Depth },
         margin_px: args.fill_margin,
         fill_colour: match args.fill_colour {

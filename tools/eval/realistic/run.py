@@ -193,6 +193,62 @@ def validate(pomc, pano):
     return dict(errors=r.get("errors", 0), warnings=r.get("warnings", 0), codes=codes)
 
 
+def gaussian(img, sigma):
+    """Separable Gaussian blur of finite pixels (normalised over them; +inf and NaN stay as they are),
+    wrapping round the equirect seam, clamped at the poles."""
+    r = max(1, int(3 * sigma + 0.5))
+    k = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
+    ok = np.isfinite(img)
+    num, den = np.where(ok, img, 0.0), ok.astype(np.float64)
+    for axis, mode in ((1, "wrap"), (0, "edge")):
+        pad = [(0, 0), (0, 0)]
+        pad[axis] = (r, r)
+        pn, pd = np.pad(num, pad, mode=mode), np.pad(den, pad, mode=mode)
+        n = img.shape[axis]
+        num = sum(k[i] * np.take(pn, range(i, i + n), axis=axis) for i in range(2 * r + 1))
+        den = sum(k[i] * np.take(pd, range(i, i + n), axis=axis) for i in range(2 * r + 1))
+    return np.where(ok, num / np.maximum(den, 1e-12), img)
+
+
+def upsample2(img):
+    """Bilinear ×2 (pixel centres, seam wrapped): what a resize does to depth edges. Where a 2×2
+    neighbourhood is not all finite, the nearest pixel is kept."""
+    h, w = img.shape
+    ys = np.clip((np.arange(2 * h) + 0.5) / 2 - 0.5, 0, h - 1)
+    xs = (np.arange(2 * w) + 0.5) / 2 - 0.5
+    y0, x0 = np.floor(ys).astype(int), np.floor(xs).astype(int)
+    fy, fx = (ys - y0)[:, None], (xs - x0)[None, :]
+    y1, x0w, x1w = np.minimum(y0 + 1, h - 1), x0 % w, (x0 + 1) % w
+    a, b = img[y0][:, x0w], img[y0][:, x1w]
+    c, d = img[y1][:, x0w], img[y1][:, x1w]
+    with np.errstate(invalid="ignore"):
+        out = (a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy
+    near = img[np.clip(np.round(ys).astype(int), 0, h - 1)][:, np.round(xs).astype(int) % w]
+    return np.where(np.isfinite(a) & np.isfinite(b) & np.isfinite(c) & np.isfinite(d), out, near)
+
+
+def degrade(src, work, kind):
+    """The scene's input as many users have it: `upsample2` (colour and depth resized ×2, soft depth
+    edges), `blurN` (depth blurred with σ = N px, as from a depth network; colour sharp). Returns the
+    colour and depth paths."""
+    colour, depth = read_channels(os.path.join(src, "colour.exr")), read_channels(os.path.join(src, "depth.exr"))
+    if kind == "upsample2":
+        colour = {k: upsample2(v) for k, v in colour.items()}
+        depth = {k: upsample2(v) for k, v in depth.items()}
+    elif kind.startswith("blur"):
+        depth = {k: gaussian(v, float(kind[4:])) for k, v in depth.items()}
+    else:
+        sys.exit(f"unknown --degrade {kind} (upsample2, blurN)")
+    os.makedirs(work, exist_ok=True)
+    paths = []
+    for name, ch in (("colour", colour), ("depth", depth)):
+        path = os.path.join(work, f"input-{kind}-{name}.exr")
+        OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                     {k: np.ascontiguousarray(v, np.float32) for k, v in ch.items()}).write(path)
+        paths.append(path)
+    return paths
+
+
 def build(pomc, colour, depth, out, extra=()):
     shutil.rmtree(out, ignore_errors=True)
     p, dt = run([pomc, "build", "--colour", colour, "--depth", depth, "--convention", "blender",
@@ -217,14 +273,17 @@ def render(pomc, pano, out, cam, method):
                 total_s=r.get("stages", {}).get("total_s"))
 
 
-def run_scene(name, src, work, pomc, fix, gltf, build_args=()):
+def run_scene(name, src, work, pomc, fix, gltf, build_args=(), degraded=None):
     os.makedirs(work, exist_ok=True)
-    res = dict(scene=name, corpus=src)
-    log(f"{name}: build")
+    res = dict(scene=name, corpus=src, degrade=degraded)
+    log(f"{name}: build" + (f" from the {degraded} input" if degraded else ""))
     pano, ref = os.path.join(work, "pano"), os.path.join(work, "reference")
-    res["build"] = build(pomc, os.path.join(src, "colour.exr"), os.path.join(src, "depth.exr"), pano, build_args)
+    colour, depth = os.path.join(src, "colour.exr"), os.path.join(src, "depth.exr")
+    if degraded:
+        colour, depth = degrade(src, work, degraded)
+    res["build"] = build(pomc, colour, depth, pano, build_args)
     res["validate"] = validate(pomc, pano)
-    res["fill"] = fill_quality(pano, src)
+    res["fill"] = {} if degraded else fill_quality(pano, src)  # the layers are not at the truth's size
     # Two-layer reference: pomc build on the true background, plus the full render's foreground on top.
     res["reference_build"] = build(pomc, os.path.join(src, "bg_colour.exr"), os.path.join(src, "bg_depth.exr"), ref)
     run([fix, "add-layer", ref, os.path.join(src, "colour.exr"), os.path.join(src, "depth.exr"),
@@ -354,6 +413,8 @@ def main():
     ap.add_argument("--build-args", default="", help="extra `pomc build` options for the scene (not the reference), "
                     "e.g. '--fill-colour nearest'")
     ap.add_argument("--tag", default="", help="results go to a work subdirectory of this name (compare options)")
+    ap.add_argument("--degrade", default="", help="build from a degraded input: upsample2 (resized x2, soft depth "
+                    "edges) or blurN (depth blurred with sigma N px); the reference and the truth stay as they are")
     o = ap.parse_args()
     pomc, fix = binaries()
     py = bpy_python()
@@ -371,7 +432,8 @@ def main():
     work = os.path.join(o.work, os.path.basename(corpus), o.tag)
     results = []
     for name in o.scenes.split(","):
-        res = run_scene(name, os.path.join(corpus, name), os.path.join(work, name), pomc, fix, gltf, o.build_args.split())
+        res = run_scene(name, os.path.join(corpus, name), os.path.join(work, name), pomc, fix, gltf,
+                        o.build_args.split(), o.degrade or None)
         res["checks"] = checks(res)
         results.append(res)
     json.dump(dict(corpus=corpus, pomc=pomc, results=results), open(os.path.join(work, "results.json"), "w"), indent=1)
