@@ -16,6 +16,67 @@ pub fn parse_vec3(s: &str) -> Result<DVec3, String> {
     }
 }
 
+/// The domain of a number option: `lo < x` (or `lo <= x` when `lo_closed`), `x < hi` (or `<=`).
+/// NaN and infinities are never in a domain.
+#[derive(Clone, Copy, Debug)]
+pub struct Range {
+    pub lo: f64,
+    pub lo_closed: bool,
+    pub hi: f64,
+    pub hi_closed: bool,
+}
+
+impl Range {
+    /// Any finite number.
+    pub const FINITE: Range = Range { lo: f64::MIN, lo_closed: true, hi: f64::MAX, hi_closed: true };
+    /// A finite number above 0.
+    pub const POSITIVE: Range = Range { lo: 0.0, lo_closed: false, hi: f64::MAX, hi_closed: true };
+    /// A finite number 0 or above.
+    pub const NON_NEGATIVE: Range = Range { lo: 0.0, lo_closed: true, hi: f64::MAX, hi_closed: true };
+    /// A fraction in (0, 1].
+    pub const FRACTION: Range = Range { lo: 0.0, lo_closed: false, hi: 1.0, hi_closed: true };
+    /// An angle in (0, 180] degrees.
+    pub const ANGLE: Range = Range { lo: 0.0, lo_closed: false, hi: 180.0, hi_closed: true };
+    /// An angle in (0, 180) degrees (a field of view, a feature angle).
+    pub const OPEN_ANGLE: Range = Range { lo: 0.0, lo_closed: false, hi: 180.0, hi_closed: false };
+
+    fn contains(&self, x: f64) -> bool {
+        x.is_finite()
+            && (if self.lo_closed { x >= self.lo } else { x > self.lo })
+            && (if self.hi_closed { x <= self.hi } else { x < self.hi })
+    }
+
+    fn describe(&self) -> String {
+        match (self.lo == f64::MIN, self.hi == f64::MAX) {
+            (true, true) => "a finite number".into(),
+            (false, true) => {
+                format!("a finite number {} {}", if self.lo_closed { ">=" } else { ">" }, self.lo)
+            }
+            _ => format!(
+                "a number in {}{}, {}{}",
+                if self.lo_closed { "[" } else { "(" },
+                self.lo,
+                self.hi,
+                if self.hi_closed { "]" } else { ")" }
+            ),
+        }
+    }
+
+    /// A clap value parser for this domain (the message names the range).
+    pub fn parser(self) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
+        move |s: &str| match s.trim().parse::<f64>() {
+            Ok(x) if self.contains(x) => Ok(x),
+            _ => Err(format!("`{s}` is not {}", self.describe())),
+        }
+    }
+
+    /// The same for `f32` options.
+    pub fn parser_f32(self) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync + 'static {
+        let p = self.parser();
+        move |s: &str| p(s).map(|x| x as f32)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -27,5 +88,20 @@ mod tests {
         assert!(parse_vec3("1,2").is_err());
         assert!(parse_vec3("1,2,inf").is_err());
         assert!(parse_vec3("a,b,c").is_err());
+    }
+
+    #[test]
+    fn ranges_refuse_nan_infinity_and_out_of_domain() {
+        let p = Range::POSITIVE.parser();
+        assert_eq!(p("0.5"), Ok(0.5));
+        for bad in ["0", "-1", "nan", "NaN", "inf", "-inf", "1e400", "x"] {
+            let e = p(bad).unwrap_err();
+            assert!(e.contains("> 0"), "{bad}: {e}");
+        }
+        assert!(Range::FRACTION.parser()("1").is_ok() && Range::FRACTION.parser()("1.5").is_err());
+        assert!(Range::NON_NEGATIVE.parser()("0").is_ok());
+        assert!(Range::OPEN_ANGLE.parser()("180").is_err() && Range::ANGLE.parser()("180").is_ok());
+        assert!(Range::FINITE.parser()("-3").is_ok() && Range::FINITE.parser()("nan").is_err());
+        assert!(Range::ANGLE.parser()("0").unwrap_err().contains("(0, 180]"));
     }
 }

@@ -11,7 +11,7 @@ use pomc::layer_io::ReadLimits;
 use pomc::manifest::Transform;
 use pomc::panorama::{self, SaveOptions};
 
-use crate::args::parse_vec3;
+use crate::args::{parse_vec3, Range};
 use crate::output::Output;
 use crate::Failure;
 
@@ -93,10 +93,10 @@ pub struct Args {
     #[arg(long, value_enum)]
     preset: Option<PresetArg>,
     /// Metres per stored depth unit (16-bit PNG); overrides the preset.
-    #[arg(long)]
+    #[arg(long, value_parser = Range::POSITIVE.parser())]
     depth_scale: Option<f64>,
     /// Stored depth value meaning "unknown" (0, NaN and negatives always are).
-    #[arg(long)]
+    #[arg(long, value_parser = Range::FINITE.parser())]
     depth_invalid: Option<f64>,
     /// Depth is distance along the ray (ray) or planar depth per cube face (z).
     #[arg(long, value_enum, default_value = "ray")]
@@ -108,16 +108,16 @@ pub struct Args {
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     center: Option<DVec3>,
     /// Freedom radius (m): cameras within it see no holes.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = Range::POSITIVE.parser())]
     freedom_radius: f64,
     /// Relative depth jump between neighbours that separates surfaces.
-    #[arg(long, default_value_t = 0.08)]
+    #[arg(long, default_value_t = 0.08, value_parser = Range::POSITIVE.parser())]
     jump: f64,
     /// Normal angle (degrees) that closes regions where depth is continuous but the surface folds.
-    #[arg(long, default_value_t = 35.0)]
+    #[arg(long, default_value_t = 35.0, value_parser = Range::ANGLE.parser())]
     fold_deg: f64,
     /// Extra fill band (pixels) beyond the parallax band of the freedom radius.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = Range::NON_NEGATIVE.parser())]
     fill_margin: f64,
     /// How the fill behind occluders is coloured.
     #[arg(long, value_enum, default_value = "exemplar")]
@@ -126,7 +126,7 @@ pub struct Args {
     #[arg(long)]
     no_fold: bool,
     /// Split layers by depth at these distances (m), e.g. 2,5 (thesis 6.2.4.1).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = Range::POSITIVE.parser())]
     depth_bands: Vec<f64>,
     /// Layer classification: by depth only, or also floor / ceiling / walls (thesis 6.2.4.2).
     #[arg(long, value_enum, default_value = "depth")]

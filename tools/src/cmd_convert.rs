@@ -14,6 +14,7 @@ use pomc::mapping::layout::CubeLayout;
 use pomc::raster::Raster;
 use pomc::resample::{self, Canvas, Filter, SampleOptions, Texel};
 
+use crate::args::Range;
 use crate::output::Output;
 use crate::Failure;
 
@@ -58,7 +59,7 @@ pub struct Args {
     #[arg(long)]
     depth: bool,
     /// Largest relative depth difference between the taps of a filtered pixel (with --depth).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, value_parser = Range::POSITIVE.parser_f32())]
     depth_jump: f32,
 }
 

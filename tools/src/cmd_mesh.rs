@@ -13,6 +13,7 @@ use pomc::mapping::{AnyMapping, MappingKind};
 use pomc::mesh::{self, encode, error, export, MeshParams};
 use pomc::panorama::Panorama;
 
+use crate::args::Range;
 use crate::output::Output;
 use crate::Failure;
 
@@ -30,22 +31,22 @@ pub struct Args {
     output: Option<PathBuf>,
     /// Radius (m, panorama-local) of the sky dome the infinitely far samples (the infinity layer) are
     /// meshed on; default 10 × the panorama's farthest finite depth (1000 m when it has none).
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", value_parser = Range::POSITIVE.parser())]
     sky_radius: Option<f64>,
     /// Maximum relative distance along each pixel's ray between mesh and depth (0 disables).
-    #[arg(long, default_value_t = 0.005)]
+    #[arg(long, default_value_t = 0.005, value_parser = Range::POSITIVE.parser())]
     max_error: f64,
     /// Thesis normal test: split where neighbouring normals differ by more than DEG degrees.
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", value_parser = Range::OPEN_ANGLE.parser())]
     feature_angle: Option<f64>,
     /// Thesis residual threshold (mean sub-feature normal variation of a node).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, value_parser = Range::POSITIVE.parser())]
     residual: f64,
     /// Weighting of normals estimated from depth when the layer has no N.* channels: area or angle.
     #[arg(long, default_value = "area", value_parser = ["area", "angle"])]
     normal_weighting: String,
     /// Cap on a node's angular extent, degrees (texture distortion; 0 disables).
-    #[arg(long, default_value_t = 20.0, value_name = "DEG")]
+    #[arg(long, default_value_t = 20.0, value_name = "DEG", value_parser = Range::ANGLE.parser())]
     max_angle: f64,
     /// Uniform 4-8 baseline with leaves of at most STEP cells a side (overrides the other tests).
     #[arg(long, value_name = "STEP")]

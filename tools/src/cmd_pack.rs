@@ -7,6 +7,7 @@ use pomc::layer_io::ReadLimits;
 use pomc::pack::PackOptions;
 use pomc::panorama::{Panorama, SaveOptions};
 
+use crate::args::Range;
 use crate::output::Output;
 use crate::Failure;
 
@@ -18,7 +19,7 @@ pub struct PackArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Pack a layer only when its atlas is at most this fraction of its canvas.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = Range::FRACTION.parser())]
     threshold: f64,
     /// Guard band copied around each patch, in pixels (for renderers that sample the atlas bilinearly).
     #[arg(long, default_value_t = 0)]

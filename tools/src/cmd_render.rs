@@ -12,7 +12,7 @@ use pomc::render::{
     SplatOptions,
 };
 
-use crate::args::parse_vec3;
+use crate::args::{parse_vec3, Range};
 use crate::output::Output;
 use crate::Failure;
 
@@ -52,7 +52,7 @@ pub struct Args {
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0,0,1")]
     up: DVec3,
     /// Horizontal field of view, degrees (perspective).
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = 60.0, value_parser = Range::OPEN_ANGLE.parser())]
     fov: f64,
     /// Output size WxH (default 960x540 perspective, 2048x1024 equirect).
     #[arg(long, value_parser = parse_size)]

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use pomc::validate::{self, Severity, ValidateOptions};
 
+use crate::args::Range;
 use crate::output::Output;
 use crate::Failure;
 
@@ -13,7 +14,7 @@ pub struct Args {
     #[arg(required_unless_present = "list_codes")]
     path: Option<PathBuf>,
     /// Relative depth jump inside a layer reported as a discontinuity (0.5 = 50 %).
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = Range::POSITIVE.parser())]
     jump_threshold: f64,
     /// List every validation code with its severity and meaning, then exit.
     #[arg(long)]

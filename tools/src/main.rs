@@ -76,8 +76,27 @@ impl From<pomc::Error> for Failure {
     }
 }
 
+/// A command line clap refuses (an unknown option, a value outside its range): clap's message, exit
+/// status 2, and with `--json` the error object with code `CLI_USAGE` on stdout like every failure.
+fn usage_error(e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
+        e.exit();
+    }
+    if std::env::args().any(|a| a == "--json") {
+        let message = e.render().to_string();
+        let first = message.lines().next().unwrap_or("").trim_start_matches("error: ").to_string();
+        println!("{}", serde_json::json!({"error": {"code": "CLI_USAGE", "message": first}}));
+    }
+    let _ = e.print();
+    ExitCode::from(2)
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return usage_error(e),
+    };
     let out = Output { json: cli.json, quiet: cli.quiet };
     let result = match cli.command {
         Command::Validate(a) => cmd_validate::run(a, out),

@@ -461,3 +461,55 @@ fn killed_writes_leave_a_whole_panorama() {
         .collect();
     assert!(left.is_empty(), "temporaries left: {left:?}");
 }
+
+/// Options outside their domain are refused before any work, with `CLI_USAGE` and the range
+/// (issue 12: NaN, infinities, zero and negative values used to be accepted).
+#[test]
+fn options_outside_their_domain_are_usage_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path());
+    let d = dir.path().to_str().unwrap();
+    let out = dir.path().join("o");
+    let o = out.to_str().unwrap();
+    let build = |extra: &[&str]| {
+        let mut a = vec!["build", "--colour", "c.png", "--depth", "d.exr", "-o", o];
+        a.extend_from_slice(extra);
+        a.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+    let mut cases: Vec<Vec<String>> = Vec::new();
+    for v in ["nan", "0", "-1", "inf"] {
+        cases.push(build(&["--depth-scale", v]));
+    }
+    for (opt, vals) in [
+        ("--center", &["nan,0,0", "1,2"][..]),
+        ("--jump", &["nan", "inf", "-0.1"]),
+        ("--fold-deg", &["nan", "-1", "0", "181"]),
+        ("--depth-bands", &["nan", "-1", "2,inf"]),
+        ("--fill-margin", &["-1", "nan"]),
+        ("--freedom-radius", &["0", "nan"]),
+    ] {
+        for v in vals {
+            cases.push(build(&[&format!("{opt}={v}")]));
+        }
+    }
+    for v in ["nan", "-1", "0"] {
+        cases.push(s(&["mesh", d, "-o", "m.glb", "--max-error", v]));
+        cases.push(s(&["mesh", d, "-o", "m.glb", "--max-angle", v]));
+    }
+    for v in ["nan", "-1", "inf", "0", "1.5"] {
+        cases.push(s(&["pack", d, "-o", o, "--threshold", v]));
+    }
+    for v in ["nan", "-1", "inf", "0"] {
+        cases.push(s(&["validate", d, &format!("--jump-threshold={v}")]));
+    }
+    cases.push(s(&["render", d, "-o", "v.png", "--fov", "180"]));
+    for mut args in cases {
+        args.push("--json".into());
+        let run = Command::new(env!("CARGO_BIN_EXE_pomc")).args(&args).output().unwrap();
+        assert_eq!(run.status.code(), Some(2), "{args:?}");
+        let v = json(&run);
+        assert_eq!(v["error"]["code"], "CLI_USAGE", "{args:?}: {v}");
+        assert!(!out.exists(), "{args:?} wrote its output");
+    }
+}

@@ -83,7 +83,7 @@ fn render_failures_are_typed() {
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         v["error"]["code"].as_str().unwrap().to_string()
     };
-    assert_eq!(code(&["render", d, "-o", o, "--fov", "200", "--json"]), "RENDER_BAD_CAMERA");
+    assert_eq!(code(&["render", d, "-o", o, "--fov", "200", "--json"]), "CLI_USAGE");
     assert_eq!(
         code(&["render", d, "-o", o, "--eye", "0,0,1.2", "--look-at", "0,0,1.2", "--json"]),
         "RENDER_BAD_CAMERA"
