@@ -47,9 +47,20 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     write_atomic(path, |w| w.write_all(bytes))
 }
 
+/// Refuse anything but a regular file (after symbolic links) before opening it: opening a FIFO
+/// blocks until a writer comes, and a device such as `/dev/zero` never ends.
+pub fn check_regular(path: &Path) -> std::io::Result<std::fs::Metadata> {
+    let meta = std::fs::metadata(path)?;
+    if meta.is_file() {
+        return Ok(meta);
+    }
+    let what = if meta.is_dir() { "a directory" } else { "not a regular file (a FIFO, socket or device)" };
+    Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("{what}; give a file")))
+}
+
 /// Read a whole file, refusing files larger than `limit` bytes before reading them.
 pub fn read_limited(path: &Path, limit: u64) -> Result<Vec<u8>, Error> {
-    let meta = std::fs::metadata(path).map_err(|e| io_err(path, e))?;
+    let meta = check_regular(path).map_err(|e| io_err(path, e))?;
     if meta.len() > limit {
         return Err(io_err(
             path,

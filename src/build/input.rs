@@ -107,6 +107,8 @@ pub enum InputError {
     NoDepthChannel { path: PathBuf },
     #[error("{path}: {width}x{height} fits neither a 2:1 equirect nor a 3:2 cube map")]
     NotAPanorama { path: PathBuf, width: usize, height: usize },
+    #[error("{path}: declares {width}x{height} pixels, beyond the reader limit ({limit}); refused before decoding (raise it with `pomc build --max-pixels N`)")]
+    TooLarge { path: PathBuf, width: u64, height: u64, limit: String },
     #[error("{colour}: is {cw}x{ch} but the depth {depth} is {dw}x{dh}; resample one to the other's size")]
     SizeMismatch { colour: PathBuf, cw: usize, ch: usize, depth: PathBuf, dw: usize, dh: usize },
     #[error("{path}: z-depth needs a cube-map input (an equirect has no image plane); use --depth-kind ray")]
@@ -123,6 +125,7 @@ impl InputError {
     pub fn code(&self) -> &'static str {
         match self {
             InputError::Image { .. } => "INPUT_UNREADABLE",
+            InputError::TooLarge { .. } => "INPUT_TOO_LARGE",
             InputError::Layer(e) => e.code(),
             InputError::NoDepthChannel { .. } => "INPUT_NO_DEPTH",
             InputError::NotAPanorama { .. } => "INPUT_NOT_PANORAMA",
@@ -152,11 +155,38 @@ fn image_limits(limits: &ReadLimits) -> image::Limits {
     l
 }
 
+fn reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>, InputError> {
+    let err =
+        |e: &dyn std::fmt::Display| InputError::Image { path: path.to_path_buf(), reason: e.to_string() };
+    crate::fsutil::check_regular(path).map_err(|e| err(&e))?;
+    image::ImageReader::open(path).map_err(|e| err(&e))?.with_guessed_format().map_err(|e| err(&e))
+}
+
+/// Width and height from the file's header, checked against `limits` (for `channels` planes of
+/// `f32`, what the build holds) before any pixel is decoded.
+pub fn header_size(path: &Path, channels: usize, limits: &ReadLimits) -> Result<(usize, usize), InputError> {
+    let (w, h) = if is_exr(path) {
+        let header = layer_io::read_header(path, limits)?;
+        (header.width as u64, header.height as u64)
+    } else {
+        let dims = reader(path)?.into_dimensions();
+        let (w, h) =
+            dims.map_err(|e| InputError::Image { path: path.to_path_buf(), reason: e.to_string() })?;
+        (u64::from(w), u64::from(h))
+    };
+    limits.check(w, h, channels).map_err(|limit| InputError::TooLarge {
+        path: path.to_path_buf(),
+        width: w,
+        height: h,
+        limit,
+    })?;
+    Ok((w as usize, h as usize))
+}
+
 fn open_image(path: &Path, limits: &ReadLimits) -> Result<image::DynamicImage, InputError> {
     let err =
         |e: &dyn std::fmt::Display| InputError::Image { path: path.to_path_buf(), reason: e.to_string() };
-    let mut reader =
-        image::ImageReader::open(path).map_err(|e| err(&e))?.with_guessed_format().map_err(|e| err(&e))?;
+    let mut reader = reader(path)?;
     reader.limits(image_limits(limits));
     reader.decode().map_err(|e| err(&e))
 }
@@ -241,6 +271,20 @@ pub fn load(
     enc: &DepthEncoding,
     limits: &ReadLimits,
 ) -> Result<RgbdInput, InputError> {
+    // Sizes from the headers first: a small file declaring a huge canvas, or two files of different
+    // sizes, are refused before either is decoded (4 planes: colour and depth).
+    let (cw, ch) = header_size(colour, 4, limits)?;
+    let (dw, dh) = header_size(depth, 4, limits)?;
+    if (cw, ch) != (dw, dh) {
+        return Err(InputError::SizeMismatch {
+            colour: colour.to_path_buf(),
+            cw,
+            ch,
+            depth: depth.to_path_buf(),
+            dw,
+            dh,
+        });
+    }
     let (cw, ch, rgb) = read_colour(colour, space, limits)?;
     let (dw, dh, mut d) = read_depth(depth, enc, limits)?;
     if (cw, ch) != (dw, dh) {

@@ -307,6 +307,7 @@ fn to_exr_compression(c: Compression) -> xr::Compression {
 }
 
 fn open(path: &Path) -> Result<std::fs::File, LayerIoError> {
+    crate::fsutil::check_regular(path).map_err(|e| io_error(path, e))?;
     std::fs::File::open(path).map_err(|e| io_error(path, e))
 }
 

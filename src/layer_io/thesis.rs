@@ -53,6 +53,7 @@ pub fn read_thesis_layer(
 
 /// Decode the colour image with `limits` enforced by the decoder itself.
 fn read_colour(path: &Path, limits: &ReadLimits) -> Result<LayerImage, LayerIoError> {
+    crate::fsutil::check_regular(path).map_err(|e| io_error(path, e))?;
     let open = || -> Result<ImageReader<_>, LayerIoError> {
         ImageReader::open(path)
             .map_err(|e| io_error(path, e))?

@@ -149,9 +149,25 @@ pub struct Args {
     /// Store every layer as a full canvas (no patch packing).
     #[arg(long)]
     no_pack: bool,
+    /// Largest input accepted, in pixels (width × height), checked from the file headers before
+    /// decoding; the default, 268435456 (2^28), takes a 16384 × 8192 equirect.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1 << 34))]
+    max_pixels: Option<u64>,
     /// Also write the JSON report to this file.
     #[arg(long)]
     report: Option<PathBuf>,
+}
+
+/// The reader limits, the pixel count raised (or lowered) to `max_pixels` with the side and
+/// decoded-size limits that go with it.
+fn limits(max_pixels: Option<u64>) -> ReadLimits {
+    let mut l = ReadLimits::default();
+    if let Some(n) = max_pixels {
+        l.max_pixels = n;
+        l.max_dimension = l.max_dimension.max((2.0 * n as f64).sqrt().ceil() as usize);
+        l.max_decoded_bytes = l.max_decoded_bytes.max(n.saturating_mul(16));
+    }
+    l
 }
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
@@ -179,7 +195,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         &args.depth,
         args.normals_in.as_deref(),
         &enc,
-        &ReadLimits::default(),
+        &limits(args.max_pixels),
     )
     .map_err(pomc::Error::from)?;
     let read_s = t.elapsed().as_secs_f64();

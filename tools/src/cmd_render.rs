@@ -82,7 +82,10 @@ struct Shot {
 /// Parse a camera path file (see `--path`); errors name the file and line.
 fn read_path(file: &std::path::Path) -> Result<Vec<Shot>, Failure> {
     let bad = |msg: String| Failure::usage(format!("{}: {msg}", file.display()));
-    let text = std::fs::read_to_string(file).map_err(|e| bad(format!("cannot read the camera path: {e}")))?;
+    // A path is a few lines a frame: 64 MiB is millions of frames, and `/dev/zero` is refused.
+    let bytes = pomc::fsutil::read_limited(file, 64 << 20)
+        .map_err(|e| bad(format!("cannot read the camera path: {e}")))?;
+    let text = String::from_utf8(bytes).map_err(|_| bad("the camera path is not UTF-8 text".into()))?;
     let mut shots = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let line = line.split('#').next().unwrap_or("").trim();

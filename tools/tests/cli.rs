@@ -513,3 +513,125 @@ fn options_outside_their_domain_are_usage_errors() {
         assert!(!out.exists(), "{args:?} wrote its output");
     }
 }
+
+/// CRC-32 (IEEE) of PNG chunks, to craft headers.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in bytes {
+        c ^= u32::from(b);
+        for _ in 0..8 {
+            c = if c & 1 == 1 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+        }
+    }
+    !c
+}
+
+/// A PNG of its signature, header and empty data: it declares `w × h` RGB8 and holds no pixels.
+fn png_header_only(w: u32, h: u32) -> Vec<u8> {
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend(w.to_be_bytes());
+    ihdr.extend(h.to_be_bytes());
+    ihdr.extend([8, 2, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(13u32.to_be_bytes());
+    png.extend(&ihdr);
+    png.extend(crc32(&ihdr).to_be_bytes());
+    for chunk in [&b"IDAT"[..], b"IEND"] {
+        png.extend(0u32.to_be_bytes());
+        png.extend(chunk);
+        png.extend(crc32(chunk).to_be_bytes());
+    }
+    png
+}
+
+/// Sizes come from the headers before anything is decoded (issue 12): a 33-byte PNG declaring
+/// 30000 × 15000 (57 bytes) is refused at once with INPUT_TOO_LARGE and how to raise the limit; colour and
+/// depth of different sizes are refused before either is decoded.
+#[test]
+fn build_checks_sizes_from_headers_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let depth = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-rgbd/depth.exr");
+    let d = depth.to_str().unwrap();
+    std::fs::write(p("bomb.png"), png_header_only(30000, 15000)).unwrap();
+    let t = std::time::Instant::now();
+    let run = pomc(&["build", "--colour", &p("bomb.png"), "--depth", d, "-o", &p("o"), "--json"]);
+    assert_eq!(run.status.code(), Some(2));
+    let v = json(&run);
+    assert_eq!(v["error"]["code"], "INPUT_TOO_LARGE", "{v}");
+    assert!(v["error"]["message"].as_str().unwrap().contains("--max-pixels"), "{v}");
+    assert!(t.elapsed().as_secs() < 30, "refused from the header, not after decoding");
+    // A header of another size than the depth: the mismatch, not the missing pixels, is reported.
+    let header = pomc::layer_io::read_header(&depth, &ReadLimits::default()).unwrap();
+    std::fs::write(p("small.png"), png_header_only(header.width as u32 / 2, header.height as u32 / 2))
+        .unwrap();
+    let run = pomc(&["build", "--colour", &p("small.png"), "--depth", d, "-o", &p("o"), "--json"]);
+    assert_eq!(json(&run)["error"]["code"], "INPUT_SIZE_MISMATCH");
+    // --max-pixels lowers (or raises) the limit.
+    let colour = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-rgbd/colour.png");
+    let args = ["build", "--colour", colour.to_str().unwrap(), "--depth", d, "-o", &p("o"), "--json"];
+    let run = pomc(&[&args[..], &["--max-pixels", "1000"]].concat());
+    assert_eq!(json(&run)["error"]["code"], "INPUT_TOO_LARGE");
+    assert!(!dir.path().join("o").exists());
+}
+
+/// A FIFO, a directory or a device where a file is expected is refused at once, never waited on
+/// or read forever (issue 12).
+#[cfg(unix)]
+#[test]
+fn non_regular_files_are_refused_without_hanging() {
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path());
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    assert!(Command::new("mkfifo").arg(p("fifo.png")).status().unwrap().success());
+    let depth = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-rgbd/depth.exr");
+    let runs: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "build".into(),
+                "--colour".into(),
+                p("fifo.png"),
+                "--depth".into(),
+                depth.display().to_string(),
+                "-o".into(),
+                p("o"),
+            ],
+            "INPUT_UNREADABLE",
+        ),
+        (
+            vec!["render".into(), p(""), "-o".into(), p("v.png"), "--path".into(), "/dev/zero".into()],
+            "CLI_USAGE",
+        ),
+        (vec!["render".into(), p(""), "-o".into(), p("v.png"), "--path".into(), p("fifo.png")], "CLI_USAGE"),
+    ];
+    for (mut args, code) in runs {
+        args.push("--json".into());
+        let mut child = Command::new(env!("CARGO_BIN_EXE_pomc"))
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let t = std::time::Instant::now();
+        while child.try_wait().unwrap().is_none() {
+            if t.elapsed().as_secs() > 20 {
+                let _ = child.kill();
+                panic!("{args:?} hangs");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let out = child.wait_with_output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert_eq!(json(&out)["error"]["code"], code, "{args:?}");
+    }
+    // A layer file that is a FIFO: validate reports it instead of blocking.
+    std::fs::remove_file(dir.path().join("room.exr")).unwrap();
+    assert!(Command::new("mkfifo").arg(p("room.exr")).status().unwrap().success());
+    let check = pomc(&["validate", &p(""), "--json"]);
+    assert_eq!(check.status.code(), Some(1));
+    assert_eq!(
+        json(&check)["issues"][0]["code"],
+        "LAYER_IO_ERROR",
+        "{}",
+        String::from_utf8_lossy(&check.stdout)
+    );
+}
