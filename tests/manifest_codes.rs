@@ -20,6 +20,7 @@ const EXPECTED: &[(&str, u32, u32, &str)] = &[
     ("MANIFEST_DUPLICATE_ELEMENT", 4, 3, "/Panorama/Mapping[2]"),
     ("MANIFEST_ROTATE_AXIS_ZERO", 4, 13, "/Panorama/TransformGroup/Rotate"),
     ("MANIFEST_SCALE_ZERO", 4, 12, "/Panorama/TransformGroup/Scale"),
+    ("MANIFEST_TRANSFORM_INVALID", 3, 3, "/Panorama/TransformGroup"),
     ("MANIFEST_FREEDOM_INVALID", 4, 12, "/Panorama/Freedom"),
     ("MANIFEST_FREEDOM_MISSING", 2, 1, "/Panorama"),
     ("MANIFEST_NO_LAYERS", 2, 1, "/Panorama"),

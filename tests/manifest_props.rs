@@ -106,7 +106,14 @@ fn mesh_decl() -> impl Strategy<Value = MeshDecl> {
 
 fn manifest() -> impl Strategy<Value = Manifest> {
     (
-        prop::collection::vec(transform(), 0..5),
+        prop::collection::vec(transform(), 0..5).prop_filter("a finite, invertible LocalToWorld", |ops| {
+            let m = ops.iter().fold(glam::DMat4::IDENTITY, |m, op| m * op.matrix());
+            let det = m.determinant();
+            m.to_cols_array().iter().all(|x| x.abs() <= 1e150)
+                && det.is_finite()
+                && det != 0.0
+                && m.inverse().is_finite()
+        }),
         prop::sample::select(vec![MappingKind::LatLong, MappingKind::Cube]),
         prop_oneof![Just(0.0), (1e-9f64..1e3)],
         prop::collection::vec(layer(0), 1..4),

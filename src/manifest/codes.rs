@@ -20,6 +20,7 @@ pub const MAPPING_UNKNOWN: &str = "MANIFEST_MAPPING_UNKNOWN";
 pub const DUPLICATE_ELEMENT: &str = "MANIFEST_DUPLICATE_ELEMENT";
 pub const ROTATE_AXIS_ZERO: &str = "MANIFEST_ROTATE_AXIS_ZERO";
 pub const SCALE_ZERO: &str = "MANIFEST_SCALE_ZERO";
+pub const TRANSFORM_INVALID: &str = "MANIFEST_TRANSFORM_INVALID";
 pub const FREEDOM_INVALID: &str = "MANIFEST_FREEDOM_INVALID";
 pub const FREEDOM_MISSING: &str = "MANIFEST_FREEDOM_MISSING";
 pub const NO_LAYERS: &str = "MANIFEST_NO_LAYERS";
@@ -50,6 +51,7 @@ pub const CODES: &[(&str, Severity, &str)] = &[
     (DUPLICATE_ELEMENT, Severity::Error, "An element allowed once (TransformGroup, Mapping, Freedom, Packing, Mesh) appears more than once."),
     (ROTATE_AXIS_ZERO, Severity::Error, "A `<Rotate>` axis has zero length."),
     (SCALE_ZERO, Severity::Error, "A `<Scale>` component is zero: LocalToWorld would not be invertible."),
+    (TRANSFORM_INVALID, Severity::Error, "The composed LocalToWorld has an entry beyond ±1e150 (moving a point would overflow) or is not invertible, e.g. three `<Scale 1e300>` or `<Translate 1e308 0 0>`."),
     (FREEDOM_INVALID, Severity::Error, "The freedom radius is not a finite number greater than 0."),
     (FREEDOM_MISSING, Severity::Warning, "There is no `<Freedom>` element; the radius is taken as 0 (only the centre is guaranteed)."),
     (NO_LAYERS, Severity::Error, "The panorama has no `<Layer>`."),

@@ -277,6 +277,14 @@ fn transform_group(ctx: &mut Ctx, el: &El) -> Vec<Transform> {
         };
         ops.extend(t);
     }
+    // Each operation may be fine and their product not: three `<Scale 1e300>` overflow. Entries
+    // beyond 1e150 would overflow on the first point they move (`Translate 1e308`).
+    if !super::transform::is_usable(&super::transform::compose(&ops)) {
+        let msg = "the composed LocalToWorld is not a finite, invertible matrix (an operation overflows or \
+                   cancels another); keep translations, scales and their products well inside ±1e150";
+        ctx.report(codes::TRANSFORM_INVALID, el.start(), &el.path, msg.to_string());
+        return Vec::new();
+    }
     ops
 }
 

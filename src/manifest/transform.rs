@@ -16,7 +16,10 @@ impl Transform {
         match *self {
             Transform::Translate(v) => DMat4::from_translation(DVec3::from(v)),
             Transform::Rotate { axis, angle_deg } => {
-                let axis = DVec3::from(axis).try_normalize();
+                // Scaled by its largest component first, so that `1e200 1e200 1e200` is a direction
+                // (its squared length would overflow).
+                let v = DVec3::from(axis);
+                let axis = (v / v.abs().max_element()).try_normalize();
                 match axis {
                     Some(a) => DMat4::from_axis_angle(a, angle_deg.to_radians()),
                     None => DMat4::IDENTITY,
@@ -25,6 +28,16 @@ impl Transform {
             Transform::Scale(v) => DMat4::from_scale(DVec3::from(v)),
         }
     }
+}
+
+/// Whether a LocalToWorld can be used on points: finite entries within ±1e150 (so moving a point
+/// cannot overflow) and invertible.
+pub fn is_usable(m: &DMat4) -> bool {
+    let det = m.determinant();
+    m.to_cols_array().iter().all(|x| x.abs() <= 1e150)
+        && det.is_finite()
+        && det != 0.0
+        && m.inverse().is_finite()
 }
 
 /// Compose in document order (see the module documentation).
@@ -55,6 +68,16 @@ mod tests {
         // T · S · (1,0,0) = T(2,0,0) = (3,0,0); S · T · (1,0,0) = S(2,0,0) = (4,0,0).
         assert!(close(compose(&[t, s]).transform_point3(DVec3::X), DVec3::new(3.0, 0.0, 0.0)));
         assert!(close(compose(&[s, t]).transform_point3(DVec3::X), DVec3::new(4.0, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn huge_and_tiny_axes_are_directions() {
+        for s in [1e200, 1e-200, 1.0] {
+            let r = Transform::Rotate { axis: [0.0, 0.0, s], angle_deg: 90.0 }.matrix();
+            assert!(close(r.transform_point3(DVec3::X), DVec3::Y), "axis scale {s}");
+        }
+        let r = Transform::Rotate { axis: [1e200; 3], angle_deg: 120.0 }.matrix();
+        assert!(close(r.transform_point3(DVec3::X), DVec3::Y), "the (1,1,1) axis cycles the axes");
     }
 
     #[test]
