@@ -35,7 +35,9 @@ const EXPECTED: &[(&str, u32, u32, &str)] = &[
 
 /// Codes without a fixture: the validator raises XML_TOO_LARGE before parsing (its own tests
 /// cover it), and the truncation notice is tested below with a generated document.
-const NOT_FROM_FIXTURES: &[&str] = &["XML_TOO_LARGE", "MANIFEST_DIAGNOSTICS_TRUNCATED"];
+/// The limits' codes are tested below with generated documents too (fixtures would be large).
+const NOT_FROM_FIXTURES: &[&str] =
+    &["XML_TOO_LARGE", "MANIFEST_DIAGNOSTICS_TRUNCATED", "XML_LIMIT_EXCEEDED", "MANIFEST_TOO_MANY_LAYERS"];
 
 fn fixture(name: &str) -> Vec<u8> {
     let path = format!("{}/fixtures/manifests/{name}.xml", env!("CARGO_MANIFEST_DIR"));
@@ -207,4 +209,36 @@ fn mesh_element_is_typed_and_round_trips() {
     assert_eq!(codes(&xml("<Mesh file=\"a\" version=\"1\"/>")), ["MANIFEST_MISSING_ATTRIBUTE"]);
     let escape = xml("<Mesh file=\"../../etc/passwd\" encoding=\"quadtree-bfs-zstd\" version=\"1\"/>");
     assert_eq!(codes(&escape), ["MANIFEST_FILE_NAME_UNSAFE"]);
+}
+
+/// Limits that keep one manifest's cost linear (issue 12): 100,000 attributes on one element took
+/// 30 s (the XML parser checks each against the ones before it); now they are refused by a linear
+/// scan. Layers past 1024 are reported once and not read.
+#[test]
+fn attribute_floods_and_layer_floods_are_refused() {
+    let head = "<?xml version=\"1.0\"?>\n<Panorama version=\"1\"><Freedom radius=\"0.5\"/>";
+    let attrs: String = (0..100_000).map(|i| format!(" a{i}=\"1\"")).collect();
+    let xml = format!(
+        "{head}<Mapping type=\"LatLongMapping\"{attrs}/><Layer><Image file=\"a.exr\"/></Layer></Panorama>"
+    );
+    let t = std::time::Instant::now();
+    let d = diagnose(xml.as_bytes(), "m");
+    assert!(t.elapsed().as_secs_f64() < 2.0, "linear, not quadratic: {:?}", t.elapsed());
+    let codes: Vec<_> = d.diagnostics.iter().map(|x| (x.code, x.line, x.col)).collect();
+    assert_eq!(codes, [("XML_LIMIT_EXCEEDED", 2, 46)]);
+    // 256 attributes are still parsed (`=` in values, comments and declarations does not count).
+    let attrs: String = (0..255).map(|i| format!(" a{i}=\"x=y\"")).collect();
+    let xml = format!("{head}<!-- a=b c=d --><Mapping type=\"LatLongMapping\"{attrs}/><Layer><Image file=\"a.exr\"/></Layer></Panorama>");
+    let d = diagnose(xml.as_bytes(), "m");
+    let expected = ["MANIFEST_UNKNOWN_ATTRIBUTE", "MANIFEST_DIAGNOSTICS_TRUNCATED"];
+    let other: Vec<_> =
+        d.diagnostics.iter().filter(|x| !expected.contains(&x.code)).map(|x| (x.code, &x.message)).collect();
+    assert!(other.is_empty() && d.manifest.is_some(), "{other:?}");
+
+    let layers: String = (0..3000).map(|i| format!("<Layer><Image file=\"l{i}.exr\"/></Layer>")).collect();
+    let xml = format!("{head}<Mapping type=\"LatLongMapping\"/>{layers}</Panorama>");
+    let d = diagnose(xml.as_bytes(), "m");
+    let codes: Vec<_> = d.diagnostics.iter().map(|x| x.code).collect();
+    assert_eq!(codes, ["MANIFEST_TOO_MANY_LAYERS"]);
+    assert!(d.diagnostics[0].path.ends_with("Layer[1025]"), "{}", d.diagnostics[0].path);
 }

@@ -9,6 +9,7 @@ pub const XML_DTD_FORBIDDEN: &str = "XML_DTD_FORBIDDEN";
 pub const XML_ENCODING_UNSUPPORTED: &str = "XML_ENCODING_UNSUPPORTED";
 pub const XML_ENCODING_INVALID: &str = "XML_ENCODING_INVALID";
 pub const XML_TOO_LARGE: &str = "XML_TOO_LARGE";
+pub const XML_LIMIT_EXCEEDED: &str = "XML_LIMIT_EXCEEDED";
 pub const ROOT_NOT_PANORAMA: &str = "MANIFEST_ROOT_NOT_PANORAMA";
 pub const VERSION_UNSUPPORTED: &str = "MANIFEST_VERSION_UNSUPPORTED";
 pub const UNKNOWN_ELEMENT: &str = "MANIFEST_UNKNOWN_ELEMENT";
@@ -24,6 +25,7 @@ pub const TRANSFORM_INVALID: &str = "MANIFEST_TRANSFORM_INVALID";
 pub const FREEDOM_INVALID: &str = "MANIFEST_FREEDOM_INVALID";
 pub const FREEDOM_MISSING: &str = "MANIFEST_FREEDOM_MISSING";
 pub const NO_LAYERS: &str = "MANIFEST_NO_LAYERS";
+pub const TOO_MANY_LAYERS: &str = "MANIFEST_TOO_MANY_LAYERS";
 pub const LAYER_NO_SOURCE: &str = "MANIFEST_LAYER_NO_SOURCE";
 pub const LAYER_MULTIPLE_SOURCES: &str = "MANIFEST_LAYER_MULTIPLE_SOURCES";
 pub const FILE_NAME_UNSAFE: &str = "MANIFEST_FILE_NAME_UNSAFE";
@@ -40,6 +42,7 @@ pub const CODES: &[(&str, Severity, &str)] = &[
     (XML_ENCODING_UNSUPPORTED, Severity::Error, "The manifest declares or uses an encoding other than UTF-8 or ISO-8859-1 (e.g. UTF-16)."),
     (XML_ENCODING_INVALID, Severity::Error, "The manifest's bytes are not valid in its encoding (e.g. Latin-1 bytes in a file read as UTF-8)."),
     (XML_TOO_LARGE, Severity::Error, "The manifest file is larger than the 16 MiB readers accept; refused before parsing."),
+    (XML_LIMIT_EXCEEDED, Severity::Error, "An element has more than 256 attributes (refused before parsing: checking them costs quadratic time)."),
     (ROOT_NOT_PANORAMA, Severity::Error, "The root element is not `<Panorama>` (without namespace)."),
     (VERSION_UNSUPPORTED, Severity::Error, "The `version` attribute of `<Panorama>` is not a POMC 1 version (`1` or `1.x`)."),
     (UNKNOWN_ELEMENT, Severity::Warning, "An element this version does not define; it is ignored (forward compatibility)."),
@@ -55,6 +58,7 @@ pub const CODES: &[(&str, Severity, &str)] = &[
     (FREEDOM_INVALID, Severity::Error, "The freedom radius is not a finite number greater than 0."),
     (FREEDOM_MISSING, Severity::Warning, "There is no `<Freedom>` element; the radius is taken as 0 (only the centre is guaranteed)."),
     (NO_LAYERS, Severity::Error, "The panorama has no `<Layer>`."),
+    (TOO_MANY_LAYERS, Severity::Error, "The panorama has more than 1024 `<Layer>` elements; the rest are not read."),
     (LAYER_NO_SOURCE, Severity::Error, "A `<Layer>` has neither `<Image>` nor `<Textures>`."),
     (LAYER_MULTIPLE_SOURCES, Severity::Error, "A `<Layer>` has more than one `<Image>`/`<Textures>`."),
     (FILE_NAME_UNSAFE, Severity::Error, "A file name is empty, absolute, leaves the panorama directory (`..`), or uses `\\`, `:` or control characters."),

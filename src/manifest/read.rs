@@ -157,6 +157,13 @@ pub fn diagnose(bytes: &[u8]) -> Diagnosed {
     let Some(text) = decode(bytes, &mut sink) else {
         return sink.finish(None);
     };
+    if let Some(offset) = attribute_flood(&text) {
+        let pos = LineIndex::new(&text).pos(&text, offset);
+        let msg =
+            format!("an element has more than {MAX_ATTRIBUTES} attributes; a POMC element has at most 7");
+        sink.push(codes::XML_LIMIT_EXCEEDED, pos, "/", msg);
+        return sink.finish(None);
+    }
     let doc = match Document::parse_with_options(&text, parsing_options()) {
         Ok(doc) => doc,
         Err(e) => {
@@ -167,6 +174,58 @@ pub fn diagnose(bytes: &[u8]) -> Diagnosed {
     let mut ctx = Ctx { text: &text, lines: LineIndex::new(&text), sink };
     let manifest = panorama(&mut ctx, &doc);
     ctx.sink.finish(manifest)
+}
+
+/// Attributes allowed on one element: the XML parser checks each against the ones before it.
+pub const MAX_ATTRIBUTES: usize = 256;
+
+/// Layers read from one manifest (each costs a file, and every command reads them all).
+pub const MAX_LAYERS: usize = 1024;
+
+/// The offset of the first tag with more than [`MAX_ATTRIBUTES`] attributes (a scan for `=`
+/// outside quotes inside `<…>`, comments and declarations skipped), found in linear time.
+fn attribute_flood(text: &str) -> Option<usize> {
+    let b = text.as_bytes();
+    let (mut i, mut tag_start, mut count, mut quote) = (0, None::<usize>, 0usize, 0u8);
+    while i < b.len() {
+        let c = b[i];
+        match tag_start {
+            None if c == b'<' => {
+                if b.get(i + 1).is_some_and(|&n| n == b'!' || n == b'?') {
+                    // Skip to the end of the comment, CDATA or declaration.
+                    let end = if b[i..].starts_with(b"<!--") {
+                        "-->"
+                    } else if b[i..].starts_with(b"<![CDATA[") {
+                        "]]>"
+                    } else {
+                        ">"
+                    };
+                    i = text[i..].find(end).map_or(b.len(), |k| i + k + end.len());
+                    continue;
+                }
+                (tag_start, count, quote) = (Some(i), 0, 0);
+            }
+            Some(start) => {
+                if quote != 0 {
+                    if c == quote {
+                        quote = 0;
+                    }
+                } else if c == b'"' || c == b'\'' {
+                    quote = c;
+                } else if c == b'=' {
+                    count += 1;
+                    if count > MAX_ATTRIBUTES {
+                        return Some(start);
+                    }
+                } else if c == b'>' {
+                    tag_start = None;
+                }
+            }
+            None => {}
+        }
+        i += 1;
+    }
+    None
 }
 
 fn xml_error(text: &str, e: &roxmltree::Error, sink: &mut Sink) {
@@ -204,6 +263,7 @@ fn panorama(ctx: &mut Ctx, doc: &Document) -> Option<Manifest> {
     let mut freedom: Option<f64> = None;
     let mut layers = Vec::new();
     let mut saw_layer = false;
+    let mut layer_count = 0;
     for child in el.children() {
         match child.name() {
             "TransformGroup" if transforms.is_some() => ctx.duplicate(&child, "Panorama"),
@@ -212,8 +272,15 @@ fn panorama(ctx: &mut Ctx, doc: &Document) -> Option<Manifest> {
             "Mapping" => mapping = Some(mapping_decl(ctx, &child)),
             "Freedom" if freedom.is_some() => ctx.duplicate(&child, "Panorama"),
             "Freedom" => freedom = Some(freedom_radius(ctx, &child)),
+            "Layer" if layer_count == MAX_LAYERS => {
+                let msg = format!("more than {MAX_LAYERS} layers; merge layers (a scene needs a handful) — the rest are not read");
+                ctx.report(codes::TOO_MANY_LAYERS, child.start(), &child.path, msg);
+                layer_count += 1;
+            }
+            "Layer" if layer_count > MAX_LAYERS => {}
             "Layer" => {
                 saw_layer = true;
+                layer_count += 1;
                 layers.extend(super::read_layer::layer(ctx, &child));
             }
             _ => ctx.unknown_element(&child, "Panorama", PANORAMA_CHILDREN),
