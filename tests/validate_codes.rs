@@ -64,6 +64,11 @@ type Case = (&'static str, fn(&Path) -> Report);
 
 fn cases() -> Vec<Case> {
     vec![
+        ("MANIFEST_IO_ERROR", |_| {
+            // A regular file that fails to read even as root: reading offset 0 of a process's
+            // memory is an I/O error (EIO). It used to be reported as XML_TOO_LARGE.
+            run(Path::new("/proc/self/mem"))
+        }),
         ("LAYER_NOT_FOUND", |d| {
             manifest(d, "LatLongMapping", "  <Layer><Image file=\"missing.exr\"/></Layer>\n");
             run(d)

@@ -6,6 +6,7 @@ use super::report::Severity;
 
 /// Codes raised on layer files, pixels, patch tables and the panorama as a whole.
 pub const CODES: &[(&str, Severity, &str)] = &[
+    ("MANIFEST_IO_ERROR", Severity::Error, "The manifest exists but cannot be read (permissions, not a regular file, an I/O error)."),
     ("LAYER_NOT_FOUND", Severity::Error, "A layer file named in the manifest does not exist."),
     ("LAYER_PATH_ESCAPES", Severity::Error, "A layer file path leaves the panorama directory (absolute, `..`, or a symbolic link out)."),
     ("LAYER_IO_ERROR", Severity::Error, "A layer file exists but cannot be read (permissions, I/O error)."),

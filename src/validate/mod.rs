@@ -50,7 +50,10 @@ pub fn validate(path: &Path, options: &ValidateOptions) -> Result<Report, crate:
     let bytes = match crate::fsutil::read_limited(&manifest_path, panorama::MAX_MANIFEST_BYTES) {
         Ok(b) => b,
         Err(e) => {
-            issues.push(issue("XML_TOO_LARGE", e.to_string(), name.clone()));
+            let too_large = std::fs::metadata(&manifest_path)
+                .is_ok_and(|m| m.is_file() && m.len() > panorama::MAX_MANIFEST_BYTES);
+            let code = if too_large { "XML_TOO_LARGE" } else { "MANIFEST_IO_ERROR" };
+            issues.push(issue(code, e.to_string(), name.clone()));
             return Ok(Report::from_issues(issues));
         }
     };

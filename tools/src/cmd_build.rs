@@ -158,6 +158,20 @@ pub struct Args {
     report: Option<PathBuf>,
 }
 
+/// Whether `--report FILE` can be written: not a directory, its directory creatable and writable.
+fn check_report_path(p: &std::path::Path) -> Result<(), Failure> {
+    let bad = |why: String| Failure::usage(format!("{}: cannot write the report there ({why})", p.display()));
+    if p.is_dir() {
+        return Err(bad("it is a directory".into()));
+    }
+    let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| bad(e.to_string()))?;
+    let probe = dir.join(format!(".pomc-tmp-report-{}", std::process::id()));
+    std::fs::OpenOptions::new().write(true).create_new(true).open(&probe).map_err(|e| bad(e.to_string()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// The reader limits, the pixel count raised (or lowered) to `max_pixels` with the side and
 /// decoded-size limits that go with it.
 fn limits(max_pixels: Option<u64>) -> ReadLimits {
@@ -171,6 +185,11 @@ fn limits(max_pixels: Option<u64>) -> ReadLimits {
 }
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
+    // The report is checked before any work: failing on it after the panorama is written would
+    // report an error for a run that did its job.
+    if let Some(p) = &args.report {
+        check_report_path(p)?;
+    }
     let start = Instant::now();
     let mut enc = args.preset.map(preset).map(Preset::encoding).unwrap_or_default();
     if let Some(s) = args.depth_scale {

@@ -635,3 +635,16 @@ fn non_regular_files_are_refused_without_hanging() {
         String::from_utf8_lossy(&check.stdout)
     );
 }
+
+/// A `--report` that cannot be written is refused before the build, not after the panorama is
+/// written (the run used to write everything and then exit 2).
+#[test]
+fn an_unwritable_report_is_refused_before_building() {
+    let dir = tempfile::tempdir().unwrap();
+    let pano = dir.path().join("pano");
+    let report = dir.path().to_str().unwrap();
+    let run = build_bundled(&pano, &["--report", report, "--json"]);
+    assert_eq!(run.status.code(), Some(2));
+    assert_eq!(json(&run)["error"]["code"], "CLI_USAGE");
+    assert!(!pano.exists(), "nothing written");
+}
