@@ -234,6 +234,23 @@ fn cases() -> Vec<Case> {
             );
             run(d)
         }),
+        ("LAYER_DEPTH_LOSSY", |d| {
+            // PXR24 rounds float32 to 24 bits: spec §4 forbids lossy compression for depth.
+            use exr::prelude::*;
+            let ch = |name: &str, v: f32| AnyChannel::new(name, FlatSamples::F32(vec![v; W * H]));
+            let channels = vec![ch("R", 0.5), ch("G", 0.5), ch("B", 0.5), ch("Z", 2.0)];
+            let encoding =
+                Encoding { compression: exr::compression::Compression::PXR24, ..Encoding::FAST_LOSSLESS };
+            let layer = Layer::new(
+                (W, H),
+                LayerAttributes::default(),
+                encoding,
+                AnyChannels::sort(SmallVec::from_vec(channels)),
+            );
+            Image::from_layer(layer).write().to_file(d.join("l0.exr")).unwrap();
+            manifest(d, "LatLongMapping", "  <Layer><Image file=\"l0.exr\"/></Layer>\n");
+            run(d)
+        }),
         ("MESH_NOT_FOUND", |d| {
             write(d, "l0.exr", &layer(W, H));
             let mesh = "<Mesh file=\"l0.pomcmesh\" encoding=\"quadtree-bfs-zstd\" version=\"1\"/>";

@@ -171,11 +171,21 @@ fn parse_header(
     if let Some(c) = h.channels.list.iter().find(|c| c.sampling != xr::Vec2(1, 1)) {
         return Err(LayerIoError::Unsupported {
             path: path.to_path_buf(),
-            what: format!("subsampled channel {} ({:?})", c.name, c.sampling),
+            what: format!(
+                "subsampled channel {} (1 sample per {}×{} pixels)",
+                c.name, c.sampling.0, c.sampling.1
+            ),
         });
     }
     if w == 0 || hgt == 0 {
         return Err(unreadable(path, "empty data window".into()));
+    }
+    // The list is sorted by name (the format requires it), so a repeated name is adjacent.
+    if let Some(pair) = h.channels.list.windows(2).find(|p| p[0].name == p[1].name) {
+        return Err(unreadable(
+            path,
+            format!("channel {} appears twice; each channel name must be unique", pair[0].name),
+        ));
     }
     let (tiled, mip_levels) = match &h.blocks {
         BlockDescription::ScanLines => (false, false),

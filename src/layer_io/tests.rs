@@ -405,3 +405,28 @@ fn fuzz_regression_b44_overflow_is_an_error() {
         assert_eq!(e.code(), "LAYER_UNREADABLE", "{e}");
     }
 }
+
+/// A channel list naming one channel twice (issue 12: it was accepted, and one of the two lost).
+#[test]
+fn duplicate_channel_names_are_refused() {
+    use ::exr::prelude::*;
+    let d = tmp();
+    let p = d.path().join("dup.exr");
+    let ch = |name: &str, v: f32| AnyChannel::new(name, FlatSamples::F32(vec![v; 16]));
+    let layer = Layer::new(
+        (4, 4),
+        LayerAttributes::default(),
+        Encoding::UNCOMPRESSED,
+        AnyChannels::sort(SmallVec::from_vec(vec![ch("Y", 1.0), ch("Z", 2.0)])),
+    );
+    Image::from_layer(layer).write().to_file(&p).unwrap();
+    let mut bytes = std::fs::read(&p).unwrap();
+    // Rename "Y" to "Z" in the channel list (the list stays sorted).
+    let list = bytes.windows(16).position(|w| w == b"channels\0chlist\0").unwrap();
+    let y = list + bytes[list..].windows(2).position(|w| w == b"Y\0").unwrap();
+    bytes[y] = b'Z';
+    std::fs::write(&p, &bytes).unwrap();
+    let e = read_exr(&p, &ReadLimits::default()).unwrap_err();
+    assert_eq!(e.code(), "LAYER_UNREADABLE", "{e}");
+    assert!(e.to_string().contains("Z appears twice"), "{e}");
+}

@@ -17,6 +17,7 @@ pub const CODES: &[(&str, Severity, &str)] = &[
     ("LAYER_DEEP", Severity::Error, "A layer EXR holds deep data."),
     ("LAYER_UNSUPPORTED", Severity::Error, "A layer file uses a feature this reader does not support."),
     ("LAYER_DEPTH_NOT_FLOAT32", Severity::Error, "The depth channel Z is not stored as 32-bit float."),
+    ("LAYER_DEPTH_LOSSY", Severity::Error, "The layer file uses a lossy compression (PXR24, B44, B44A, DWAA, DWAB); spec §4 forbids it for depth."),
     ("LAYER_SIZE_MISMATCH", Severity::Error, "A layer's stored size disagrees with the manifest (width/height or the packing atlas) or with its other files."),
     ("LAYER_NO_DEPTH", Severity::Error, "A layer has no depth channel."),
     ("LAYER_DIMENSIONS_MAPPING", Severity::Error, "A layer canvas does not fit the mapping (2:1 equirect; 3:2 cube with square faces)."),

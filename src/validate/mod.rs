@@ -125,6 +125,13 @@ fn check_layer(
         };
         match layer_io::read_header(&path, &options.limits) {
             Ok(h) => {
+                if h.channels.iter().any(|(n, _)| n == "Z") && !h.compression.is_lossless() {
+                    issues.push(issue(
+                        "LAYER_DEPTH_LOSSY",
+                        format!("the layer is stored with lossy {} compression, which alters depth; re-export it with ZIP, PIZ, RLE or none", h.compression.name()),
+                        loc.clone(),
+                    ));
+                }
                 if let Some((_, t)) = h.channels.iter().find(|(n, _)| n == "Z") {
                     if *t != SampleType::F32 {
                         issues.push(issue(
