@@ -430,3 +430,65 @@ fn duplicate_channel_names_are_refused() {
     assert_eq!(e.code(), "LAYER_UNREADABLE", "{e}");
     assert!(e.to_string().contains("Z appears twice"), "{e}");
 }
+
+/// The DWAA file of `layer_io::tests` with one counter of its first chunk's DWA header replaced:
+/// the header's attributes are walked to the offset table, then to the chunk.
+fn dwaa_with_counter(counter: usize, value: u64) -> Vec<u8> {
+    use ::exr::prelude::*;
+    let (w, h) = (64usize, 32usize);
+    let planes: Vec<AnyChannel<FlatSamples>> = ["B", "G", "R"]
+        .iter()
+        .enumerate()
+        .map(|(c, n)| {
+            // Smooth, so that DWA compresses it (a chunk that does not shrink is stored raw).
+            let v = (0..w * h).map(|i| f16::from_f32(((i % w) + (i / w) * (c + 1)) as f32 / 160.0)).collect();
+            AnyChannel::new(*n, FlatSamples::F16(v))
+        })
+        .collect();
+    let encoding =
+        Encoding { compression: ::exr::compression::Compression::DWAA(None), ..Encoding::FAST_LOSSLESS };
+    let layer = Layer::new(
+        (w, h),
+        LayerAttributes::default(),
+        encoding,
+        AnyChannels::sort(SmallVec::from_vec(planes)),
+    );
+    let mut bytes = Vec::new();
+    Image::from_layer(layer).write().to_buffered(std::io::Cursor::new(&mut bytes)).unwrap();
+    let mut at = 8;
+    loop {
+        let name_end = at + bytes[at..].iter().position(|&b| b == 0).unwrap();
+        if name_end == at {
+            at += 1;
+            break;
+        }
+        let type_end = name_end + 1 + bytes[name_end + 1..].iter().position(|&b| b == 0).unwrap();
+        let size = i32::from_le_bytes(bytes[type_end + 1..type_end + 5].try_into().unwrap()) as usize;
+        at = type_end + 5 + size;
+    }
+    let chunk = u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap()) as usize;
+    // The chunk's leader (line and data size), then the DWA header: version 2 first.
+    let dwa = chunk + bytes[chunk..chunk + 64].windows(8).position(|v| v == 2u64.to_le_bytes()).unwrap();
+    if counter < 11 {
+        let field = dwa + 8 * counter;
+        bytes[field..field + 8].copy_from_slice(&value.to_le_bytes());
+    }
+    bytes
+}
+
+/// Found by the issue-12 probe: one flipped byte in a DWAA layer's `ac_count` made the `exr`
+/// crate's Huffman decoder reserve 721 GB and abort every command. The vendored patch bounds the
+/// counts by the chunk's block; the reader reports the file instead.
+#[test]
+fn dwa_chunk_counts_beyond_the_block_are_an_error() {
+    let path = Path::new("dwaa.exr");
+    let good = dwaa_with_counter(usize::MAX, 0);
+    let img = read_exr_bytes(&good, path, &ReadLimits::default()).unwrap();
+    assert_eq!((img.width, img.height), (64, 32));
+    // ac_count (counter 8) and dc_count (counter 9) far beyond 64 × 32 pixels, and section sizes.
+    for (counter, value) in [(8, 360_000_000_000u64), (9, 1 << 40), (1, 1 << 41), (6, 1 << 42)] {
+        let bad = dwaa_with_counter(counter, value);
+        let e = read_exr_bytes(&bad, path, &ReadLimits::default()).unwrap_err();
+        assert_eq!(e.code(), "LAYER_UNREADABLE", "counter {counter}: {e}");
+    }
+}
