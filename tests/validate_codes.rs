@@ -363,3 +363,26 @@ fn oversized_manifest_is_refused_before_reading() {
     let report = run(dir.path());
     assert!(report.has("XML_TOO_LARGE") && !report.valid, "{:?}", report.issues);
 }
+
+/// Patch-table findings are capped per layer (issue 12: 300,000 overlapping patches made 146 MB of
+/// JSON), with a notice counting them all, and messages read as text (no Rust debug output).
+#[test]
+fn patch_findings_are_capped_and_readable() {
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "l0.exr", &layer(W, H));
+    write(d.path(), "l1.exr", &layer(4, 4));
+    let patches: String =
+        (0..500).map(|_| "<Patch u=\"0\" v=\"0\" x=\"0\" y=\"0\" w=\"2\" h=\"2\"/>").collect();
+    let l1 = format!(
+        "  <Layer width=\"{W}\" height=\"{H}\"><Image file=\"l1.exr\"/><Packing atlaswidth=\"4\" atlasheight=\"4\">{patches}</Packing></Layer>\n"
+    );
+    manifest(d.path(), "LatLongMapping", &format!("  <Layer><Image file=\"l0.exr\"/></Layer>\n{l1}"));
+    let r = run(d.path());
+    let patch_issues: Vec<_> = r.issues.iter().filter(|i| i.code.starts_with("PATCH_")).collect();
+    assert_eq!(patch_issues.len(), 100);
+    let notice = r.issues.iter().find(|i| i.code == "MANIFEST_DIAGNOSTICS_TRUNCATED").expect("a notice");
+    let counted: usize = notice.message.split(' ').next().unwrap().parse().unwrap();
+    assert!(counted >= 998, "{}", notice.message);
+    assert!(patch_issues[0].message.contains("overlaps patch 1 in the atlas"), "{}", patch_issues[0].message);
+    assert!(r.issues.iter().all(|i| !i.message.contains('{')), "debug formatting in a message");
+}

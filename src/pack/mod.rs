@@ -77,18 +77,23 @@ impl PackError {
 }
 
 /// What is wrong with one patch of a table.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum TableProblemKind {
+    #[error("has zero width or height")]
     Empty,
+    #[error("extends past the layer's full canvas")]
     OutOfCanvas,
+    #[error("extends past the atlas")]
     OutOfAtlas,
+    #[error("overlaps patch {other} in the atlas")]
     OverlapAtlas { other: usize },
+    #[error("overlaps patch {other} in the canvas")]
     OverlapCanvas { other: usize },
 }
 
 /// A problem with patch number `patch` of a table.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("patch {patch}: {kind:?}")]
+#[error("patch {patch} {kind}")]
 pub struct TableProblem {
     pub patch: usize,
     pub kind: TableProblemKind,

@@ -23,6 +23,9 @@ use crate::panorama::{self, Panorama};
 pub use codes::CODES;
 pub use report::{Issue, Report, Severity};
 
+/// Patch-table findings listed per layer (the rest are counted).
+const MAX_PATCH_FINDINGS: usize = 100;
+
 /// Tuning of [`validate`].
 #[derive(Clone, Copy, Debug)]
 pub struct ValidateOptions {
@@ -150,7 +153,14 @@ fn check_layer(
     }
     if let Some(p) = &decl.packing {
         if let Some((cw, ch)) = decl.size() {
-            for prob in pack::check_table(cw, ch, p.atlas_width, p.atlas_height, &p.patches) {
+            let problems = pack::check_table(cw, ch, p.atlas_width, p.atlas_height, &p.patches);
+            // A table of 300,000 overlapping patches made 146 MB of JSON: the first ones tell.
+            if problems.len() > MAX_PATCH_FINDINGS {
+                let msg =
+                    format!("{} patch problems; the first {MAX_PATCH_FINDINGS} are listed", problems.len());
+                issues.push(issue("MANIFEST_DIAGNOSTICS_TRUNCATED", msg, loc.clone()));
+            }
+            for prob in problems.into_iter().take(MAX_PATCH_FINDINGS) {
                 let ploc = decl
                     .origin
                     .patches
