@@ -114,6 +114,20 @@ pub fn lock_dir(dir: &Path) -> Result<DirLock, Error> {
     #[cfg(unix)]
     rustix::fs::flock(&file, rustix::fs::FlockOperation::LockExclusive)
         .map_err(|e| io_err(&lock_path, e.into()))?;
+    // A writer killed between the two renames of the fallback swap left the old content in
+    // `.NAME.pomc-old-*` and no `NAME`: put it back before anything is cleaned.
+    let target = parent.join(&name);
+    let old_prefix = sibling(Path::new(""), &name, ".pomc-old-").into_os_string();
+    if !target.exists() {
+        if let Ok(entries) = std::fs::read_dir(&parent) {
+            for e in entries.flatten() {
+                if e.file_name().as_encoded_bytes().starts_with(old_prefix.as_encoded_bytes()) {
+                    let _ = std::fs::rename(e.path(), &target);
+                    break;
+                }
+            }
+        }
+    }
     let stale: Vec<std::ffi::OsString> = [".pomc-tmp-", ".pomc-old-"]
         .iter()
         .map(|t| sibling(Path::new(""), &name, t).into_os_string())

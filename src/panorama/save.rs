@@ -4,11 +4,13 @@
 //! new one, never a mix; what a killed writer left behind is removed by the next one.
 //!
 //! An output directory that also holds files which are not the panorama's own (say the input
-//! images of `build`) is never swapped away: there the files are written one by one (each
+//! images of `build`), or whose panorama keeps files in subdirectories, is never swapped away;
+//! neither is the working directory (or one above it), nor one whose parent cannot take the
+//! temporary (a mount point, a read-only parent). There the files are written one by one (each
 //! atomically, the manifest last).
 
 use std::collections::HashSet;
-use std::path::Path;
+use std::path::{Component, Path};
 
 use rayon::prelude::*;
 
@@ -74,20 +76,37 @@ fn save(
     if std::fs::metadata(dir).is_ok_and(|m| !m.is_dir()) {
         return Err(PanoramaError::OutputNotDirectory { path: dir.to_path_buf() }.into());
     }
-    let _lock = fsutil::lock_dir(dir)?;
-    if has_foreign_entries(dir) {
+    let in_place = || {
         remove_temp_files(dir);
-        return write_files(dir, manifest, layers, options, meshes_from);
+        write_files(dir, manifest, layers, options, meshes_from)
+    };
+    // No lock file beside a mount point or in a read-only parent: write in place, unlocked.
+    let Ok(_lock) = fsutil::lock_dir(dir) else { return in_place() };
+    if has_foreign_entries(dir) || holds_working_directory(dir) {
+        return in_place();
     }
-    let tmp = fsutil::temp_sibling(dir)?;
+    let Ok(tmp) = fsutil::temp_sibling(dir) else { return in_place() };
     let written = write_files(tmp.path(), manifest, layers, options, meshes_from)?;
-    fsutil::swap_in(tmp, dir)?;
-    Ok(written)
+    // The swap fails before touching anything (another device, a busy mount point): in place then.
+    match fsutil::swap_in(tmp, dir) {
+        Ok(()) => Ok(written),
+        Err(_) => in_place(),
+    }
+}
+
+/// Whether `dir` is the working directory or one above it (swapping it away would leave the
+/// process in a deleted directory).
+fn holds_working_directory(dir: &Path) -> bool {
+    match (dir.canonicalize(), std::env::current_dir().and_then(|c| c.canonicalize())) {
+        (Ok(d), Ok(cwd)) => cwd.starts_with(d),
+        _ => false,
+    }
 }
 
 /// Whether `dir` holds entries other than a panorama's own: its manifest, the files the manifest
 /// names, and temporaries of killed writes. A directory without a readable manifest holds only
-/// foreign entries (unless it is empty).
+/// foreign entries (unless it is empty), and so does one whose panorama names files in
+/// subdirectories (what else those hold is not looked into).
 fn has_foreign_entries(dir: &Path) -> bool {
     let Ok(entries) = std::fs::read_dir(dir) else { return false };
     let names: Vec<std::ffi::OsString> = entries.flatten().map(|e| e.file_name()).collect();
@@ -110,7 +129,13 @@ fn has_foreign_entries(dir: &Path) -> bool {
                     .collect()
             }
         };
-        own.extend(files.into_iter().chain(l.mesh.as_ref().map(|m| m.file.as_str())).filter_map(top));
+        let files: Vec<&str> = files.into_iter().chain(l.mesh.as_ref().map(|m| m.file.as_str())).collect();
+        let nested =
+            |f: &&str| Path::new(f).components().filter(|c| matches!(c, Component::Normal(_))).count() > 1;
+        if files.iter().any(nested) {
+            return true;
+        }
+        own.extend(files.into_iter().filter_map(top));
     }
     names.iter().any(|n| {
         let n = n.to_string_lossy();
@@ -290,6 +315,33 @@ mod tests {
         std::fs::write(&file, b"x").unwrap();
         let e = write_panorama(&file, &m, &l, &SaveOptions::default()).unwrap_err();
         assert_eq!(e.code(), "OUTPUT_NOT_DIRECTORY");
+    }
+
+    #[test]
+    fn files_beside_a_nested_layer_are_kept() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        let (m, l) = pano("images/l0.exr", 2.0);
+        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        std::fs::write(out.join("images/colour.png"), b"input").unwrap();
+        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        assert_eq!(std::fs::read(out.join("images/colour.png")).unwrap(), b"input");
+        // The working directory, or one above it, is never swapped away.
+        assert!(holds_working_directory(Path::new("/")) && !holds_working_directory(&out));
+    }
+
+    #[test]
+    fn a_writer_killed_between_the_fallback_renames_loses_nothing() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        let (m, l) = pano("a.exr", 2.0);
+        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        // The state the two-rename swap leaves when killed between its renames.
+        std::fs::rename(&out, root.path().join(".out.pomc-old-4242")).unwrap();
+        std::fs::create_dir(root.path().join(".out.pomc-tmp-x")).unwrap();
+        drop(fsutil::lock_dir(&out).unwrap());
+        assert_eq!(names(&out), ["a.exr", "panorama.xml"], "the old panorama is back");
+        assert_eq!(names(root.path()), [".out.pomc-lock", "out"]);
     }
 
     #[test]

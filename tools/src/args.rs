@@ -70,10 +70,18 @@ impl Range {
         }
     }
 
-    /// The same for `f32` options.
+    /// The same for `f32` options (the value must stay in the domain as an `f32`: no overflow to
+    /// infinity, no underflow to 0).
     pub fn parser_f32(self) -> impl Fn(&str) -> Result<f32, String> + Clone + Send + Sync + 'static {
         let p = self.parser();
-        move |s: &str| p(s).map(|x| x as f32)
+        move |s: &str| {
+            let y = p(s)? as f32;
+            if self.contains(f64::from(y)) {
+                Ok(y)
+            } else {
+                Err(format!("`{s}` is not {} in single precision", self.describe()))
+            }
+        }
     }
 }
 

@@ -298,6 +298,8 @@ fn store(pano: &Panorama, layers: &[Layer]) -> Result<(), Failure> {
         .map(|(k, d)| d.name.clone().unwrap_or_else(|| format!("layer{k}")))
         .collect();
     let stems = export::safe_names(&names);
+    // Not while another command rewrites the panorama (best effort: a read-only parent has no lock).
+    let _lock = pomc::fsutil::lock_dir(&pano.dir).ok();
     for l in layers {
         let (Some(bytes), Some(decl)) = (&l.encoded, manifest.layers.get_mut(l.index)) else { continue };
         let file = format!("{}.{}", stems[l.index], encode::EXTENSION);

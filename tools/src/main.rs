@@ -83,7 +83,7 @@ fn usage_error(e: clap::Error) -> ExitCode {
     if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
         e.exit();
     }
-    if std::env::args().any(|a| a == "--json") {
+    if std::env::args_os().any(|a| a == "--json") {
         let message = e.render().to_string();
         let first = message.lines().next().unwrap_or("").trim_start_matches("error: ").to_string();
         println!("{}", serde_json::json!({"error": {"code": "CLI_USAGE", "message": first}}));

@@ -105,7 +105,8 @@ fn triangle_box(p: [(f64, f64); 3], w: i64, h: i64, face: Option<i64>) -> Box2 {
     }
     x0 = x0.max(lo.0);
     x1 = x1.min(hi.0).max(x0 + 1);
-    y0 = y0.max(lo.1);
+    // Coordinates outside the canvas (not made by `prepare`) stay inside it.
+    y0 = y0.clamp(lo.1, hi.1 - 1);
     y1 = y1.min(hi.1).max(y0 + 1);
     Box2 { x0, y0, w: x1 - x0, h: y1 - y0 }
 }
@@ -122,16 +123,16 @@ fn regions(boxes: &[Box2], w: i64, h: i64, circular: bool) -> (Vec<usize>, Vec<B
         }
         i
     }
-    let mut label = vec![usize::MAX; (w * h) as usize];
+    let mut label = vec![u32::MAX; (w * h) as usize];
     for (t, b) in boxes.iter().enumerate() {
         for y in b.y0..b.y0 + b.h {
             for x in b.x0..b.x0 + b.w.min(w) {
                 let cell = &mut label[(y * w + x.rem_euclid(w)) as usize];
-                if *cell != usize::MAX {
-                    let (a, c) = (root(&mut parent, *cell), root(&mut parent, t));
+                if *cell != u32::MAX {
+                    let (a, c) = (root(&mut parent, *cell as usize), root(&mut parent, t));
                     parent[a] = c;
                 }
-                *cell = t;
+                *cell = t as u32;
             }
         }
     }
