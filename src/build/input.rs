@@ -262,6 +262,19 @@ pub fn z_to_ray(m: &AnyMapping, depth: &mut [f32]) {
     }
 }
 
+/// Colour and depth must have one size.
+fn same_size(
+    colour: &Path,
+    (cw, ch): (usize, usize),
+    depth: &Path,
+    (dw, dh): (usize, usize),
+) -> Result<(), InputError> {
+    if (cw, ch) == (dw, dh) {
+        return Ok(());
+    }
+    Err(InputError::SizeMismatch { colour: colour.to_path_buf(), cw, ch, depth: depth.to_path_buf(), dw, dh })
+}
+
 /// Load colour + depth (+ optional normals EXR) into an [`RgbdInput`].
 pub fn load(
     colour: &Path,
@@ -273,30 +286,10 @@ pub fn load(
 ) -> Result<RgbdInput, InputError> {
     // Sizes from the headers first: a small file declaring a huge canvas, or two files of different
     // sizes, are refused before either is decoded (4 planes: colour and depth).
-    let (cw, ch) = header_size(colour, 4, limits)?;
-    let (dw, dh) = header_size(depth, 4, limits)?;
-    if (cw, ch) != (dw, dh) {
-        return Err(InputError::SizeMismatch {
-            colour: colour.to_path_buf(),
-            cw,
-            ch,
-            depth: depth.to_path_buf(),
-            dw,
-            dh,
-        });
-    }
+    same_size(colour, header_size(colour, 4, limits)?, depth, header_size(depth, 4, limits)?)?;
     let (cw, ch, rgb) = read_colour(colour, space, limits)?;
     let (dw, dh, mut d) = read_depth(depth, enc, limits)?;
-    if (cw, ch) != (dw, dh) {
-        return Err(InputError::SizeMismatch {
-            colour: colour.to_path_buf(),
-            cw,
-            ch,
-            depth: depth.to_path_buf(),
-            dw,
-            dh,
-        });
-    }
+    same_size(colour, (cw, ch), depth, (dw, dh))?;
     let mapping = mapping_for(colour, cw, ch)?;
     if enc.kind == DepthKind::Z {
         if mapping.kind() == MappingKind::Equirect {
