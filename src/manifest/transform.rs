@@ -81,6 +81,15 @@ mod tests {
     }
 
     #[test]
+    fn overflowing_or_singular_transforms_are_not_usable() {
+        let t = |v| Transform::Translate(v);
+        assert!(is_usable(&compose(&[t([1.0, 2.0, 3.0]), Transform::Scale([-1.0, 1.0, 1.0])])));
+        assert!(!is_usable(&compose(&[t([1e308, 0.0, 0.0])])), "moving a point would overflow");
+        assert!(!is_usable(&compose(&[Transform::Scale([1e300; 3]); 3])), "the product overflows");
+        assert!(!is_usable(&compose(&[Transform::Scale([1e-300; 3]); 2])), "the determinant underflows");
+    }
+
+    #[test]
     fn zero_axis_is_identity() {
         let r = Transform::Rotate { axis: [0.0; 3], angle_deg: 30.0 }.matrix();
         assert_eq!(r, DMat4::IDENTITY);
