@@ -111,24 +111,34 @@ impl LayerImage {
     /// Classification of pixel index `i` (row-major). Without a `Z` channel every pixel is
     /// [`Sample::Unknown`] where covered.
     pub fn sample(&self, i: usize) -> Sample {
-        let a = self.coverage().map(|a| a[i]);
-        match self.depth() {
-            Some(z) => classify(z[i], a),
-            None => match a {
-                Some(a) if a <= 0.0 => Sample::Outside,
-                _ => Sample::Unknown,
-            },
+        self.sampler()(i)
+    }
+
+    /// [`LayerImage::sample`] with the channels looked up once, for loops over every pixel.
+    pub fn sampler(&self) -> impl Fn(usize) -> Sample + Sync + '_ {
+        let (z, a) = (self.depth(), self.coverage());
+        move |i| {
+            let a = a.map(|a| a[i]);
+            match z {
+                Some(z) => classify(z[i], a),
+                None => match a {
+                    Some(a) if a <= 0.0 => Sample::Outside,
+                    _ => Sample::Unknown,
+                },
+            }
         }
     }
 
     /// Domain mask: `true` where the pixel belongs to the layer.
     pub fn domain(&self) -> Vec<bool> {
-        (0..self.width * self.height).map(|i| self.sample(i) != Sample::Outside).collect()
+        let sample = self.sampler();
+        (0..self.width * self.height).map(|i| sample(i) != Sample::Outside).collect()
     }
 
     /// Number of pixels inside the domain.
     pub fn occupied(&self) -> usize {
-        (0..self.width * self.height).filter(|&i| self.sample(i) != Sample::Outside).count()
+        let sample = self.sampler();
+        (0..self.width * self.height).filter(|&i| sample(i) != Sample::Outside).count()
     }
 }
 

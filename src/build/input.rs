@@ -188,7 +188,25 @@ fn open_image(path: &Path, limits: &ReadLimits) -> Result<image::DynamicImage, I
         |e: &dyn std::fmt::Display| InputError::Image { path: path.to_path_buf(), reason: e.to_string() };
     let mut reader = reader(path)?;
     reader.limits(image_limits(limits));
-    reader.decode().map_err(|e| err(&e))
+    let is_jpeg = reader.format() == Some(image::ImageFormat::Jpeg);
+    let image = reader.decode().map_err(|e| err(&e))?;
+    // The JPEG decoder fills a cut-off scan with grey rather than failing.
+    if is_jpeg && !jpeg_is_complete(&std::fs::read(path).map_err(|e| err(&e))?) {
+        return Err(err(&"the JPEG data stops before its end-of-image marker (a truncated file?); \
+                          download or export it again"));
+    }
+    Ok(image)
+}
+
+/// Whether the last scan (`FF DA`) is followed by an end-of-image marker (`FF D9`). Entropy-coded
+/// data stuffs every `FF` byte, so neither marker can occur inside a scan; a thumbnail's markers
+/// come before the main image's last scan.
+fn jpeg_is_complete(bytes: &[u8]) -> bool {
+    let marker = |m: u8| move |w: &[u8]| w == [0xFF, m];
+    let Some(sos) = bytes.windows(2).rposition(marker(0xDA)) else {
+        return false;
+    };
+    bytes[sos..].windows(2).any(marker(0xD9))
 }
 
 /// Colour as planar linear RGB f32: 8/16-bit images are decoded from sRGB unless `space` says
@@ -325,6 +343,27 @@ pub fn load(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn truncated_jpegs_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.jpg");
+        let img = image::RgbImage::from_fn(512, 256, |x, y| {
+            image::Rgb([(x * 7 % 256) as u8, ((x ^ y) % 256) as u8, (y * 13 % 256) as u8])
+        });
+        img.save(&path).unwrap();
+        let whole = std::fs::read(&path).unwrap();
+        assert!(jpeg_is_complete(&whole));
+        let limits = ReadLimits::default();
+        assert!(open_image(&path, &limits).is_ok());
+        let cut = &whole[..whole.len() * 2 / 3];
+        // The decoder alone accepts the cut file (the missing rows come out grey).
+        assert!(image::load_from_memory(cut).is_ok());
+        std::fs::write(&path, cut).unwrap();
+        let err = open_image(&path, &limits).unwrap_err();
+        assert_eq!(err.code(), "INPUT_UNREADABLE");
+        assert!(err.to_string().contains("truncated"), "{err}");
+    }
 
     /// 16-bit PNG depth without a unit is refused with the fix; with one it is read in metres.
     #[test]

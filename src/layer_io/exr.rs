@@ -56,11 +56,15 @@ pub fn read_exr(path: &Path, limits: &ReadLimits) -> Result<LayerImage, LayerIoE
 /// [`read_exr`] on bytes already in memory (`path` only names them in errors).
 pub fn read_exr_bytes(bytes: &[u8], path: &Path, limits: &ReadLimits) -> Result<LayerImage, LayerIoError> {
     let mut cursor = Cursor::new(bytes);
-    let (header, chunk_count) = parse_header(&mut cursor, path, limits)?;
+    let (header, chunks) = parse_header(&mut cursor, path, limits)?;
+    let chunk_count = chunks.count;
     let header_end = cursor.position();
     // A chunk placed past the end of the file: refuse before the decoder allocates the image.
     if let Some(reason) = truncation(bytes, header_end, chunk_count) {
         return Err(LayerIoError::Truncated { path: path.to_path_buf(), reason });
+    }
+    if let Some(reason) = misplaced_chunk(bytes, header_end, &chunks) {
+        return Err(unreadable(path, reason));
     }
     let decoded = guarded(path, || {
         xr::read()
@@ -130,12 +134,27 @@ pub fn write_exr_bytes(
     }
 }
 
-/// Parse and check the header; returns it with the part's chunk count (for truncation checks).
+/// Where the offset table starts and how many chunks it lists.
+#[cfg(test)]
+pub(super) fn offset_table_for_tests(bytes: &[u8], path: &Path) -> (usize, usize) {
+    let mut cursor = Cursor::new(bytes);
+    let (_, chunks) = parse_header(&mut cursor, path, &ReadLimits::default()).unwrap();
+    (cursor.position() as usize, chunks.count)
+}
+
+/// What the chunk checks need from the header.
+struct Chunks {
+    count: usize,
+    /// First scanline of the data window and scanlines per chunk; `None` for tiled files.
+    scanlines: Option<(i32, usize)>,
+}
+
+/// Parse and check the header; returns it with its chunk layout (for truncation checks).
 fn parse_header(
     mut reader: impl Read,
     path: &Path,
     limits: &ReadLimits,
-) -> Result<(ExrHeader, usize), LayerIoError> {
+) -> Result<(ExrHeader, Chunks), LayerIoError> {
     let mut prefix = [0u8; 8];
     if let Err(e) = reader.read_exact(&mut prefix) {
         return Err(if e.kind() == std::io::ErrorKind::UnexpectedEof {
@@ -205,7 +224,8 @@ fn parse_header(
         tiled,
         mip_levels,
     };
-    Ok((header, h.chunk_count))
+    let scanlines = (!tiled).then(|| (header.origin.1, h.compression.scan_lines_per_block()));
+    Ok((header, Chunks { count: h.chunk_count, scanlines }))
 }
 
 /// Largest file size a header can account for: all levels of raw pixels (RIP maps at most
@@ -235,6 +255,28 @@ fn truncation(bytes: &[u8], header_end: u64, chunk_count: usize) -> Option<Strin
     (beyond > 0).then(|| {
         format!("{beyond} of {chunk_count} pixel chunks start past the end of the file ({len} bytes)")
     })
+}
+
+/// A scanline chunk whose leader names another block than its place in the offset table (the
+/// table is in block order whatever the line order): OpenEXR refuses such a file
+/// (`EXR_ERR_BAD_CHUNK_LEADER`), the `exr` crate would decode it over another block and lose a line.
+/// Call after [`truncation`] found every offset inside the file.
+fn misplaced_chunk(bytes: &[u8], header_end: u64, chunks: &Chunks) -> Option<String> {
+    let (y_min, lines) = chunks.scanlines?;
+    let table = bytes.get(header_end as usize..)?.chunks_exact(8).take(chunks.count);
+    for (i, entry) in table.enumerate() {
+        let off = u64::from_le_bytes(entry.try_into().ok()?) as usize;
+        let leader = bytes.get(off..off.checked_add(4)?)?;
+        let y = i64::from(i32::from_le_bytes(leader.try_into().ok()?));
+        let expected = i64::from(y_min) + (i as i64) * lines as i64;
+        if y != expected {
+            return Some(format!(
+                "pixel chunk {i} at byte {off} says it holds scanline {y}, but its place in the offset \
+                 table is scanline {expected}; the file is corrupt"
+            ));
+        }
+    }
+    None
 }
 
 /// Run `f`, turning a panic of the decoder into an error.

@@ -492,3 +492,30 @@ fn dwa_chunk_counts_beyond_the_block_are_an_error() {
         assert_eq!(e.code(), "LAYER_UNREADABLE", "counter {counter}: {e}");
     }
 }
+
+#[test]
+fn a_chunk_relabelled_as_another_scanline_is_refused() {
+    let d = tmp();
+    let p = write(d.path(), "c.exr", &sample_layer(16, 40), Compression::Zip16);
+    let mut bytes = std::fs::read(&p).unwrap();
+    assert!(read_exr_bytes(&bytes, &p, &ReadLimits::default()).is_ok());
+    // The offset table follows the header: 3 chunks of 16 scanlines; relabel the second as line 0.
+    let (table, chunks) = super::exr::offset_table_for_tests(&bytes, &p);
+    assert_eq!(chunks, 3);
+    let second = u64::from_le_bytes(bytes[table + 8..table + 16].try_into().unwrap()) as usize;
+    assert_eq!(i32::from_le_bytes(bytes[second..second + 4].try_into().unwrap()), 16);
+    bytes[second..second + 4].copy_from_slice(&0i32.to_le_bytes());
+    let e = read_exr_bytes(&bytes, &p, &ReadLimits::default()).unwrap_err();
+    assert_eq!(e.code(), "LAYER_UNREADABLE", "{e}");
+    assert!(e.to_string().contains("scanline 0") && e.to_string().contains("scanline 16"), "{e}");
+}
+
+#[test]
+fn an_inverted_data_window_is_unreadable_not_truncated() {
+    let d = tmp();
+    let p = d.path().join("inv.exr");
+    std::fs::write(&p, handmade_header(-2, 8, 0)).unwrap();
+    let e = read_exr(&p, &ReadLimits::default()).unwrap_err();
+    assert_eq!(e.code(), "LAYER_UNREADABLE", "{e}");
+    assert_eq!(read_header(&p, &ReadLimits::default()).unwrap_err().code(), "LAYER_UNREADABLE");
+}

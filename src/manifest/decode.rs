@@ -38,7 +38,26 @@ pub fn decode(bytes: &[u8], sink: &mut Sink) -> Option<String> {
         Some(rest) => (true, rest),
         None => (false, bytes),
     };
-    let encoding = match declared_encoding(body) {
+    if body.starts_with(UTF8_BOM) {
+        let msg =
+            "the file starts with two byte-order marks; remove the second (U+FEFF is not allowed before \
+                   the XML declaration or the root element)"
+                .to_string();
+        sink.push(codes::XML_MALFORMED, start, "/", msg);
+        return None;
+    }
+    if let Some((version, offset)) = pseudo_attribute(body, b"version") {
+        if version != "1.0" {
+            let pos = Pos { line: 1, col: u32::try_from(offset + 1).unwrap_or(u32::MAX) };
+            let msg = format!(
+                "the XML declaration says version=\"{version}\"; a POMC manifest is XML 1.0: declare \
+                 <?xml version=\"1.0\" encoding=\"UTF-8\"?>"
+            );
+            sink.push(codes::XML_MALFORMED, pos, "/", msg);
+            return None;
+        }
+    }
+    let encoding = match pseudo_attribute(body, b"encoding") {
         None => Encoding::Utf8,
         Some((name, offset)) => {
             let pos = Pos { line: 1, col: u32::try_from(offset + 1).unwrap_or(u32::MAX) };
@@ -99,18 +118,18 @@ fn is_xml_space(b: u8) -> bool {
     matches!(b, b' ' | b'\t' | b'\n' | b'\r')
 }
 
-/// The `encoding` pseudo-attribute of a leading XML declaration and the byte offset of its value
-/// (the declaration is ASCII in both accepted encodings). A malformed declaration gives `None`
-/// here and an `XML_MALFORMED` from the parser.
-fn declared_encoding(body: &[u8]) -> Option<(String, usize)> {
+/// A pseudo-attribute (`version`, `encoding`) of a leading XML declaration and the byte offset of
+/// its value (the declaration is ASCII in both accepted encodings). The declaration is searched to its
+/// `?>` however much whitespace pads it. A malformed declaration gives `None` here and an
+/// `XML_MALFORMED` from the parser.
+fn pseudo_attribute(body: &[u8], key: &[u8]) -> Option<(String, usize)> {
     let after = body.strip_prefix(b"<?xml")?;
     if !after.first().is_some_and(|&b| is_xml_space(b)) {
         return None;
     }
-    let end = body.windows(2).take(1024).position(|w| w == b"?>")?;
+    let end = body.windows(2).position(|w| w == b"?>")?;
     let decl = &body[..end];
-    let key = decl.windows(8).position(|w| w == b"encoding")?;
-    let mut i = key + 8;
+    let mut i = decl.windows(key.len()).position(|w| w == key)? + key.len();
     while decl.get(i).is_some_and(|&b| is_xml_space(b)) {
         i += 1;
     }
@@ -159,5 +178,18 @@ mod tests {
         );
         assert_eq!(run(b"\xFF\xFE<\x00a\x00/\x00>\x00").1, [codes::XML_ENCODING_UNSUPPORTED]);
         assert_eq!(run(b"<a n=\"\xE9\"/>").1, [codes::XML_ENCODING_INVALID]);
+    }
+
+    #[test]
+    fn padded_declarations_double_marks_and_xml_1_1_are_caught() {
+        let mut padded = b"<?xml version=\"1.0\"".to_vec();
+        padded.extend(vec![b' '; 4000]);
+        padded.extend(b"encoding=\"iso-8859-1\"?><a n=\"\xE9\"/>");
+        let (t, c) = run(&padded);
+        assert!(c.is_empty(), "{c:?}");
+        assert!(t.unwrap().ends_with("<a n=\"é\"/>"));
+        assert_eq!(run(b"\xEF\xBB\xBF\xEF\xBB\xBF<a/>").1, [codes::XML_MALFORMED]);
+        assert_eq!(run(b"<?xml version=\"1.1\"?><a/>").1, [codes::XML_MALFORMED]);
+        assert_eq!(run(b"<?xml version='1.0'?><a/>").1, Vec::<&str>::new());
     }
 }

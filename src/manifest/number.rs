@@ -98,13 +98,13 @@ pub fn float(s: &str) -> Result<f64, NumberError> {
     floats::<1>(s).map(|[v]| v)
 }
 
-/// A non-negative decimal integer that fits in 32 bits (surrounding XML whitespace allowed).
+/// A non-negative decimal integer that fits in 32 bits: digits only, no sign, exponent or
+/// surrounding spaces (spec 2.2).
 pub fn uint(s: &str) -> Result<u32, NumberError> {
-    let t = s.trim_matches(|c| matches!(c, ' ' | '\t' | '\n' | '\r'));
-    if t.is_empty() || !t.bytes().all(|b| b.is_ascii_digit()) {
-        return Err(NumberError::Garbage(t.to_string()));
+    if s.is_empty() || !s.bytes().all(|b| b.is_ascii_digit()) {
+        return Err(NumberError::Garbage(s.to_string()));
     }
-    t.parse::<u32>().map_err(|_| NumberError::NotFinite(t.to_string()))
+    s.parse::<u32>().map_err(|_| NumberError::NotFinite(s.to_string()))
 }
 
 #[cfg(test)]
@@ -131,7 +131,8 @@ mod tests {
 
     #[test]
     fn integers_are_plain_decimal() {
-        assert_eq!(uint(" 2048 "), Ok(2048));
+        assert_eq!(uint("2048"), Ok(2048));
+        assert!(uint(" 512 ").is_err());
         assert!(uint("-1").is_err());
         assert!(uint("+1").is_err());
         assert!(uint("1.0").is_err());

@@ -165,19 +165,26 @@ fn write_files(
 ) -> Result<Manifest, Error> {
     std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
     let mut out = manifest.clone();
-    // Layers are packed and encoded in parallel (each EXR encode is parallel too, but packing and
-    // the small layers are not).
-    let written: Vec<Result<(String, Option<Packing>), Error>> = out
+    // Every destination is checked before the first write: a name that escapes through a
+    // symbolic link must not leave a half-written panorama behind.
+    let files = out
         .layers
-        .par_iter()
-        .zip(layers)
+        .iter()
         .enumerate()
-        .map(|(k, (decl, image))| {
+        .map(|(k, decl)| {
             let file = match &decl.source {
                 LayerSource::Native { file } => file.clone(),
                 LayerSource::Thesis { .. } => format!("layer{k}.exr"),
             };
-            let path = inside(dir, &file)?;
+            inside(dir, &file).map(|path| (file, path))
+        })
+        .collect::<Result<Vec<_>, Error>>()?;
+    // Layers are packed and encoded in parallel (each EXR encode is parallel too, but packing and
+    // the small layers are not).
+    let written: Vec<Result<(String, Option<Packing>), Error>> = files
+        .into_par_iter()
+        .zip(layers)
+        .map(|((file, path), image)| {
             let canvas = image.width as f64 * image.height as f64;
             // An atlas never holds fewer pixels than the domain: a layer fuller than the
             // threshold is not worth cutting up.
@@ -280,6 +287,25 @@ mod tests {
             .collect();
         v.sort();
         v
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn an_escaping_symlink_stops_the_write_before_any_file() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        std::fs::create_dir(&out).unwrap();
+        // A foreign file keeps the write in place, where the symlink is in the way.
+        std::fs::write(out.join("input.png"), b"x").unwrap();
+        std::fs::write(root.path().join("elsewhere.exr"), b"keep").unwrap();
+        std::os::unix::fs::symlink(root.path().join("elsewhere.exr"), out.join("b.exr")).unwrap();
+        let (mut m, mut l) = pano("a.exr", 2.0);
+        m.layers.push(LayerDecl::native("b.exr"));
+        l.push(l[0].clone());
+        let e = write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap_err();
+        assert_eq!(e.code(), "LAYER_PATH_ESCAPES", "{e}");
+        assert_eq!(names(&out), ["b.exr", "input.png"]);
+        assert_eq!(std::fs::read(root.path().join("elsewhere.exr")).unwrap(), b"keep");
     }
 
     #[test]

@@ -292,6 +292,7 @@ fn check_pixels(
     let mut t = PixelTallies::default();
     let colour: Vec<&[f32]> =
         ["R", "G", "B"].iter().filter_map(|c| image.channel(c).map(|c| c.data.as_slice())).collect();
+    let sample = image.sampler();
     for i in 0..n {
         if let Some(a) = a {
             let av = a[i];
@@ -301,7 +302,7 @@ fn check_pixels(
                 t.mask_disagree.add(i, w);
             }
         }
-        match image.sample(i) {
+        match sample(i) {
             Sample::Outside => continue,
             Sample::Unknown => t.nan.add(i, w),
             Sample::Infinite => {}
@@ -395,8 +396,9 @@ fn check_normals(image: &LayerImage, options: &ValidateOptions, loc: &str, issue
         return;
     };
     let mut bad = Tally::default();
+    let sample = image.sampler();
     for i in 0..image.width * image.height {
-        if image.sample(i) == Sample::Outside {
+        if sample(i) == Sample::Outside {
             continue;
         }
         let len = (nx.data[i].powi(2) + ny.data[i].powi(2) + nz.data[i].powi(2)).sqrt();
@@ -427,7 +429,8 @@ fn check_continuity(
 ) {
     let (w, h) = (image.width, image.height);
     let nb = Neighbours::new(*mapping);
-    let depth = |i: usize| match image.sample(i) {
+    let sample = image.sampler();
+    let depth = |i: usize| match sample(i) {
         Sample::Surface(d) if d > 0.0 => Some(d as f64),
         Sample::Infinite => Some(f64::INFINITY),
         _ => None,
@@ -445,16 +448,14 @@ fn check_continuity(
                 for k in 0..4 {
                     let Some(q) = nb.get_at(x, y, k).filter(|&q| q > i) else { continue };
                     let Some(b) = depth(q) else { continue };
+                    // The plain step test first: the plane test's two extra lookups are rarely needed.
+                    let (jump, planar) = (options.jump_threshold, continuity::PLANAR);
+                    if continuity::continuous(a, b, None, None, jump, planar) {
+                        continue;
+                    }
                     let behind = nb.get_at(x, y, opposite(k)).and_then(depth);
                     let beyond = nb.get2_at(x, y, k).and_then(depth);
-                    if !continuity::continuous(
-                        a,
-                        b,
-                        behind,
-                        beyond,
-                        options.jump_threshold,
-                        continuity::PLANAR,
-                    ) {
+                    if !continuity::continuous(a, b, behind, beyond, jump, planar) {
                         count += 1;
                         first = first.min(i);
                     }
@@ -495,9 +496,12 @@ fn check_coverage(name: &str, domains: &[(AnyMapping, Vec<bool>)], issues: &mut 
             let mut count = 0;
             let mut first = usize::MAX;
             for x in 0..w {
-                let d = fm.pixel_dir(x, y);
+                // A layer on the finest layer's canvas is looked up by pixel, the others by direction.
                 let covered = domains.iter().any(|(m, dom)| {
-                    let (i, j) = m.pixel_of(d);
+                    if m == fm {
+                        return dom[y * w + x];
+                    }
+                    let (i, j) = m.pixel_of(fm.pixel_dir(x, y));
                     dom[j * m.width() + i]
                 });
                 if !covered {

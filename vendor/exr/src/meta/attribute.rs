@@ -944,8 +944,12 @@ impl IntegerBounds {
         let x_max = i32::read_le(read)?;
         let y_max = i32::read_le(read)?;
 
-        let min = Vec2(x_min.min(x_max), y_min.min(y_max));
-        let max = Vec2(x_min.max(x_max), y_min.max(y_max));
+        // pomc patch: OpenEXR refuses an inverted box; swapping min and max reads another window.
+        if x_max < x_min || y_max < y_min {
+            return Err(Error::invalid("box2i: max is less than min (an inverted data or display window)"));
+        }
+        let min = Vec2(x_min, y_min);
+        let max = Vec2(x_max, y_max);
 
         // prevent addition overflow
         Self::validate_min_max_u64(
