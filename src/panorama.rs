@@ -14,7 +14,7 @@ use crate::layer_io::{self, ReadLimits};
 use crate::manifest::{self, LayerDecl, LayerSource, Manifest};
 use crate::pack::{self, PackedLayer};
 
-pub use save::{write_panorama, SaveOptions};
+pub use save::{write_panorama, write_panorama_with, SaveOptions};
 
 /// File name of the manifest inside a panorama directory.
 pub const MANIFEST_NAME: &str = "panorama.xml";

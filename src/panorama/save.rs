@@ -54,7 +54,24 @@ pub fn write_panorama(
     layers: &[LayerImage],
     options: &SaveOptions,
 ) -> Result<Manifest, Error> {
-    save(dir, manifest, layers, options, None)
+    save(dir, manifest, &Layers::Given(layers), options, None)
+}
+
+/// [`write_panorama`] with each layer made on demand by `layer(k)` and dropped once written: one
+/// layer in memory at a time, however many the panorama has (`convert` resamples this way).
+pub fn write_panorama_with(
+    dir: &Path,
+    manifest: &Manifest,
+    layer: &(dyn Fn(usize) -> Result<LayerImage, Error> + Sync),
+    options: &SaveOptions,
+) -> Result<Manifest, Error> {
+    save(dir, manifest, &Layers::Made(layer), options, None)
+}
+
+/// Where [`write_files`] takes the layers from.
+enum Layers<'a> {
+    Given(&'a [LayerImage]),
+    Made(&'a (dyn Fn(usize) -> Result<LayerImage, Error> + Sync)),
 }
 
 impl Panorama {
@@ -62,14 +79,14 @@ impl Panorama {
     /// gives them) into `dir`, which may be this panorama's own directory, like
     /// [`write_panorama`]; stored meshes are copied along with their `<Mesh>` references.
     pub fn save(&self, dir: &Path, layers: &[LayerImage], options: &SaveOptions) -> Result<Manifest, Error> {
-        save(dir, &self.manifest, layers, options, Some(&self.dir))
+        save(dir, &self.manifest, &Layers::Given(layers), options, Some(&self.dir))
     }
 }
 
 fn save(
     dir: &Path,
     manifest: &Manifest,
-    layers: &[LayerImage],
+    layers: &Layers,
     options: &SaveOptions,
     meshes_from: Option<&Path>,
 ) -> Result<Manifest, Error> {
@@ -159,7 +176,7 @@ fn remove_temp_files(dir: &Path) {
 fn write_files(
     dir: &Path,
     manifest: &Manifest,
-    layers: &[LayerImage],
+    layers: &Layers,
     options: &SaveOptions,
     meshes_from: Option<&Path>,
 ) -> Result<Manifest, Error> {
@@ -179,41 +196,58 @@ fn write_files(
             inside(dir, &file).map(|path| (file, path))
         })
         .collect::<Result<Vec<_>, Error>>()?;
-    // Layers are packed and encoded in parallel (each EXR encode is parallel too, but packing and
-    // the small layers are not).
-    let written: Vec<Result<(String, Option<Packing>), Error>> = files
-        .into_par_iter()
-        .zip(layers)
-        .map(|((file, path), image)| {
-            let canvas = image.width as f64 * image.height as f64;
-            // An atlas never holds fewer pixels than the domain: a layer fuller than the
-            // threshold is not worth cutting up.
-            let worth_packing = options.pack
-                && (image.domain().iter().filter(|&&m| m).count() as f64) <= options.pack_threshold * canvas;
-            let packed =
-                if worth_packing { Some(pack::pack_layer(image, &options.pack_options)?) } else { None };
-            match packed {
-                Some(p) if (p.atlas_area() as f64) <= options.pack_threshold * canvas => {
-                    layer_io::write_exr(&path, &p.atlas, &options.exr)?;
-                    let packing = Packing {
-                        atlas_width: p.atlas.width as u32,
-                        atlas_height: p.atlas.height as u32,
-                        patches: p.patches,
-                    };
-                    Ok((file, Some(packing)))
-                }
-                _ => {
-                    layer_io::write_exr(&path, image, &options.exr)?;
-                    Ok((file, None))
-                }
+    if let Layers::Given(given) = layers {
+        if given.len() != files.len() {
+            let (index, count) = (given.len().min(files.len()), given.len());
+            let manifest = dir.join(MANIFEST_NAME);
+            return Err(PanoramaError::NoSuchLayer { manifest, index, count }.into());
+        }
+    }
+    let write_one = |k: usize, file: String, path: &Path| -> Result<Written, Error> {
+        let made;
+        let image = match layers {
+            Layers::Given(given) => &given[k],
+            Layers::Made(make) => {
+                made = make(k)?;
+                &made
             }
-        })
-        .collect();
-    for ((decl, image), result) in out.layers.iter_mut().zip(layers).zip(written) {
-        let (file, packing) = result?;
+        };
+        let canvas = image.width as f64 * image.height as f64;
+        // An atlas never holds fewer pixels than the domain: a layer fuller than the
+        // threshold is not worth cutting up.
+        let worth_packing = options.pack
+            && (image.domain().iter().filter(|&&m| m).count() as f64) <= options.pack_threshold * canvas;
+        let packed = if worth_packing { Some(pack::pack_layer(image, &options.pack_options)?) } else { None };
+        let packing = match packed {
+            Some(p) if (p.atlas_area() as f64) <= options.pack_threshold * canvas => {
+                layer_io::write_exr(path, &p.atlas, &options.exr)?;
+                Some(Packing {
+                    atlas_width: p.atlas.width as u32,
+                    atlas_height: p.atlas.height as u32,
+                    patches: p.patches,
+                })
+            }
+            _ => {
+                layer_io::write_exr(path, image, &options.exr)?;
+                None
+            }
+        };
+        Ok(Written { file, size: (image.width as u32, image.height as u32), packing })
+    };
+    // Given layers are packed and encoded in parallel (each EXR encode is parallel too, but packing
+    // and the small layers are not); made ones one after another, to hold one at a time.
+    let jobs = files.into_iter().enumerate();
+    let written: Vec<Result<Written, Error>> = match layers {
+        Layers::Given(_) => {
+            jobs.collect::<Vec<_>>().into_par_iter().map(|(k, (f, p))| write_one(k, f, &p)).collect()
+        }
+        Layers::Made(_) => jobs.map(|(k, (f, p))| write_one(k, f, &p)).collect(),
+    };
+    for (decl, result) in out.layers.iter_mut().zip(written) {
+        let Written { file, size, packing } = result?;
         decl.source = LayerSource::Native { file };
-        decl.width = Some(image.width as u32);
-        decl.height = Some(image.height as u32);
+        decl.width = Some(size.0);
+        decl.height = Some(size.1);
         decl.packing = packing;
         let copied = match (&decl.mesh, meshes_from) {
             (Some(m), Some(from)) => copy_mesh(from, dir, &m.file)?,
@@ -225,6 +259,13 @@ fn write_files(
     }
     fsutil::write_bytes_atomic(&dir.join(MANIFEST_NAME), out.to_xml().as_bytes())?;
     Ok(out)
+}
+
+/// What writing one layer gives the manifest.
+struct Written {
+    file: String,
+    size: (u32, u32),
+    packing: Option<Packing>,
 }
 
 fn inside(dir: &Path, file: &str) -> Result<std::path::PathBuf, Error> {
@@ -287,6 +328,29 @@ mod tests {
             .collect();
         v.sort();
         v
+    }
+
+    #[test]
+    fn layers_made_on_demand_are_written_like_given_ones() {
+        let root = tempfile::tempdir().unwrap();
+        let (mut m, mut l) = pano("a.exr", 2.0);
+        m.layers.push(LayerDecl::native("b.exr"));
+        l.push(pano("b.exr", 3.0).1.remove(0));
+        let given = write_panorama(&root.path().join("given"), &m, &l, &SaveOptions::default()).unwrap();
+        let made = write_panorama_with(
+            &root.path().join("made"),
+            &m,
+            &|k| Ok(l[k].clone()),
+            &SaveOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(given.to_xml(), made.to_xml());
+        for f in ["a.exr", "b.exr", "panorama.xml"] {
+            let read = |d: &str| std::fs::read(root.path().join(d).join(f)).unwrap();
+            assert_eq!(read("given"), read("made"), "{f}");
+        }
+        let short = write_panorama(&root.path().join("short"), &m, &l[..1], &SaveOptions::default());
+        assert_eq!(short.unwrap_err().code(), "PANORAMA_NO_SUCH_LAYER");
     }
 
     #[cfg(unix)]

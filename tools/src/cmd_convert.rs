@@ -368,24 +368,37 @@ fn run_panorama(args: &Args, out: Output, total: Instant) -> Result<u8, Failure>
     };
     let count = pano.manifest.layers.len();
     let bar = out.progress(count as u64, "converting");
-    let mut images = Vec::with_capacity(count);
-    let mut sizes = (0, 0, 0, 0);
-    for k in 0..count {
-        let layer = pano.read_layer(k, &ReadLimits::default())?;
-        let (from, to, size) = plan(args, layer.width, layer.height)?;
-        let converted = resample::convert_layer(&layer, from, to, size, &opts)
-            .map_err(|e| fail(e.code(), format!("{}: layer {k}: {e}", args.input.display())))?;
-        sizes = (layer.width, layer.height, converted.width, converted.height);
-        images.push(converted);
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
+    let sizes = std::sync::Mutex::new((0, 0, 0, 0));
     let mut manifest = pano.manifest.clone();
     manifest.mapping.kind = target;
     for decl in &mut manifest.layers {
         decl.packing = None;
     }
-    panorama::write_panorama(&args.output, &manifest, &images, &SaveOptions::default())?;
+    // One layer in memory at a time: read, resample, write, drop. A size the command refuses is
+    // kept here (the library's error type has no place for it) and reported instead.
+    let refused = std::sync::Mutex::new(None);
+    let convert = |k: usize| -> Result<pomc::layer::LayerImage, pomc::Error> {
+        let layer = pano.read_layer(k, &ReadLimits::default())?;
+        let (from, to, size) = plan(args, layer.width, layer.height).map_err(|f| {
+            if let Ok(mut r) = refused.lock() {
+                *r = Some(f);
+            }
+            pomc::Error::from(resample::ResampleError::Unsupported)
+        })?;
+        let converted = resample::convert_layer(&layer, from, to, size, &opts)?;
+        if let Ok(mut s) = sizes.lock() {
+            *s = (layer.width, layer.height, converted.width, converted.height);
+        }
+        bar.inc(1);
+        Ok(converted)
+    };
+    let written = panorama::write_panorama_with(&args.output, &manifest, &convert, &SaveOptions::default());
+    if let Some(f) = refused.into_inner().ok().flatten() {
+        return Err(f);
+    }
+    written?;
+    bar.finish_and_clear();
+    let sizes = sizes.into_inner().unwrap_or_default();
     out.json(&serde_json::json!({
         "kind": "panorama", "input": args.input, "output": args.output,
         "to": target.primary_name(), "layers": count,
