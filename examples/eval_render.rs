@@ -233,7 +233,7 @@ fn bench_mesh(layers: &[RenderLayer]) -> Res<()> {
     let mut geoms: Vec<LayerGeometry> = Vec::new();
     for (k, l) in layers.iter().enumerate() {
         let t = Instant::now();
-        let m = mesh::mesh_layer(l.image, &l.mapping, &MeshParams::default())?;
+        let m = mesh::mesh_layer(l.image, &l.mapping, &MeshParams::quadtree())?;
         let mesh_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let g = LayerGeometry::new(k, m.mesh, l, o.jump)?;
@@ -248,7 +248,7 @@ fn bench_mesh(layers: &[RenderLayer]) -> Res<()> {
         geoms.push(g);
     }
     let t = Instant::now();
-    let again = rasterize::mesh_layers(layers, &MeshParams::default(), &o)?;
+    let again = rasterize::mesh_layers(layers, &MeshParams::quadtree(), &o)?;
     println!("mesh stage (both layers in parallel): {:.3} s", t.elapsed().as_secs_f64());
     drop(again);
     for (eye, at) in [

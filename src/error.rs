@@ -24,6 +24,8 @@ pub enum Error {
     Mesh(#[from] crate::mesh::MeshError),
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
+    #[error(transparent)]
+    Image(#[from] crate::image_io::ImageIoError),
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -45,6 +47,7 @@ impl Error {
             Error::Input(e) => e.code(),
             Error::Mesh(e) => e.code(),
             Error::Render(e) => e.code(),
+            Error::Image(e) => e.code(),
             Error::Io { .. } => "IO_ERROR",
         }
     }

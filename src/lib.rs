@@ -15,13 +15,21 @@
 //! - [`validate`]: the validator and its stable codes;
 //! - [`raster`]: the plain interleaved image container used everywhere;
 //! - [`render`]: views from a displaced camera by point splatting (spec §9);
-//! - [`fsutil`]: atomic writes and bounded reads.
+//! - [`build`]: layers from a plain RGB-D panorama (spec §7);
+//! - [`mesh`]: adaptive quadtree meshes and their export (spec §8);
+//! - [`fsutil`]: atomic writes and bounded reads;
+//! - [`jobs`] and [`prelude`]: the main jobs, one call each, with the command line's defaults.
+
+#![forbid(unsafe_code)]
 
 pub mod build;
+pub mod codes;
 pub mod colour;
 pub mod continuity;
 pub mod error;
 pub mod fsutil;
+pub mod image_io;
+pub mod jobs;
 pub mod layer;
 pub mod layer_io;
 pub mod manifest;
@@ -29,6 +37,7 @@ pub mod mapping;
 pub mod mesh;
 pub mod pack;
 pub mod panorama;
+pub mod prelude;
 pub mod raster;
 pub mod render;
 pub mod resample;

@@ -43,10 +43,10 @@ impl PanoramaError {
     pub fn code(&self) -> &'static str {
         match self {
             PanoramaError::NotFound { .. } => "PANORAMA_NOT_FOUND",
-            PanoramaError::PathEscapes { .. } => "LAYER_PATH_ESCAPES",
+            PanoramaError::PathEscapes { .. } => crate::codes::LAYER_PATH_ESCAPES,
             PanoramaError::NoSuchLayer { .. } => "PANORAMA_NO_SUCH_LAYER",
-            PanoramaError::SizeMismatch { .. } => "LAYER_SIZE_MISMATCH",
-            PanoramaError::PackedWithoutCanvas { .. } => "PATCH_CANVAS_UNDECLARED",
+            PanoramaError::SizeMismatch { .. } => crate::codes::LAYER_SIZE_MISMATCH,
+            PanoramaError::PackedWithoutCanvas { .. } => crate::codes::PATCH_CANVAS_UNDECLARED,
             PanoramaError::OutputNotDirectory { .. } => "OUTPUT_NOT_DIRECTORY",
         }
     }

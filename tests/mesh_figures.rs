@@ -22,7 +22,7 @@ fn background(n: usize) -> (AnyMapping, pomc::layer::LayerImage) {
 fn thesis_reproduction_cube_1024() {
     let (m, bg) = background(1024);
     let uniform =
-        mesh::mesh_layer(&bg, &m, &MeshParams { uniform: Some(1), ..MeshParams::default() }).unwrap();
+        mesh::mesh_layer(&bg, &m, &MeshParams { uniform: Some(1), ..MeshParams::quadtree() }).unwrap();
     let nu = uniform.mesh.triangles.len();
     for (name, p) in [
         ("pomc mesh default: max-error 0.005 + max-angle 20, simplified", simplified(0.005, Some(20.0))),
@@ -34,11 +34,11 @@ fn thesis_reproduction_cube_1024() {
             }
             p
         }),
-        ("max-error 0.005 + max-angle 20", MeshParams::default()),
-        ("max-error 0.005", MeshParams { max_angle_deg: None, ..MeshParams::default() }),
+        ("max-error 0.005 + max-angle 20", MeshParams::quadtree()),
+        ("max-error 0.005", MeshParams { max_angle_deg: None, ..MeshParams::quadtree() }),
         (
             "thesis: feature 10deg + max-angle 20",
-            MeshParams { max_error: None, feature_angle_deg: Some(10.0), ..MeshParams::default() },
+            MeshParams { max_error: None, feature_angle_deg: Some(10.0), ..MeshParams::quadtree() },
         ),
     ] {
         let t = Instant::now();
@@ -74,7 +74,7 @@ fn timing_cube_2048() {
     let (m, bg) = background(2048);
     // `pomc mesh` defaults: --max-error 0.005 --max-angle 20, simplified; then --no-simplify.
     let cli = simplified(0.005, Some(20.0));
-    let raw = MeshParams::default();
+    let raw = MeshParams::quadtree();
     for (name, p) in [("default (simplified)", &cli), ("--no-simplify", &raw)] {
         for _ in 0..3 {
             let t = Instant::now();
@@ -95,7 +95,7 @@ fn simplified(e: f64, max_angle_deg: Option<f64>) -> MeshParams {
         max_error: Some(e),
         max_angle_deg,
         simplify: Some(SimplifyParams { max_error: e, max_angle_deg, greedy: true }),
-        ..MeshParams::default()
+        ..MeshParams::quadtree()
     }
 }
 
@@ -117,7 +117,7 @@ fn sweep_max_error() {
         .map(|v| v.split(',').filter_map(|e| e.parse().ok()).collect())
         .unwrap_or_else(|_| vec![0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002, 0.0001]);
     for e in es {
-        let raw = MeshParams { max_error: Some(e), max_angle_deg: None, ..MeshParams::default() };
+        let raw = MeshParams { max_error: Some(e), max_angle_deg: None, ..MeshParams::quadtree() };
         let mut collapse = simplified(e, None);
         if let Some(s) = collapse.simplify.as_mut() {
             s.greedy = false;

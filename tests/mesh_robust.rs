@@ -81,20 +81,20 @@ proptest! {
     fn cube_layers_never_panic(n in 1usize..7, seed in proptest::collection::vec(depth(), 6 * 6 * 6)) {
         let m = AnyMapping::Cube(Cube3x2::new(3 * n, 2 * n).unwrap());
         let z: Vec<f32> = (0..6 * n * n).map(|i| seed[i % seed.len()]).collect();
-        check(m, z, &MeshParams::default());
+        check(m, z, &MeshParams::quadtree());
     }
 
     #[test]
     fn equirect_layers_never_panic(h in 1usize..7, seed in proptest::collection::vec(depth(), 72)) {
         let m = AnyMapping::Equirect(Equirect::new(2 * h, h).unwrap());
         let z: Vec<f32> = (0..2 * h * h).map(|i| seed[i % seed.len()]).collect();
-        check(m, z, &MeshParams { feature_angle_deg: Some(5.0), ..MeshParams::default() });
+        check(m, z, &MeshParams { feature_angle_deg: Some(5.0), ..MeshParams::quadtree() });
     }
 }
 
 #[test]
 fn empty_domain_gives_an_empty_mesh() {
     let m = AnyMapping::Cube(Cube3x2::new(24, 16).unwrap());
-    check(m, vec![-1.0; 24 * 16], &MeshParams::default());
-    check(m, vec![f32::NAN; 24 * 16], &MeshParams { uniform: Some(2), ..MeshParams::default() });
+    check(m, vec![-1.0; 24 * 16], &MeshParams::quadtree());
+    check(m, vec![f32::NAN; 24 * 16], &MeshParams { uniform: Some(2), ..MeshParams::quadtree() });
 }

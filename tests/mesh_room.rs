@@ -53,7 +53,7 @@ fn assert_closed(m: &LayerMesh) {
 fn cube_background_is_watertight_and_within_bound() {
     let m = cube(48);
     let (bg, _) = room(&m);
-    let p = MeshParams { max_error: Some(0.005), ..MeshParams::default() };
+    let p = MeshParams { max_error: Some(0.005), ..MeshParams::quadtree() };
     let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
     assert_closed(&out.mesh);
     for t in out.trees.iter().flatten() {
@@ -70,7 +70,7 @@ fn cube_background_is_watertight_and_within_bound() {
 fn equirect_background_is_watertight_across_seam_and_poles() {
     let m = equirect(40);
     let (bg, _) = room(&m);
-    let out = mesh::mesh_layer(&bg, &m, &MeshParams::default()).unwrap();
+    let out = mesh::mesh_layer(&bg, &m, &MeshParams::quadtree()).unwrap();
     assert_closed(&out.mesh);
     assert!(out.mesh.positions.iter().all(|p| p.is_finite()));
     let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
@@ -82,7 +82,7 @@ fn equirect_background_is_watertight_across_seam_and_poles() {
 fn uniform_step_one_is_the_full_4_8_mesh() {
     let m = cube(12);
     let (bg, _) = room(&m);
-    let p = MeshParams { uniform: Some(1), ..MeshParams::default() };
+    let p = MeshParams { uniform: Some(1), ..MeshParams::quadtree() };
     let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
     assert_closed(&out.mesh);
     let per_face = 11 * 11 * 2;
@@ -94,7 +94,7 @@ fn uniform_step_one_is_the_full_4_8_mesh() {
 fn objects_layer_follows_the_mask_and_never_bridges_jumps() {
     for m in [cube(40), equirect(40)] {
         let (_, obj) = room(&m);
-        let out = mesh::mesh_layer(&obj, &m, &MeshParams::default()).unwrap();
+        let out = mesh::mesh_layer(&obj, &m, &MeshParams::quadtree()).unwrap();
         assert!(!out.mesh.triangles.is_empty());
         assert!(edge_counts(&out.mesh).values().all(|&c| c <= 2));
         let z = obj.depth().unwrap();
@@ -120,8 +120,8 @@ fn meshing_is_deterministic_and_decodes_to_the_same_triangles() {
     for m in [cube(32), equirect(32)] {
         let (bg, obj) = room(&m);
         for layer in [&bg, &obj] {
-            let a = mesh::mesh_layer(layer, &m, &MeshParams::default()).unwrap();
-            let b = mesh::mesh_layer(layer, &m, &MeshParams::default()).unwrap();
+            let a = mesh::mesh_layer(layer, &m, &MeshParams::quadtree()).unwrap();
+            let b = mesh::mesh_layer(layer, &m, &MeshParams::quadtree()).unwrap();
             assert!(a.mesh == b.mesh, "two runs differ");
             let bytes = encode::encode(&a.trees, &m).unwrap();
             let back = encode::decode(&bytes, layer, &m).unwrap();
@@ -138,7 +138,7 @@ fn thesis_normal_test_alone_meshes_planar_walls_coarsely() {
         max_error: None,
         feature_angle_deg: Some(10.0),
         max_angle_deg: None,
-        ..MeshParams::default()
+        ..MeshParams::quadtree()
     };
     let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
     assert_closed(&out.mesh);
@@ -158,7 +158,7 @@ fn estimated_normals_find_the_same_creases_either_way() {
             feature_angle_deg: Some(10.0),
             normal_weighting: w,
             max_angle_deg: None,
-            ..MeshParams::default()
+            ..MeshParams::quadtree()
         };
         let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
         assert_closed(&out.mesh);
@@ -171,13 +171,13 @@ fn estimated_normals_find_the_same_creases_either_way() {
 fn bad_inputs_are_typed_errors() {
     let m = cube(8);
     let img = LayerImage::new(24, 16);
-    assert_eq!(mesh::mesh_layer(&img, &m, &MeshParams::default()).unwrap_err().code(), "MESH_NO_DEPTH");
+    assert_eq!(mesh::mesh_layer(&img, &m, &MeshParams::quadtree()).unwrap_err().code(), "MESH_NO_DEPTH");
     let img = LayerImage::new(10, 10);
     assert_eq!(
-        mesh::mesh_layer(&img, &m, &MeshParams::default()).unwrap_err().code(),
+        mesh::mesh_layer(&img, &m, &MeshParams::quadtree()).unwrap_err().code(),
         "MESH_CANVAS_MISMATCH"
     );
-    let p = MeshParams { max_error: Some(f64::NAN), ..MeshParams::default() };
+    let p = MeshParams { max_error: Some(f64::NAN), ..MeshParams::quadtree() };
     let (bg, _) = room(&m);
     assert_eq!(mesh::mesh_layer(&bg, &m, &p).unwrap_err().code(), "MESH_PARAMS_INVALID");
     assert_eq!(encode::decode(b"nonsense", &bg, &m).unwrap_err().code(), "MESH_ENCODING_INVALID");
@@ -195,7 +195,7 @@ fn simplified_with(e: f64, greedy: bool) -> MeshParams {
         max_error: Some(e),
         max_angle_deg: None,
         simplify: Some(SimplifyParams { max_error: e, max_angle_deg: None, greedy }),
-        ..MeshParams::default()
+        ..MeshParams::quadtree()
     }
 }
 
@@ -361,7 +361,7 @@ fn default_meshes_respect_the_angle_cap() {
         let (bg, _) = room(&m);
         let p = MeshParams {
             simplify: Some(SimplifyParams { max_error: 0.005, max_angle_deg: Some(20.0), greedy: true }),
-            ..MeshParams::default()
+            ..MeshParams::quadtree()
         };
         let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
         assert_closed(&out.mesh);

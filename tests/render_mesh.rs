@@ -28,7 +28,7 @@ impl Pano {
         let built = build::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
         let layers: Vec<LayerImage> = built.layers.into_iter().map(|l| l.image).collect();
         let refs: Vec<RenderLayer> = layers.iter().map(|image| RenderLayer { image, mapping }).collect();
-        let meshes = rasterize::mesh_layers(&refs, &MeshParams::default(), &MeshOptions::default()).unwrap();
+        let meshes = rasterize::mesh_layers(&refs, &MeshParams::quadtree(), &MeshOptions::default()).unwrap();
         Pano { mapping, layers, meshes }
     }
 
@@ -178,7 +178,7 @@ fn sphere_layer(m: &AnyMapping, r: f32) -> LayerImage {
 
 fn render_one(img: &LayerImage, m: AnyMapping, cam: &Camera, o: &MeshOptions) -> MeshRendered {
     let layers = [RenderLayer { image: img, mapping: m }];
-    let g = rasterize::mesh_layers(&layers, &MeshParams::default(), o).unwrap();
+    let g = rasterize::mesh_layers(&layers, &MeshParams::quadtree(), o).unwrap();
     let r = rasterize::render_mesh(&layers, &g, DMat4::IDENTITY, cam, o).unwrap();
     no_nan(&r.frame);
     r
@@ -271,7 +271,7 @@ fn triangles_across_depth_jumps_are_not_drawn() {
     let z: Vec<f32> = (0..256 * 128).map(|p| if p % 256 < 128 { 2.0 } else { 2.5 }).collect();
     img.set_channel("Z", SampleType::F32, z);
     let layers = [RenderLayer { image: &img, mapping: m }];
-    let mesh = pomc::mesh::mesh_layer(&img, &m, &MeshParams::default()).unwrap().mesh;
+    let mesh = pomc::mesh::mesh_layer(&img, &m, &MeshParams::quadtree()).unwrap().mesh;
     let g = LayerGeometry::new(0, mesh.clone(), &layers[0], 0.1).unwrap();
     assert!(g.jump_triangles > 0, "the mesh should join the two halves");
     // Looking at the step at azimuth 0 from an eye moved towards −Y: between the far half's
@@ -474,19 +474,19 @@ fn bad_input_is_a_typed_error() {
     let cam = persp(DVec3::ZERO, DVec3::X);
     let layers = [RenderLayer { image: &img, mapping: m }];
     let o = MeshOptions::default();
-    let e = rasterize::mesh_layers(&layers, &MeshParams::default(), &o).unwrap_err();
+    let e = rasterize::mesh_layers(&layers, &MeshParams::quadtree(), &o).unwrap_err();
     assert_eq!(e.code(), "RENDER_LAYER_CHANNEL");
     let bad = MeshOptions { jump: f64::NAN, ..o };
     assert_eq!(
         rasterize::render_mesh(&[], &[], DMat4::IDENTITY, &cam, &bad).unwrap_err().code(),
         "RENDER_BAD_OPTIONS"
     );
-    let bad = MeshParams { max_error: Some(-1.0), ..MeshParams::default() };
+    let bad = MeshParams { max_error: Some(-1.0), ..MeshParams::quadtree() };
     let good = sphere_layer(&m, 1.0);
     let layers = [RenderLayer { image: &good, mapping: m }];
     assert_eq!(rasterize::mesh_layers(&layers, &bad, &o).unwrap_err().code(), "RENDER_BAD_OPTIONS");
     // Meshes that do not belong to the layers.
-    let g = rasterize::mesh_layers(&layers, &MeshParams::default(), &o).unwrap();
+    let g = rasterize::mesh_layers(&layers, &MeshParams::quadtree(), &o).unwrap();
     assert_eq!(
         rasterize::render_mesh(&layers, &[], DMat4::IDENTITY, &cam, &o).unwrap_err().code(),
         "RENDER_BAD_OPTIONS"

@@ -70,9 +70,10 @@ impl Preset {
 
 /// Azimuth conventions of the tools panoramas come from, as the LocalToWorld operations that
 /// map our (the thesis's) local frame onto theirs. Pixels are never resampled.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Convention {
     /// The thesis and POMC: azimuth `φ = 2πu` from +X towards +Y, `+Z` up.
+    #[default]
     Thesis,
     /// Blender's equirect camera: azimuth `π(1 − 2u)`, centre column along +X, `+Z` up:
     /// `world = Scale(−1, 1, 1) · local`.

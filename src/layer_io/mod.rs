@@ -173,15 +173,15 @@ pub enum LayerIoError {
 impl LayerIoError {
     pub fn code(&self) -> &'static str {
         match self {
-            LayerIoError::NotFound { .. } => "LAYER_NOT_FOUND",
-            LayerIoError::Io { .. } => "LAYER_IO_ERROR",
-            LayerIoError::Unreadable { .. } => "LAYER_UNREADABLE",
-            LayerIoError::Truncated { .. } => "LAYER_TRUNCATED",
-            LayerIoError::TooLarge { .. } => "LAYER_TOO_LARGE",
-            LayerIoError::MultiPart { .. } => "LAYER_MULTIPART",
-            LayerIoError::Deep { .. } => "LAYER_DEEP",
-            LayerIoError::Unsupported { .. } => "LAYER_UNSUPPORTED",
-            LayerIoError::SizeMismatch { .. } => "LAYER_SIZE_MISMATCH",
+            LayerIoError::NotFound { .. } => crate::codes::LAYER_NOT_FOUND,
+            LayerIoError::Io { .. } => crate::codes::LAYER_IO_ERROR,
+            LayerIoError::Unreadable { .. } => crate::codes::LAYER_UNREADABLE,
+            LayerIoError::Truncated { .. } => crate::codes::LAYER_TRUNCATED,
+            LayerIoError::TooLarge { .. } => crate::codes::LAYER_TOO_LARGE,
+            LayerIoError::MultiPart { .. } => crate::codes::LAYER_MULTIPART,
+            LayerIoError::Deep { .. } => crate::codes::LAYER_DEEP,
+            LayerIoError::Unsupported { .. } => crate::codes::LAYER_UNSUPPORTED,
+            LayerIoError::SizeMismatch { .. } => crate::codes::LAYER_SIZE_MISMATCH,
         }
     }
 }

@@ -23,13 +23,7 @@ pub use codes::CODES;
 pub use diag::MAX_DIAGNOSTICS;
 pub use write::escape_attr;
 
-/// Severity of a manifest diagnostic.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Severity {
-    Error,
-    Warning,
-    Info,
-}
+pub use crate::codes::Severity;
 
 /// A position in the manifest source: 1-based line and column.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -325,11 +319,7 @@ mod tests {
     use super::*;
 
     fn severity_name(s: Severity) -> &'static str {
-        match s {
-            Severity::Error => "error",
-            Severity::Warning => "warning",
-            Severity::Info => "info",
-        }
+        s.as_str()
     }
 
     /// spec/02-manifest.md §2.9 lists exactly [`CODES`], row for row.

@@ -122,7 +122,7 @@ pub fn decode_bits(bytes: &[u8], mapping: &AnyMapping) -> Result<Vec<Vec<bool>>,
 pub fn decode(bytes: &[u8], image: &LayerImage, mapping: &AnyMapping) -> Result<LayerMesh, MeshError> {
     let bits = decode_bits(bytes, mapping)?;
     let grids = lattices(image, mapping)?;
-    let params = MeshParams { feature_angle_deg: None, ..MeshParams::default() };
+    let params = MeshParams { feature_angle_deg: None, ..MeshParams::quadtree() };
     let mut trees = Vec::with_capacity(grids.len());
     for (g, b) in grids.iter().zip(&bits) {
         let c = Criterion::new(g, image, &params);

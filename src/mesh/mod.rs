@@ -88,14 +88,38 @@ pub struct MeshParams {
     pub simplify: Option<simplify::SimplifyParams>,
 }
 
+/// `pomc mesh --max-error` default: 0.5 % of the distance along the ray.
+pub const DEFAULT_MAX_ERROR: f64 = 0.005;
+/// `pomc mesh --residual` default (thesis residual test).
+pub const DEFAULT_RESIDUAL: f64 = 0.05;
+/// `pomc mesh --max-angle` default, degrees.
+pub const DEFAULT_MAX_ANGLE_DEG: f64 = 20.0;
+
+/// What `pomc mesh` does by default: the quadtree mesh, then error-bounded simplification with
+/// greedy re-meshing of clean cube faces, both within [`DEFAULT_MAX_ERROR`].
 impl Default for MeshParams {
     fn default() -> Self {
         MeshParams {
-            max_error: Some(0.005),
+            simplify: Some(simplify::SimplifyParams {
+                max_error: DEFAULT_MAX_ERROR,
+                max_angle_deg: Some(DEFAULT_MAX_ANGLE_DEG),
+                greedy: true,
+            }),
+            ..MeshParams::quadtree()
+        }
+    }
+}
+
+impl MeshParams {
+    /// The adaptive quadtree mesh alone (thesis 7.4), no simplification: what `render --method
+    /// mesh` triangulates and `mesh --store` encodes.
+    pub fn quadtree() -> Self {
+        MeshParams {
+            max_error: Some(DEFAULT_MAX_ERROR),
             feature_angle_deg: None,
-            residual_threshold: 0.05,
+            residual_threshold: DEFAULT_RESIDUAL,
             normal_weighting: normals::NormalWeighting::Area,
-            max_angle_deg: Some(20.0),
+            max_angle_deg: Some(DEFAULT_MAX_ANGLE_DEG),
             uniform: None,
             simplify: None,
         }

@@ -27,14 +27,15 @@ pub fn read_stored(
     let decl = pano.manifest.layers.get(index)?.mesh.as_ref().filter(|m| m.is_quadtree_v1())?;
     let fail = |code, reason: String| StoredMeshError { file: decl.file.clone(), code, reason };
     Some((|| {
-        let path = pano.resolve(&decl.file).map_err(|e| fail("MESH_UNREADABLE", e.to_string()))?;
+        let path =
+            pano.resolve(&decl.file).map_err(|e| fail(crate::codes::MESH_UNREADABLE, e.to_string()))?;
         if !path.exists() {
-            return Err(fail("MESH_NOT_FOUND", format!("{} does not exist", path.display())));
+            return Err(fail(crate::codes::MESH_NOT_FOUND, format!("{} does not exist", path.display())));
         }
         // The encoding is bounded by the canvas (spec §8.4); refuse anything much larger unread.
         let limit = 1024 + (mapping.width() * mapping.height()) as u64 / 4;
-        let bytes =
-            crate::fsutil::read_limited(&path, limit).map_err(|e| fail("MESH_UNREADABLE", e.to_string()))?;
-        encode::decode(&bytes, image, mapping).map_err(|e| fail("MESH_UNREADABLE", e.to_string()))
+        let bytes = crate::fsutil::read_limited(&path, limit)
+            .map_err(|e| fail(crate::codes::MESH_UNREADABLE, e.to_string()))?;
+        encode::decode(&bytes, image, mapping).map_err(|e| fail(crate::codes::MESH_UNREADABLE, e.to_string()))
     })())
 }

@@ -70,7 +70,7 @@ impl PackError {
     pub fn code(&self) -> &'static str {
         match self {
             PackError::BadTable(p) => p.code(),
-            PackError::TooLarge { .. } => "LAYER_TOO_LARGE",
+            PackError::TooLarge { .. } => crate::codes::LAYER_TOO_LARGE,
             PackError::PaddingTooLarge { .. } => "PACK_PADDING_TOO_LARGE",
         }
     }
@@ -102,11 +102,11 @@ pub struct TableProblem {
 impl TableProblem {
     pub fn code(&self) -> &'static str {
         match self.kind {
-            TableProblemKind::Empty => "PATCH_EMPTY",
-            TableProblemKind::OutOfCanvas => "PATCH_OUT_OF_CANVAS",
-            TableProblemKind::OutOfAtlas => "PATCH_OUT_OF_ATLAS",
-            TableProblemKind::OverlapAtlas { .. } => "PATCH_OVERLAP_ATLAS",
-            TableProblemKind::OverlapCanvas { .. } => "PATCH_OVERLAP_CANVAS",
+            TableProblemKind::Empty => crate::codes::PATCH_EMPTY,
+            TableProblemKind::OutOfCanvas => crate::codes::PATCH_OUT_OF_CANVAS,
+            TableProblemKind::OutOfAtlas => crate::codes::PATCH_OUT_OF_ATLAS,
+            TableProblemKind::OverlapAtlas { .. } => crate::codes::PATCH_OVERLAP_ATLAS,
+            TableProblemKind::OverlapCanvas { .. } => crate::codes::PATCH_OVERLAP_CANVAS,
         }
     }
 }

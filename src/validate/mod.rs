@@ -55,7 +55,8 @@ pub fn validate(path: &Path, options: &ValidateOptions) -> Result<Report, crate:
         Err(e) => {
             let too_large = std::fs::metadata(&manifest_path)
                 .is_ok_and(|m| m.is_file() && m.len() > panorama::MAX_MANIFEST_BYTES);
-            let code = if too_large { "XML_TOO_LARGE" } else { "MANIFEST_IO_ERROR" };
+            let code =
+                if too_large { crate::manifest::codes::XML_TOO_LARGE } else { codes::MANIFEST_IO_ERROR };
             issues.push(issue(code, e.to_string(), name.clone()));
             return Ok(Report::from_issues(issues));
         }
@@ -64,7 +65,7 @@ pub fn validate(path: &Path, options: &ValidateOptions) -> Result<Report, crate:
     for d in &diagnosed.diagnostics {
         issues.push(Issue {
             code: d.code,
-            severity: d.severity.into(),
+            severity: d.severity,
             message: d.message.clone(),
             location: format!("{name}:{}:{} {}", d.line, d.col, d.path),
         });
@@ -130,7 +131,7 @@ fn check_layer(
             Ok(h) => {
                 if h.channels.iter().any(|(n, _)| n == "Z") && !h.compression.is_lossless() {
                     issues.push(issue(
-                        "LAYER_DEPTH_LOSSY",
+                        codes::LAYER_DEPTH_LOSSY,
                         format!("the layer is stored with lossy {} compression, which alters depth; re-export it with ZIP, PIZ, RLE or none", h.compression.name()),
                         loc.clone(),
                     ));
@@ -158,7 +159,7 @@ fn check_layer(
             if problems.len() > MAX_PATCH_FINDINGS {
                 let msg =
                     format!("{} patch problems; the first {MAX_PATCH_FINDINGS} are listed", problems.len());
-                issues.push(issue("MANIFEST_DIAGNOSTICS_TRUNCATED", msg, loc.clone()));
+                issues.push(issue(manifest::codes::DIAGNOSTICS_TRUNCATED, msg, loc.clone()));
             }
             for prob in problems.into_iter().take(MAX_PATCH_FINDINGS) {
                 let ploc = decl
@@ -188,7 +189,7 @@ fn check_layer(
         Ok(m) => m,
         Err(e) => {
             issues.push(issue(
-                "LAYER_DIMENSIONS_MAPPING",
+                codes::LAYER_DIMENSIONS_MAPPING,
                 format!("{e}; the canvas of a {kind:?} layer must be {}", kind_shape(kind)),
                 loc,
             ));
@@ -217,7 +218,7 @@ fn check_mesh(
             "<Mesh file=\"{}\"> uses encoding `{}` version `{}`, which this reader does not know; it is kept and ignored",
             m.file, m.encoding, m.version
         );
-        issues.push(issue("MESH_ENCODING_UNKNOWN", msg, format!("{loc} mesh {}", m.file)));
+        issues.push(issue(codes::MESH_ENCODING_UNKNOWN, msg, format!("{loc} mesh {}", m.file)));
     } else if let Some(Err(e)) = crate::mesh::stored::read_stored(pano, k, image, mapping) {
         issues.push(issue(e.code, e.to_string(), format!("{loc} mesh {}", m.file)));
     }
@@ -281,7 +282,7 @@ fn check_pixels(
     let n = image.width * image.height;
     let Some(z) = image.depth() else {
         issues.push(issue(
-            "LAYER_NO_DEPTH",
+            codes::LAYER_NO_DEPTH,
             "the layer has no depth channel Z; store the distance along the ray in a float32 channel named Z"
                 .into(),
             loc.to_string(),
@@ -325,16 +326,16 @@ fn check_pixels(
     }
     push_tally(
         issues,
-        "DEPTH_NEGATIVE_IN_DOMAIN",
+        codes::DEPTH_NEGATIVE_IN_DOMAIN,
         &t.neg,
         "inside the domain (A > 0) have negative depth; set A = 0 there or store the true distance",
         loc,
         "Z",
     );
-    push_tally(issues, "DEPTH_ZERO_IN_DOMAIN", &t.zero, "inside the domain have depth 0, which is no surface; store NaN for unknown depth or mark them outside", loc, "Z");
+    push_tally(issues, codes::DEPTH_ZERO_IN_DOMAIN, &t.zero, "inside the domain have depth 0, which is no surface; store NaN for unknown depth or mark them outside", loc, "Z");
     push_tally(
         issues,
-        "DEPTH_UNKNOWN_IN_DOMAIN",
+        codes::DEPTH_UNKNOWN_IN_DOMAIN,
         &t.nan,
         "inside the domain have unknown depth (NaN)",
         loc,
@@ -342,16 +343,23 @@ fn check_pixels(
     );
     push_tally(
         issues,
-        "DEPTH_OUT_OF_RANGE",
+        codes::DEPTH_OUT_OF_RANGE,
         &t.range,
         "have depths outside the layer's declared depthrange; fix the range or the depths",
         loc,
         "Z",
     );
-    push_tally(issues, "MASK_OUT_OF_RANGE", &t.mask_bad, "have coverage A outside [0, 1] or NaN", loc, "A");
     push_tally(
         issues,
-        "MASK_DEPTH_DISAGREE",
+        codes::MASK_OUT_OF_RANGE,
+        &t.mask_bad,
+        "have coverage A outside [0, 1] or NaN",
+        loc,
+        "A",
+    );
+    push_tally(
+        issues,
+        codes::MASK_DEPTH_DISAGREE,
         &t.mask_disagree,
         "have A = 0 (outside) but a non-negative depth; write Z = -1 outside the domain",
         loc,
@@ -359,7 +367,7 @@ fn check_pixels(
     );
     push_tally(
         issues,
-        "COLOUR_NOT_FINITE",
+        codes::COLOUR_NOT_FINITE,
         &t.colour_bad,
         "inside the domain have NaN or infinite colour",
         loc,
@@ -367,7 +375,7 @@ fn check_pixels(
     );
     if t.inside == 0 {
         issues.push(issue(
-            "LAYER_EMPTY",
+            codes::LAYER_EMPTY,
             "the layer has no pixel inside its domain; remove it from the manifest".into(),
             loc.to_string(),
         ));
@@ -382,7 +390,7 @@ fn check_channel_sets(image: &LayerImage, loc: &str, issues: &mut Vec<Issue>) {
         let present = names.iter().filter(|c| image.channel(c).is_some()).count();
         if present != 0 && present != 3 {
             issues.push(issue(
-                "CHANNELS_INCOMPLETE",
+                codes::CHANNELS_INCOMPLETE,
                 format!("{group} channels {names:?} are only partly present ({present} of 3); store all three or none"),
                 loc.to_string(),
             ));
@@ -409,7 +417,7 @@ fn check_normals(image: &LayerImage, options: &ValidateOptions, loc: &str, issue
     }
     push_tally(
         issues,
-        "NORMALS_NOT_UNIT",
+        codes::NORMALS_NOT_UNIT,
         &bad,
         "inside the domain have normals whose length is not 1",
         loc,
@@ -469,7 +477,7 @@ fn check_continuity(
         let first = rows.iter().map(|r| r.1).min().unwrap_or(0);
         let (x, y) = (first % w, first / w);
         issues.push(issue(
-            "DEPTH_DISCONTINUITY",
+            codes::DEPTH_DISCONTINUITY,
             format!(
                 "{count} neighbour pair(s) inside the layer are not one surface: their depths step by more than {:.0}% and no plane through the pixels beside them continues (first at ({x},{y})); a layer must be continuous in depth: split it at the discontinuity",
                 options.jump_threshold * 100.0
@@ -518,7 +526,7 @@ fn check_coverage(name: &str, domains: &[(AnyMapping, Vec<bool>)], issues: &mut 
         let (x, y) = (first % w, first / w);
         let dir = fm.pixel_dir(x, y);
         issues.push(issue(
-            "COVERAGE_INCOMPLETE",
+            codes::COVERAGE_INCOMPLETE,
             format!(
                 "{count} of {} directions ({:.3}%) are in no layer's domain (first at pixel ({x},{y}) of layer {finest}, direction ({:.4}, {:.4}, {:.4})); the layers together must cover the whole sphere: extend the background layer",
                 w * h,

@@ -2,24 +2,7 @@
 
 use serde::Serialize;
 
-/// Severity of a validation issue.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Severity {
-    Error,
-    Warning,
-    Info,
-}
-
-impl Severity {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Severity::Error => "error",
-            Severity::Warning => "warning",
-            Severity::Info => "info",
-        }
-    }
-}
+pub use crate::codes::Severity;
 
 /// One finding. `location` is either `file:line:col /Element/Path` for the manifest or
 /// `file layer[k] channel (x,y)` for pixels.
@@ -52,15 +35,5 @@ impl Report {
     /// Does the report contain this code?
     pub fn has(&self, code: &str) -> bool {
         self.issues.iter().any(|i| i.code == code)
-    }
-}
-
-impl From<crate::manifest::Severity> for Severity {
-    fn from(s: crate::manifest::Severity) -> Self {
-        match s {
-            crate::manifest::Severity::Error => Severity::Error,
-            crate::manifest::Severity::Warning => Severity::Warning,
-            crate::manifest::Severity::Info => Severity::Info,
-        }
     }
 }

@@ -4,12 +4,12 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::DVec3;
-use pomc::build::input::{self, Convention, DepthKind, Preset};
-use pomc::build::{self, BuildOptions, Classify, FillColour};
+use pomc::build::input::{Convention, DepthKind, Preset};
+use pomc::build::{BuildOptions, Classify, FillColour};
 use pomc::colour::ColourSpace;
+use pomc::jobs::{self, BuildSettings};
 use pomc::layer_io::ReadLimits;
-use pomc::manifest::Transform;
-use pomc::panorama::{self, SaveOptions};
+use pomc::panorama::SaveOptions;
 
 use crate::args::{parse_vec3, Range};
 use crate::output::Output;
@@ -204,21 +204,62 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         ColourSpaceArg::Srgb => ColourSpace::Srgb,
         ColourSpaceArg::Linear => ColourSpace::Linear,
     };
+    let settings = BuildSettings {
+        colour_space: space,
+        depth: enc,
+        normals_in: args.normals_in.clone(),
+        convention: convention(args.convention),
+        center: args.center,
+        options: build_options(&args),
+        save: SaveOptions { pack: !args.no_pack, ..SaveOptions::default() },
+        limits: limits(args.max_pixels),
+    };
     // Reading, the build's stages (`fill colour` unless nearest), writing: a bar with an ETA.
     let stages = 9 - (args.fill_colour == FillColourArg::Nearest) as u64;
     let bar = out.progress(stages, "reading");
-    let t = Instant::now();
-    let rgbd = input::load(
-        &args.colour,
-        space,
-        &args.depth,
-        args.normals_in.as_deref(),
-        &enc,
-        &limits(args.max_pixels),
-    )
-    .map_err(pomc::Error::from)?;
-    let read_s = t.elapsed().as_secs_f64();
+    let progress = |stage: &str| {
+        bar.set_message(stage.to_string());
+        bar.inc(1);
+    };
+    let built =
+        jobs::build_panorama_with_progress(&args.colour, &args.depth, &args.output, &settings, &progress)?;
+    bar.finish_and_clear();
 
+    let mut report = serde_json::to_value(&built.report).expect("report serialises");
+    report["output"] = serde_json::json!(args.output);
+    report["read_s"] = serde_json::json!(built.read_s);
+    report["write_s"] = serde_json::json!(built.write_s);
+    report["total_s"] = serde_json::json!(start.elapsed().as_secs_f64());
+    report["packed"] =
+        serde_json::json!(built.manifest.layers.iter().map(|l| l.packing.is_some()).collect::<Vec<_>>());
+    if let Some(p) = &args.report {
+        let text = serde_json::to_string_pretty(&report).expect("JSON values serialise");
+        pomc::fsutil::write_bytes_atomic(p, text.as_bytes())?;
+    }
+    out.json(&report);
+    for l in &built.report.layers {
+        let depth = match l.depth_range {
+            Some((lo, hi)) => format!("depth {lo:.3}–{hi:.3} m"),
+            None => "no finite depth".to_string(),
+        };
+        out.say(format!(
+            "{:>14} {:>10} order {}: {} px seen, {} px filled, {depth}",
+            l.name, l.role, l.order, l.own_pixels, l.filled_pixels
+        ));
+    }
+    out.say(format!(
+        "built {} layer(s) in {:.2} s (fill band up to {:.2}°, d_dirmin {:.0} m) -> {}",
+        built.manifest.layers.len(),
+        start.elapsed().as_secs_f64(),
+        built.report.max_band_deg,
+        built.report.d_dirmin,
+        args.output.display()
+    ));
+    Ok(0)
+}
+
+/// The library options the arguments stand for (no options: `BuildOptions::default()`).
+fn build_options(args: &Args) -> BuildOptions {
     let mut options = BuildOptions {
         freedom_radius: args.freedom_radius,
         depth_bands: args.depth_bands.clone(),
@@ -237,58 +278,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     };
     options.segment.edges.jump = args.jump;
     options.segment.edges.fold_deg = (!args.no_fold).then_some(args.fold_deg);
-    let built = build::build(&rgbd, &options, &|stage| {
-        bar.set_message(stage.to_string());
-        bar.inc(1);
-    })
-    .map_err(pomc::Error::from)?;
-
-    bar.set_message("writing");
-    bar.inc(1);
-    let t = Instant::now();
-    let mut transforms = Vec::new();
-    if let Some(c) = &args.center {
-        transforms.push(Transform::Translate(c.to_array()));
-    }
-    transforms.extend(convention(args.convention).transforms());
-    let manifest = build::manifest(&built, rgbd.mapping.kind(), args.freedom_radius, transforms);
-    let images: Vec<_> = built.layers.iter().map(|l| l.image.clone()).collect();
-    let save = SaveOptions { pack: !args.no_pack, ..SaveOptions::default() };
-    let written = panorama::write_panorama(&args.output, &manifest, &images, &save)?;
-    let write_s = t.elapsed().as_secs_f64();
-    bar.finish_and_clear();
-
-    let mut report = serde_json::to_value(&built.report).expect("report serialises");
-    report["output"] = serde_json::json!(args.output);
-    report["read_s"] = serde_json::json!(read_s);
-    report["write_s"] = serde_json::json!(write_s);
-    report["total_s"] = serde_json::json!(start.elapsed().as_secs_f64());
-    report["packed"] =
-        serde_json::json!(written.layers.iter().map(|l| l.packing.is_some()).collect::<Vec<_>>());
-    if let Some(p) = &args.report {
-        let text = serde_json::to_string_pretty(&report).expect("JSON values serialise");
-        pomc::fsutil::write_bytes_atomic(p, text.as_bytes())?;
-    }
-    out.json(&report);
-    for l in &built.report.layers {
-        let depth = match l.depth_range {
-            Some((lo, hi)) => format!("depth {lo:.3}–{hi:.3} m"),
-            None => "no finite depth".to_string(),
-        };
-        out.say(format!(
-            "{:>14} {:>10} order {}: {} px seen, {} px filled, {depth}",
-            l.name, l.role, l.order, l.own_pixels, l.filled_pixels
-        ));
-    }
-    out.say(format!(
-        "built {} layer(s) in {:.2} s (fill band up to {:.2}°, d_dirmin {:.0} m) -> {}",
-        built.layers.len(),
-        start.elapsed().as_secs_f64(),
-        built.report.max_band_deg,
-        built.report.d_dirmin,
-        args.output.display()
-    ));
-    Ok(0)
+    options
 }
 
 fn preset(p: PresetArg) -> Preset {
@@ -305,5 +295,25 @@ fn convention(c: ConventionArg) -> Convention {
         ConventionArg::Thesis => Convention::Thesis,
         ConventionArg::Blender => Convention::Blender,
         ConventionArg::Openexr => Convention::OpenExr,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    /// The library's `BuildOptions::default()` is what `pomc build` does without options.
+    #[test]
+    fn default_options_are_the_library_default() {
+        let cli = Cli::try_parse_from(["pomc-build", "--colour", "c.png", "--depth", "d.exr", "-o", "out"])
+            .unwrap();
+        assert_eq!(format!("{:?}", build_options(&cli.args)), format!("{:?}", BuildOptions::default()));
     }
 }

@@ -3,12 +3,10 @@
 //! Stages: decode (with size limits checked from the header), resample (parallel, see
 //! `pomc::resample`), encode (fast PNG settings), each timed for `--json`.
 
-use std::io::Cursor;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use image::codecs::png::{CompressionType, FilterType, PngEncoder};
-use image::{DynamicImage, ExtendedColorType, ImageEncoder, ImageReader, Limits};
+use pomc::image_io::{self, extension, Pixels};
 use pomc::layer_io::{self, ReadLimits, WriteOptions};
 use pomc::mapping::layout::CubeLayout;
 use pomc::raster::Raster;
@@ -71,30 +69,6 @@ fn ms(t: Instant) -> f64 {
     (t.elapsed().as_secs_f64() * 1e4).round() / 10.0
 }
 
-/// Decoded pixels of a plain image, kept in their own sample type.
-enum Pixels {
-    U8(Raster<u8>),
-    U16(Raster<u16>),
-    F32(Raster<f32>),
-}
-
-impl Pixels {
-    fn dims(&self) -> (usize, usize, usize) {
-        match self {
-            Pixels::U8(r) => (r.width(), r.height(), r.channels()),
-            Pixels::U16(r) => (r.width(), r.height(), r.channels()),
-            Pixels::F32(r) => (r.width(), r.height(), r.channels()),
-        }
-    }
-    fn type_name(&self) -> &'static str {
-        match self {
-            Pixels::U8(_) => "u8",
-            Pixels::U16(_) => "u16",
-            Pixels::F32(_) => "f32",
-        }
-    }
-}
-
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let total = Instant::now();
     if args.input.is_dir() || args.input.file_name().is_some_and(|n| n == "panorama.xml") {
@@ -134,7 +108,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     }
 
     let t = Instant::now();
-    let pixels = decode(&args.input)?;
+    let pixels = image_io::decode(&args.input).map_err(pomc::Error::from)?;
     let decode_ms = ms(t);
     let (w, h, ch) = pixels.dims();
     let (from, to, size) = plan(&args, w, h)?;
@@ -153,7 +127,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let resample_ms = ms(t);
 
     let t = Instant::now();
-    encode(&args.output, &converted)?;
+    image_io::encode(&args.output, &converted).map_err(pomc::Error::from)?;
     let encode_ms = ms(t);
     let (ow, oh, _) = converted.dims();
     report(
@@ -416,263 +390,4 @@ fn run_panorama(args: &Args, out: Output, total: Instant) -> Result<u8, Failure>
         args.output.display()
     ));
     Ok(0)
-}
-
-/// Decode a plain EXR through the `exr` crate (any channel set: RGB(A), Y(A) or a single channel), after
-/// checking the header's size.
-fn decode_exr(path: &Path) -> Result<Pixels, Failure> {
-    use exr::prelude::*;
-    let limits = ReadLimits::default();
-    let bad = |e: exr::error::Error| {
-        fail("CONVERT_UNREADABLE", format!("{}: cannot decode EXR ({e})", path.display()))
-    };
-    let meta = MetaData::read_from_file(path, false).map_err(bad)?;
-    let header = meta
-        .headers
-        .first()
-        .ok_or_else(|| fail("CONVERT_UNREADABLE", format!("{}: EXR without parts", path.display())))?;
-    let (w, h) = (header.layer_size.width(), header.layer_size.height());
-    if w.max(h) > limits.max_dimension || (w as u64 * h as u64) > limits.max_pixels {
-        return Err(fail(
-            "CONVERT_TOO_LARGE",
-            format!(
-                "{}: declares {w}x{h} pixels, beyond the reader limit; refused before decoding",
-                path.display()
-            ),
-        ));
-    }
-    let image = read_first_flat_layer_from_file(path).map_err(bad)?;
-    let chans = &image.layer_data.channel_data.list;
-    let find = |n: &str| chans.iter().position(|c| c.name.to_string() == n);
-    let order: Vec<usize> = match (find("R"), find("G"), find("B"), find("Y"), find("A")) {
-        (Some(r), Some(g), Some(b), _, a) => [Some(r), Some(g), Some(b), a].into_iter().flatten().collect(),
-        (_, _, _, Some(y), a) => [Some(y), a].into_iter().flatten().collect(),
-        _ => (0..chans.len().min(4)).collect(),
-    };
-    if order.is_empty() {
-        return Err(fail("CONVERT_UNREADABLE", format!("{}: EXR without channels", path.display())));
-    }
-    let (w, h) = (image.layer_data.size.width(), image.layer_data.size.height());
-    let ch = order.len();
-    let mut data = vec![0.0f32; w * h * ch];
-    for (c, &k) in order.iter().enumerate() {
-        for (i, v) in chans[k].sample_data.values_as_f32().enumerate().take(w * h) {
-            data[i * ch + c] = v;
-        }
-    }
-    Ok(Pixels::F32(Raster::from_vec(w, h, ch, data).expect("sizes from the decoder")))
-}
-
-/// Decode a plain image, refusing oversized ones from their header.
-fn decode(path: &Path) -> Result<Pixels, Failure> {
-    if extension(path) == "exr" {
-        return decode_exr(path);
-    }
-    let limits = ReadLimits::default();
-    let unreadable = |e: image::ImageError| {
-        let code = match e {
-            image::ImageError::Limits(_) => "CONVERT_TOO_LARGE",
-            image::ImageError::Unsupported(_) => "CONVERT_UNSUPPORTED",
-            _ => "CONVERT_UNREADABLE",
-        };
-        fail(
-            code,
-            format!("{}: cannot decode ({e}); supported inputs are PNG, JPEG, EXR and HDR", path.display()),
-        )
-    };
-    let mut reader = ImageReader::open(path)
-        .map_err(|e| fail("CONVERT_IO", format!("{}: {e}", path.display())))?
-        .with_guessed_format()
-        .map_err(|e| fail("CONVERT_IO", format!("{}: {e}", path.display())))?;
-    let mut l = Limits::default();
-    l.max_image_width = Some(limits.max_dimension as u32);
-    l.max_image_height = Some(limits.max_dimension as u32);
-    // Decoded f32 RGBA of the largest accepted canvas.
-    l.max_alloc = Some(limits.max_pixels * 16);
-    reader.limits(l);
-    let img = reader.decode().map_err(unreadable)?;
-    let (w, h) = (img.width() as usize, img.height() as usize);
-    if (w as u64 * h as u64) > limits.max_pixels {
-        return Err(fail(
-            "CONVERT_TOO_LARGE",
-            format!("{}: {w}x{h} pixels is beyond the {} pixel limit", path.display(), limits.max_pixels),
-        ));
-    }
-    let r = |c: usize, v: Vec<u8>| Raster::from_vec(w, h, c, v).expect("decoder sizes");
-    let r16 = |c: usize, v: Vec<u16>| Raster::from_vec(w, h, c, v).expect("decoder sizes");
-    let rf = |c: usize, v: Vec<f32>| Raster::from_vec(w, h, c, v).expect("decoder sizes");
-    Ok(match img {
-        DynamicImage::ImageLuma8(b) => Pixels::U8(r(1, b.into_raw())),
-        DynamicImage::ImageLumaA8(b) => Pixels::U8(r(2, b.into_raw())),
-        DynamicImage::ImageRgb8(b) => Pixels::U8(r(3, b.into_raw())),
-        DynamicImage::ImageRgba8(b) => Pixels::U8(r(4, b.into_raw())),
-        DynamicImage::ImageLuma16(b) => Pixels::U16(r16(1, b.into_raw())),
-        DynamicImage::ImageLumaA16(b) => Pixels::U16(r16(2, b.into_raw())),
-        DynamicImage::ImageRgb16(b) => Pixels::U16(r16(3, b.into_raw())),
-        DynamicImage::ImageRgba16(b) => Pixels::U16(r16(4, b.into_raw())),
-        DynamicImage::ImageRgb32F(b) => Pixels::F32(rf(3, b.into_raw())),
-        other => Pixels::F32(rf(4, other.into_rgba32f().into_raw())),
-    })
-}
-
-fn to_u8(p: &Pixels) -> Raster<u8> {
-    match p {
-        Pixels::U8(r) => r.clone(),
-        Pixels::U16(r) => map(r, |v| (v >> 8) as u8),
-        Pixels::F32(r) => map(r, |v| u8::from_f32(v.clamp(0.0, 1.0) * 255.0)),
-    }
-}
-
-fn to_f32(p: &Pixels) -> Raster<f32> {
-    match p {
-        Pixels::U8(r) => map(r, |v| v as f32 / 255.0),
-        Pixels::U16(r) => map(r, |v| v as f32 / 65535.0),
-        Pixels::F32(r) => r.clone(),
-    }
-}
-
-fn map<A: Copy, B: Copy>(r: &Raster<A>, f: impl Fn(A) -> B) -> Raster<B> {
-    let data = r.data().iter().map(|&v| f(v)).collect();
-    Raster::from_vec(r.width(), r.height(), r.channels(), data).expect("same size")
-}
-
-/// Drop alpha (formats without it) keeping the first `keep` channels.
-fn keep_channels<T: Copy>(r: Raster<T>, keep: usize) -> Raster<T> {
-    let ch = r.channels();
-    if ch <= keep {
-        return r;
-    }
-    let data = r.data().chunks(ch).flat_map(|p| p[..keep].iter().copied()).collect();
-    Raster::from_vec(r.width(), r.height(), keep, data).expect("same size")
-}
-
-fn extension(path: &Path) -> String {
-    path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default()
-}
-
-fn encode(path: &Path, p: &Pixels) -> Result<(), Failure> {
-    let bytes = match extension(path).as_str() {
-        "png" => match p {
-            Pixels::U16(r) => png_bytes16(r),
-            other => png_bytes8(&to_u8(other)),
-        },
-        "jpg" | "jpeg" => {
-            let r = to_u8(p);
-            let r = match r.channels() {
-                2 => keep_channels(r, 1),
-                4 => keep_channels(r, 3),
-                _ => r,
-            };
-            let color = if r.channels() == 1 { ExtendedColorType::L8 } else { ExtendedColorType::Rgb8 };
-            let mut buf = Vec::new();
-            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, 92)
-                .write_image(r.data(), r.width() as u32, r.height() as u32, color)
-                .map(|_| buf)
-        }
-        "hdr" => {
-            let r = to_f32(p);
-            let r = match r.channels() {
-                1 | 2 => {
-                    let data = r.data().chunks(r.channels()).flat_map(|v| [v[0]; 3]).collect();
-                    Raster::from_vec(r.width(), r.height(), 3, data).expect("same size")
-                }
-                _ => keep_channels(r, 3),
-            };
-            let mut buf = Vec::new();
-            image::codecs::hdr::HdrEncoder::new(&mut buf)
-                .write_image(
-                    bytemuck_f32(r.data()),
-                    r.width() as u32,
-                    r.height() as u32,
-                    ExtendedColorType::Rgb32F,
-                )
-                .map(|_| buf)
-        }
-        "exr" => return write_exr(path, &to_f32(p)),
-        _ => {
-            return Err(fail(
-                "CONVERT_USAGE",
-                format!(
-                    "{}: unknown output format; use a .png, .jpg, .exr or .hdr extension",
-                    path.display()
-                ),
-            ))
-        }
-    }
-    .map_err(|e| fail("CONVERT_ENCODE", format!("{}: cannot encode ({e})", path.display())))?;
-    pomc::fsutil::write_bytes_atomic(path, &bytes)?;
-    Ok(())
-}
-
-fn bytemuck_f32(v: &[f32]) -> &[u8] {
-    // SAFETY: f32 has no padding or invalid bit patterns; u8 has alignment 1.
-    unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<u8>(), std::mem::size_of_val(v)) }
-}
-
-fn color8(ch: usize) -> ExtendedColorType {
-    [ExtendedColorType::L8, ExtendedColorType::La8, ExtendedColorType::Rgb8, ExtendedColorType::Rgba8][ch - 1]
-}
-
-/// PNG with fast settings: fdeflate-based `Fast` compression and the `Up` filter (cheap, and good on
-/// resampled photographs and synthetic images alike).
-fn png_bytes8(r: &Raster<u8>) -> Result<Vec<u8>, image::ImageError> {
-    let mut buf = Vec::with_capacity(r.data().len() / 4);
-    PngEncoder::new_with_quality(&mut buf, CompressionType::Fast, FilterType::Up).write_image(
-        r.data(),
-        r.width() as u32,
-        r.height() as u32,
-        color8(r.channels()),
-    )?;
-    Ok(buf)
-}
-
-fn png_bytes16(r: &Raster<u16>) -> Result<Vec<u8>, image::ImageError> {
-    let color = [
-        ExtendedColorType::L16,
-        ExtendedColorType::La16,
-        ExtendedColorType::Rgb16,
-        ExtendedColorType::Rgba16,
-    ][r.channels() - 1];
-    let bytes: Vec<u8> = r.data().iter().flat_map(|v| v.to_ne_bytes()).collect();
-    let mut buf = Vec::new();
-    PngEncoder::new_with_quality(&mut buf, CompressionType::Fast, FilterType::Up).write_image(
-        &bytes,
-        r.width() as u32,
-        r.height() as u32,
-        color,
-    )?;
-    Ok(buf)
-}
-
-/// Plain EXR output through the `exr` crate (any channel count: Y, YA, RGB, RGBA), ZIP compressed.
-fn write_exr(path: &Path, r: &Raster<f32>) -> Result<(), Failure> {
-    use exr::prelude::*;
-    let names: &[&str] = match r.channels() {
-        1 => &["Y"],
-        2 => &["Y", "A"],
-        3 => &["R", "G", "B"],
-        _ => &["R", "G", "B", "A"],
-    };
-    let ch = r.channels();
-    let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = names
-        .iter()
-        .enumerate()
-        .map(|(c, n)| {
-            let data: Vec<f32> = r.data().iter().skip(c).step_by(ch).copied().collect();
-            AnyChannel::new(*n, FlatSamples::F32(data))
-        })
-        .collect();
-    let layer = Layer::new(
-        (r.width(), r.height()),
-        LayerAttributes::default(),
-        Encoding::FAST_LOSSLESS,
-        AnyChannels::sort(list),
-    );
-    let mut cursor = Cursor::new(Vec::new());
-    Image::from_layer(layer)
-        .write()
-        .to_buffered(&mut cursor)
-        .map_err(|e| fail("CONVERT_ENCODE", format!("{}: cannot encode EXR ({e})", path.display())))?;
-    pomc::fsutil::write_atomic(path, |w| w.write_all(cursor.get_ref()))?;
-    Ok(())
 }

@@ -34,19 +34,19 @@ pub struct Args {
     #[arg(long, value_name = "R", value_parser = Range::POSITIVE.parser())]
     sky_radius: Option<f64>,
     /// Maximum relative distance along each pixel's ray between mesh and depth (0 disables).
-    #[arg(long, default_value_t = 0.005, value_parser = Range::POSITIVE.parser())]
+    #[arg(long, default_value_t = mesh::DEFAULT_MAX_ERROR, value_parser = Range::POSITIVE.parser())]
     max_error: f64,
     /// Thesis normal test: split where neighbouring normals differ by more than DEG degrees.
     #[arg(long, value_name = "DEG", value_parser = Range::OPEN_ANGLE.parser())]
     feature_angle: Option<f64>,
     /// Thesis residual threshold (mean sub-feature normal variation of a node).
-    #[arg(long, default_value_t = 0.05, value_parser = Range::POSITIVE.parser())]
+    #[arg(long, default_value_t = mesh::DEFAULT_RESIDUAL, value_parser = Range::POSITIVE.parser())]
     residual: f64,
     /// Weighting of normals estimated from depth when the layer has no N.* channels: area or angle.
     #[arg(long, default_value = "area", value_parser = ["area", "angle"])]
     normal_weighting: String,
     /// Cap on a node's angular extent, degrees (texture distortion; 0 disables).
-    #[arg(long, default_value_t = 20.0, value_name = "DEG", value_parser = Range::ANGLE.parser())]
+    #[arg(long, default_value_t = mesh::DEFAULT_MAX_ANGLE_DEG, value_name = "DEG", value_parser = Range::ANGLE.parser())]
     max_angle: f64,
     /// Uniform 4-8 baseline with leaves of at most STEP cells a side (overrides the other tests).
     #[arg(long, value_name = "STEP")]
@@ -392,4 +392,25 @@ fn report(args: &Args, out: Output, l: &Layer, sky: Option<f64>) -> serde_json::
         stats.as_ref().map_or("-".to_string(), |s| format!("{:.0}", s.1))
     ));
     json
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    /// The library's `MeshParams::default()` is what `pomc mesh` does without options.
+    #[test]
+    fn default_options_are_the_library_default() {
+        let cli = Cli::try_parse_from(["pomc-mesh", "pano"]).unwrap();
+        assert_eq!(params(&cli.args), MeshParams::default());
+        let quadtree = Cli::try_parse_from(["pomc-mesh", "pano", "--no-simplify"]).unwrap();
+        assert_eq!(params(&quadtree.args), MeshParams::quadtree());
+    }
 }

@@ -4,13 +4,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::DVec3;
-use pomc::layer_io::ReadLimits;
-use pomc::mesh::MeshParams;
+use pomc::jobs::{RenderMethod, Renderer, View};
 use pomc::panorama::Panorama;
-use pomc::render::{
-    self, image, rasterize, Camera, EquirectCamera, Frame, MeshOptions, Perspective, RenderLayer,
-    SplatOptions,
-};
+use pomc::render::{self, image, Camera, EquirectCamera, Perspective};
 
 use crate::args::{parse_vec3, Range};
 use crate::output::Output;
@@ -138,77 +134,8 @@ fn camera(args: &Args, shot: Shot) -> Result<Camera, pomc::Error> {
     })
 }
 
-/// What a method produced, in the terms of the JSON report.
-struct Outcome {
-    frame: Frame,
-    width: usize,
-    height: usize,
-    layers: usize,
-    holes: usize,
-    hole_ratio: f64,
-    counts: serde_json::Value,
-    stages: Vec<(String, f64)>,
-}
-
-/// The report of either method's render.
-fn outcome<C: serde::Serialize, O>(r: render::Rendered<C, O>) -> Outcome {
-    let s = r.stats;
-    Outcome {
-        frame: r.frame,
-        width: s.width,
-        height: s.height,
-        layers: s.layers,
-        holes: s.holes,
-        hole_ratio: s.hole_ratio,
-        counts: serde_json::json!(s.counts),
-        stages: s.stages.iter().map(|st| (st.name.to_string(), st.seconds)).collect(),
-    }
-}
-
-fn render_splat(layers: &[RenderLayer], to_world: glam::DMat4, cam: &Camera) -> Result<Outcome, Failure> {
-    let r = render::render(layers, to_world, cam, &SplatOptions::default()).map_err(pomc::Error::from)?;
-    Ok(outcome(r))
-}
-
-/// What is prepared once per panorama for the mesh method.
-struct MeshSetup {
-    meshes: Vec<rasterize::LayerGeometry>,
-    seconds: f64,
-    extra: serde_json::Value,
-}
-
-fn mesh_setup(pano: &Panorama, layers: &[RenderLayer], out: &Output) -> Result<MeshSetup, Failure> {
-    let t = Instant::now();
-    let (meshes, sources, warnings) =
-        rasterize::panorama_meshes(pano, layers, &MeshParams::default(), &MeshOptions::default())
-            .map_err(pomc::Error::from)?;
-    let seconds = t.elapsed().as_secs_f64();
-    if !out.quiet && !out.json {
-        for w in &warnings {
-            eprintln!("warning: {w}");
-        }
-    }
-    let triangles: usize = meshes.iter().map(|m| m.mesh_triangles).sum();
-    let border: usize = meshes.iter().map(|m| m.border_pixels).sum();
-    let extra = serde_json::json!({
-        "mesh": {"sources": sources, "triangles": triangles, "border_pixels": border, "warnings": warnings},
-    });
-    Ok(MeshSetup { meshes, seconds, extra })
-}
-
-fn render_mesh(
-    layers: &[RenderLayer],
-    setup: &MeshSetup,
-    to_world: glam::DMat4,
-    cam: &Camera,
-) -> Result<Outcome, Failure> {
-    let r = rasterize::render_mesh(layers, &setup.meshes, to_world, cam, &MeshOptions::default())
-        .map_err(pomc::Error::from)?;
-    Ok(outcome(r))
-}
-
 /// Write one frame's outputs (colour, and depth and mask when asked) under `index`'s names.
-fn write_frame(args: &Args, r: &Outcome, index: Option<usize>) -> Result<PathBuf, Failure> {
+fn write_frame(args: &Args, r: &View, index: Option<usize>) -> Result<PathBuf, Failure> {
     let name = |p: &PathBuf| -> Result<PathBuf, Failure> {
         match index {
             None => Ok(p.clone()),
@@ -251,18 +178,26 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let shots: &[Shot] = shots.as_deref().unwrap_or(&single);
     // Every camera is checked before the layers are read.
     let cams: Vec<Camera> = shots.iter().map(|s| camera(&args, *s)).collect::<Result<_, _>>()?;
-    let layers = render::read_layers(&pano, &ReadLimits::default())?;
-    let read_s = start.elapsed().as_secs_f64();
-
-    let refs: Vec<RenderLayer> =
-        layers.iter().map(|(image, mapping)| RenderLayer { image, mapping: *mapping }).collect();
-    let setup = match args.method {
-        MethodArg::Splat => None,
-        MethodArg::Mesh => {
-            bar.set_message("meshing");
-            Some(mesh_setup(&pano, &refs, &out)?)
-        }
+    if args.method == MethodArg::Mesh {
+        bar.set_message("reading and meshing");
+    }
+    let method = match args.method {
+        MethodArg::Splat => RenderMethod::Splat,
+        MethodArg::Mesh => RenderMethod::Mesh,
     };
+    let renderer = Renderer::new(&pano, method)?;
+    let (_, mesh_s) = renderer.setup_seconds();
+    let read_s = start.elapsed().as_secs_f64() - mesh_s.unwrap_or(0.0);
+    let mesh_extra = renderer.mesh_info().map(|(sources, warnings, triangles, border)| {
+        if !out.quiet && !out.json {
+            for w in warnings {
+                eprintln!("warning: {w}");
+            }
+        }
+        serde_json::json!({
+            "mesh": {"sources": sources, "triangles": triangles, "border_pixels": border, "warnings": warnings},
+        })
+    });
     bar.finish_and_clear();
     let progress = (args.path.is_some()).then(|| out.progress(cams.len() as u64, "rendering"));
     let method = format!("{:?}", args.method).to_lowercase();
@@ -270,17 +205,14 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let mut last = None;
     for (i, (cam, shot)) in cams.iter().zip(shots).enumerate() {
         let t = Instant::now();
-        let r = match &setup {
-            None => render_splat(&refs, to_world, cam)?,
-            Some(setup) => render_mesh(&refs, setup, to_world, cam)?,
-        };
+        let r = renderer.render(cam)?;
         let render_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let colour = write_frame(&args, &r, args.path.as_ref().map(|_| i))?;
         let write_s = t.elapsed().as_secs_f64();
         let mut stages = serde_json::json!({"write_s": write_s, "frame_s": render_s + write_s});
-        for (name, seconds) in &r.stages {
-            stages[format!("{name}_s")] = serde_json::json!(seconds);
+        for st in &r.stages {
+            stages[format!("{}_s", st.name)] = serde_json::json!(st.seconds);
         }
         frames.push(serde_json::json!({
             "output": colour, "eye": shot.eye.to_array(), "eye_offset": offset(shot.eye),
@@ -300,8 +232,8 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let mut report = if args.path.is_none() {
         // One view: its stages flat, as before paths existed.
         let mut stages = serde_json::json!({"read_s": read_s});
-        if let Some(s) = &setup {
-            stages["mesh_s"] = serde_json::json!(s.seconds);
+        if let Some(s) = mesh_s {
+            stages["mesh_s"] = serde_json::json!(s);
         }
         if let Some(f) = frames[0]["stages"].as_object() {
             for (k, v) in f.iter().filter(|(k, _)| k.as_str() != "frame_s") {
@@ -317,9 +249,9 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
             "freedom_radius": radius,
             "eye_offset": offset(shots[0].eye),
             "inside_freedom_radius": !outside(shots[0].eye),
-            "width": r.width,
-            "height": r.height,
-            "layers": r.layers,
+            "width": r.frame.width,
+            "height": r.frame.height,
+            "layers": renderer.layer_count(),
             "holes": r.holes,
             "hole_ratio": r.hole_ratio,
             "counts": r.counts,
@@ -332,16 +264,16 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         serde_json::json!({
             "method": method,
             "camera": format!("{:?}", args.camera).to_lowercase(),
-            "width": r.width,
-            "height": r.height,
-            "layers": r.layers,
+            "width": r.frame.width,
+            "height": r.frame.height,
+            "layers": renderer.layer_count(),
             "freedom_radius": radius,
             "frames_outside_freedom_radius": shots.iter().filter(|s| outside(s.eye)).count(),
             "frames": frames,
             "max_hole_ratio": worst_holes,
             "stages": {
                 "read_s": read_s,
-                "mesh_s": setup.as_ref().map(|s| s.seconds),
+                "mesh_s": mesh_s,
                 "frame_median_s": per_frame[per_frame.len() / 2],
                 "frame_max_s": per_frame[per_frame.len() - 1],
                 "total_s": start.elapsed().as_secs_f64(),
@@ -349,7 +281,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         })
     };
     if let (Some(obj), Some(extra)) =
-        (report.as_object_mut(), setup.as_ref().and_then(|s| s.extra.as_object()))
+        (report.as_object_mut(), mesh_extra.as_ref().and_then(|e| e.as_object()))
     {
         obj.extend(extra.clone());
     }
@@ -358,9 +290,9 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         out.say(format!(
             "rendered {} frames {}x{} ({method}) from {} layer(s) in {:.2} s ({:.3} s per frame, median), worst holes {:.3} % -> {}",
             frames.len(),
-            r.width,
-            r.height,
-            r.layers,
+            r.frame.width,
+            r.frame.height,
+            renderer.layer_count(),
             start.elapsed().as_secs_f64(),
             report["stages"]["frame_median_s"].as_f64().unwrap_or(0.0),
             100.0 * report["max_hole_ratio"].as_f64().unwrap_or(0.0),
@@ -377,9 +309,9 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         let eye = shots[0].eye;
         out.say(format!(
             "rendered {}x{} ({method}) from {} layer(s) at eye ({:.3}, {:.3}, {:.3}) in {:.2} s, {:.3} % holes -> {}",
-            r.width,
-            r.height,
-            r.layers,
+            r.frame.width,
+            r.frame.height,
+            renderer.layer_count(),
             eye.x,
             eye.y,
             eye.z,

@@ -3,6 +3,8 @@
 //!
 //! Exit codes: 0 success, 1 the input is invalid (`validate`), 2 usage, I/O or processing error.
 
+#![forbid(unsafe_code)]
+
 mod args;
 mod cmd_build;
 mod cmd_convert;

@@ -1,0 +1,54 @@
+//! `use pomc::prelude::*;` brings the main jobs and the types they take, as in
+//! `exr::prelude`. Each job is one call whose options' `Default` is the `pomc` command's default:
+//!
+//! | job | call | command |
+//! |---|---|---|
+//! | open | [`Panorama::open`] | `pomc info` |
+//! | build | [`build_panorama`] with [`BuildSettings`] | `pomc build` |
+//! | validate | [`validate()`] with [`ValidateOptions`] | `pomc validate` |
+//! | mesh | [`mesh_layer`] with [`MeshParams`] | `pomc mesh` |
+//! | render | [`Renderer::render`] | `pomc render` |
+//! | convert | [`convert_layer`] with [`SampleOptions`] | `pomc convert` |
+//!
+//! ```
+//! use pomc::prelude::*;
+//! let pano = Panorama::open("fixtures/data/room-equirect".as_ref())?;
+//! let report = validate(&pano.dir, &ValidateOptions::default())?;
+//! assert!(report.valid, "{:?}", report.issues);
+//!
+//! // Mesh the background layer as `pomc mesh` does.
+//! let layer = pano.read_layer(0, &ReadLimits::default())?;
+//! let mapping = AnyMapping::new(MappingKind::Equirect, layer.width, layer.height)?;
+//! let meshed = mesh_layer(&layer, &mapping, &MeshParams::default())?;
+//! assert!(meshed.mesh.triangles.len() > 100);
+//!
+//! // A view 20 cm off-centre, looking along +Y.
+//! let renderer = Renderer::new(&pano, RenderMethod::Splat)?;
+//! let eye = renderer.centre() + DVec3::new(0.2, 0.0, 0.0);
+//! let camera = Camera::Perspective(Perspective::new(eye, eye + DVec3::Y, DVec3::Z, 60.0, 160, 90)?);
+//! let view = renderer.render(&camera)?;
+//! assert!(view.hole_ratio < 0.01);
+//!
+//! // The layer as a 3×2 cube map with 64-pixel faces.
+//! let cube = convert_layer(&layer, Canvas::Equirect, Canvas::Cube(CubeLayout::Canonical), 64, &SampleOptions::default())?;
+//! assert_eq!((cube.width, cube.height), (192, 128));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub use crate::build::input::{Convention, DepthEncoding, Preset};
+pub use crate::build::{BuildOptions, BuildReport};
+pub use crate::colour::ColourSpace;
+pub use crate::error::{Error, Result};
+pub use crate::jobs::{
+    build_panorama, build_panorama_with_progress, BuildSettings, BuildSummary, RenderMethod, Renderer, View,
+};
+pub use crate::layer::{LayerImage, Sample};
+pub use crate::layer_io::ReadLimits;
+pub use crate::manifest::Manifest;
+pub use crate::mapping::{layout::CubeLayout, AnyMapping, MappingKind};
+pub use crate::mesh::{mesh_layer, MeshParams};
+pub use crate::panorama::{write_panorama, Panorama, SaveOptions};
+pub use crate::render::{Camera, EquirectCamera, Frame, Perspective};
+pub use crate::resample::{convert_layer, Canvas, Filter, SampleOptions};
+pub use crate::validate::{validate, Report, Severity, ValidateOptions};
+pub use glam::DVec3;
