@@ -13,7 +13,7 @@ use crate::layer::LayerImage;
 use crate::layer_io::ReadLimits;
 use crate::manifest::{Manifest, Transform};
 use crate::mapping::AnyMapping;
-use crate::mesh::MeshParams;
+use crate::mesh::{self, MeshParams};
 use crate::panorama::{self, Panorama, SaveOptions};
 use crate::render::{self, rasterize, Camera, Frame, MeshOptions, RenderLayer, SplatOptions, Stage};
 
@@ -84,20 +84,81 @@ pub fn build_panorama_with_progress(
     let rgbd = input::load(colour, s.colour_space, depth, s.normals_in.as_deref(), &s.depth, &s.limits)?;
     let read_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let built = build::build(&rgbd, &s.options, progress)?;
+    let built = build_rgbd(&rgbd, s, progress)?;
     let build_s = t.elapsed().as_secs_f64();
     progress("writing");
     let t = Instant::now();
+    let manifest = panorama::write_panorama(output, &built.manifest, &built.layers, &s.save)?;
+    let write_s = t.elapsed().as_secs_f64();
+    Ok(BuildSummary { manifest, report: built.report, read_s, build_s, write_s })
+}
+
+/// A panorama built in memory: its manifest (without canvas sizes or packing yet) and full-canvas
+/// layers, in manifest order.
+#[derive(Clone, Debug)]
+pub struct BuiltPanorama {
+    pub manifest: Manifest,
+    pub layers: Vec<LayerImage>,
+    pub report: BuildReport,
+}
+
+/// Build from an RGB-D panorama already read ([`build_panorama`] without the files).
+pub fn build_rgbd(rgbd: &build::RgbdInput, s: &BuildSettings, progress: &dyn Fn(&str)) -> crate::Result<BuiltPanorama> {
+    let built = build::build(rgbd, &s.options, progress)?;
     let mut transforms = Vec::new();
     if let Some(c) = s.center {
         transforms.push(Transform::Translate(c.to_array()));
     }
     transforms.extend(s.convention.transforms());
     let manifest = build::manifest(&built, rgbd.mapping.kind(), s.options.freedom_radius, transforms);
-    let images: Vec<LayerImage> = built.layers.into_iter().map(|l| l.image).collect();
-    let manifest = panorama::write_panorama(output, &manifest, &images, &s.save)?;
-    let write_s = t.elapsed().as_secs_f64();
-    Ok(BuildSummary { manifest, report: built.report, read_s, build_s, write_s })
+    let layers = built.layers.into_iter().map(|l| l.image).collect();
+    Ok(BuiltPanorama { manifest, layers, report: built.report })
+}
+
+/// Build from images in memory: `colour` interleaved RGB and `depth` (stored values, read with
+/// `s.depth` as files are: float metres by default), both `width` × `height`.
+pub fn build_arrays(
+    width: usize,
+    height: usize,
+    colour: input::ColourSamples,
+    depth: &[f32],
+    s: &BuildSettings,
+    progress: &dyn Fn(&str),
+) -> crate::Result<BuiltPanorama> {
+    let name = Path::new("<array>");
+    let n = width.checked_mul(height).unwrap_or(usize::MAX);
+    let colour_len = match colour {
+        input::ColourSamples::U8(v) => v.len(),
+        input::ColourSamples::U16(v) => v.len(),
+        input::ColourSamples::F32(v) => v.len(),
+    };
+    if colour_len != n.saturating_mul(3) || depth.len() != n {
+        return Err(input::InputError::SizeMismatch {
+            colour: name.into(),
+            cw: width,
+            ch: colour_len / width.max(1) / 3,
+            depth: name.into(),
+            dw: width,
+            dh: depth.len() / width.max(1),
+        }
+        .into());
+    }
+    s.limits.check(width as u64, height as u64, 4).map_err(|limit| input::InputError::TooLarge {
+        path: name.into(),
+        width: width as u64,
+        height: height as u64,
+        limit,
+    })?;
+    let mapping = input::mapping_for(name, width, height)?;
+    let mut depth = input::depth_from_raw(depth.to_vec(), s.depth.scale.unwrap_or(1.0), s.depth.invalid);
+    if s.depth.kind == input::DepthKind::Z {
+        if mapping.kind() == crate::mapping::MappingKind::Equirect {
+            return Err(input::InputError::ZDepthOnEquirect { path: name.into() }.into());
+        }
+        input::z_to_ray(&mapping, &mut depth);
+    }
+    let rgb = input::colour_planes(colour, s.colour_space);
+    build_rgbd(&build::RgbdInput { mapping, rgb, depth, normals: None }, s, progress)
 }
 
 /// How [`Renderer`] draws a view (`pomc render --method`).
@@ -166,6 +227,36 @@ impl Renderer {
         Ok(Renderer { layers, local_to_world: pano.manifest.local_to_world(), meshes, read_s, mesh_s })
     }
 
+    /// A renderer over layers already in memory (full canvases, in manifest order) placed by
+    /// `manifest`; the mesh method builds every layer's mesh (no stored ones to decode).
+    pub fn from_layers(manifest: &Manifest, images: Vec<LayerImage>, method: RenderMethod) -> crate::Result<Renderer> {
+        let kind = render::mapping_kind(manifest.mapping.kind);
+        if images.is_empty() {
+            return Err(render::RenderError::NoLayers.into());
+        }
+        let layers = images
+            .into_iter()
+            .enumerate()
+            .map(|(index, image)| {
+                let mapping = AnyMapping::new(kind, image.width, image.height).map_err(|_| {
+                    render::RenderError::LayerSize { index, width: image.width, height: image.height, kind }
+                })?;
+                Ok((image, mapping))
+            })
+            .collect::<crate::Result<Vec<_>>>()?;
+        let t = Instant::now();
+        let meshes = match method {
+            RenderMethod::Splat => None,
+            RenderMethod::Mesh => {
+                let geometry = rasterize::mesh_layers(&refs(&layers), &MeshParams::quadtree(), &MeshOptions::default())?;
+                let sources = vec![rasterize::MeshSource::Built; geometry.len()];
+                Some((geometry, sources, Vec::new()))
+            }
+        };
+        let mesh_s = meshes.is_some().then(|| t.elapsed().as_secs_f64());
+        Ok(Renderer { layers, local_to_world: manifest.local_to_world(), meshes, read_s: 0.0, mesh_s })
+    }
+
     /// Number of layers drawn.
     pub fn layer_count(&self) -> usize {
         self.layers.len()
@@ -217,4 +308,79 @@ fn view<C: serde::Serialize, O>(r: render::Rendered<C, O>) -> View {
         counts: serde_json::json!(s.counts),
         stages: s.stages,
     }
+}
+
+/// One layer meshed for a scene, as `pomc mesh` exports it.
+#[derive(Clone, Debug)]
+pub struct SceneMesh {
+    /// Index in the manifest, and the layer's name (`layerK` when it has none).
+    pub index: usize,
+    pub name: String,
+    /// The meshed pixels: the layer, or for the infinity layer its sky on the dome.
+    pub image: LayerImage,
+    /// The dome's radius when this is the sky.
+    pub sky_radius: Option<f64>,
+    pub meshed: mesh::Meshed,
+}
+
+/// Mesh the layers of a panorama held in memory (`images` in manifest order), in painter's order,
+/// or only layer `only`; infinitely far samples go on a sky dome of `sky_radius` (default
+/// [`mesh::default_sky_radius`] of all layers), as `pomc mesh` does.
+pub fn mesh_scene(
+    manifest: &Manifest,
+    images: &[LayerImage],
+    only: Option<usize>,
+    params: &MeshParams,
+    sky_radius: Option<f64>,
+) -> crate::Result<Vec<SceneMesh>> {
+    use rayon::prelude::*;
+    params.check()?;
+    let order = match only {
+        Some(k) if k >= images.len() => {
+            let manifest = PathBuf::from(crate::panorama::MANIFEST_NAME);
+            return Err(panorama::PanoramaError::NoSuchLayer { manifest, index: k, count: images.len() }.into());
+        }
+        Some(k) => vec![k],
+        None => manifest.painter_order().into_iter().filter(|&k| k < images.len()).collect(),
+    };
+    let radius = sky_radius.unwrap_or_else(|| mesh::default_sky_radius(images));
+    let kind = render::mapping_kind(manifest.mapping.kind);
+    order
+        .par_iter()
+        .map(|&k| {
+            let image = &images[k];
+            let (w, h) = (image.width, image.height);
+            let want_h = if kind == crate::mapping::MappingKind::Equirect { w / 2 } else { w * 2 / 3 };
+            let mapping = AnyMapping::new(kind, w, h)
+                .map_err(|_| mesh::MeshError::CanvasMismatch { got_w: w, got_h: h, want_w: w, want_h })?;
+            let dome = mesh::sky_at(image, radius)?;
+            let meshed = match &dome {
+                Some(d) => mesh::mesh_layer(d, &mapping, &mesh::sky_params(params))?,
+                None => mesh::mesh_layer(image, &mapping, params)?,
+            };
+            let name = manifest.layers.get(k).and_then(|d| d.name.clone()).unwrap_or_else(|| format!("layer{k}"));
+            let sky_radius = dome.is_some().then_some(radius);
+            Ok(SceneMesh { index: k, name, image: dome.unwrap_or_else(|| image.clone()), sky_radius, meshed })
+        })
+        .collect()
+}
+
+/// Write `meshes` as one scene file (`.glb`, `.obj` + `.mtl` + textures, `.ply`, by extension),
+/// in world coordinates when `local_to_world` is given.
+pub fn export_scene(
+    path: &Path,
+    meshes: &[SceneMesh],
+    local_to_world: Option<DMat4>,
+) -> crate::Result<mesh::export::Exported> {
+    let scene: Vec<mesh::export::SceneLayer> = meshes
+        .iter()
+        .map(|m| mesh::export::SceneLayer {
+            name: m.name.clone(),
+            index: m.index,
+            mesh: &m.meshed.mesh,
+            image: &m.image,
+            sky_radius: m.sky_radius,
+        })
+        .collect();
+    mesh::export::export_scene(path, &scene, local_to_world)
 }

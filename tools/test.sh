@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Install what the tests need, then run them all: the workspace tests (including the OpenEXR C++ and
-# Khronos glTF-Validator interoperability tests), the small path-traced corpus check and a bounded
-# fuzzing run. Works on a fresh machine with Rust, Python 3.11 + pip, Node and gcc; `.ci/run` calls
-# it after fmt and clippy.
+# Khronos glTF-Validator interoperability tests), the small path-traced corpus check, the Python
+# package's tests and a bounded fuzzing run. Works on a fresh machine with Rust, Python 3.11 + pip,
+# Node and gcc; `.ci/run` calls it after fmt and clippy.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -24,6 +24,11 @@ echo "== realistic corpus (small)"
 cargo build -q --profile test -p pomc-cli -p pomc-fixtures
 bin="${CARGO_TARGET_DIR:-target}/debug"
 POMC_BIN="$bin/pomc" POMC_FIXTURES_BIN="$bin/pomc-fixtures" python3 tools/eval/realistic/run.py --small --check
+
+# The Python package (PyO3, built by maturin through pip) against the same command-line binary.
+echo "== python package"
+python3 -m pip install --quiet --disable-pip-version-check ./python
+POMC_BIN="$bin/pomc" python3 -m pytest -q python/tests
 
 # The fuzz targets for a bounded time (POMC_FUZZ_SECONDS each, default 60) from the committed corpus,
 # on stable Rust (fuzz/run.sh installs cargo-fuzz if needed).

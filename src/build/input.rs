@@ -257,18 +257,55 @@ pub fn read_depth(
         let (w, h) = (img.width() as usize, img.height() as usize);
         (w, h, img.into_raw().into_iter().map(f32::from).collect(), scale)
     };
-    let depth = raw
-        .into_iter()
+    Ok((w, h, depth_from_raw(raw, scale, enc.invalid)))
+}
+
+/// Stored depth values to metres along the ray: `scale` metres per unit; NaN, zero, negative and
+/// `invalid` values become unknown (NaN); `+inf` stays infinitely far.
+pub fn depth_from_raw(raw: Vec<f32>, scale: f64, invalid: Option<f64>) -> Vec<f32> {
+    raw.into_iter()
         .map(|v| {
-            let invalid = v.is_nan() || v <= 0.0 || enc.invalid.is_some_and(|i| v as f64 == i);
-            if invalid {
+            let unknown = v.is_nan() || v <= 0.0 || invalid.is_some_and(|i| v as f64 == i);
+            if unknown {
                 f32::NAN
             } else {
                 (v as f64 * scale) as f32
             }
         })
-        .collect();
-    Ok((w, h, depth))
+        .collect()
+}
+
+/// Interleaved RGB samples of an image in memory, row-major.
+#[derive(Clone, Copy, Debug)]
+pub enum ColourSamples<'a> {
+    /// 8-bit (sRGB unless the colour space says linear).
+    U8(&'a [u8]),
+    /// 16-bit (sRGB unless the colour space says linear).
+    U16(&'a [u16]),
+    /// Float (linear unless the colour space says sRGB).
+    F32(&'a [f32]),
+}
+
+/// Planar linear RGB from samples in memory, decoded as [`read_colour`] decodes files.
+pub fn colour_planes(samples: ColourSamples, space: ColourSpace) -> [Vec<f32>; 3] {
+    let (values, float): (Vec<f32>, bool) = match samples {
+        ColourSamples::U8(v) => (v.iter().map(|&x| x as f32 / 255.0).collect(), false),
+        ColourSamples::U16(v) => (v.iter().map(|&x| x as f32 / 65535.0).collect(), false),
+        ColourSamples::F32(v) => (v.to_vec(), true),
+    };
+    let decode = match space {
+        ColourSpace::Auto => !float,
+        ColourSpace::Srgb => true,
+        ColourSpace::Linear => false,
+    };
+    let n = values.len() / 3;
+    let mut rgb = [Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n)];
+    for px in values.chunks_exact(3) {
+        for (plane, &v) in rgb.iter_mut().zip(px) {
+            plane.push(if decode { srgb_to_linear(v) } else { v });
+        }
+    }
+    rgb
 }
 
 /// Planar z-depth on a cube map to distance along the ray: `ray = z / max(|x|,|y|,|z|)` of the

@@ -1,0 +1,269 @@
+"""pomc: layered omnidirectional RGB-D panoramas (POMC) from Python.
+
+Calls the Rust library directly (no subprocesses); heavy calls release the GIL.
+
+    import numpy as np, pomc
+    pano = pomc.build(colour, depth, freedom_radius=0.9)   # H×W×3 uint8/uint16/float32, H×W float32 metres
+    pano.save("out")
+    report = pano.validate()
+    colour, depth, mask = pano.render(eye=(0.2, 0, 0), look_at=(0.2, 1, 0))
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from . import _pomc
+from ._pomc import PomcError
+
+__all__ = ["build", "open", "Panorama", "Layer", "Report", "Issue", "PomcError"]
+
+#: Keyword options of :func:`build`, with the values ``pomc build`` uses by default.
+BUILD_OPTIONS: Dict[str, Any] = {
+    "colour_space": "auto",
+    "preset": None,
+    "depth_scale": None,
+    "depth_invalid": None,
+    "depth_kind": "ray",
+    "jump": 0.08,
+    "fold_deg": 35.0,
+    "no_fold": False,
+    "fill_margin": 2.0,
+    "fill_colour": "exemplar",
+    "depth_bands": None,
+    "classify": "depth",
+    "normals": False,
+    "no_infinity": False,
+    "keep_mixed": False,
+    "soft_edges": False,
+    "no_pack": False,
+}
+
+_CHOICES = {
+    "colour_space": ("auto", "srgb", "linear"),
+    "preset": ("matterport3d", "stanford2d3ds", "structured3d", "pano3d"),
+    "depth_kind": ("ray", "z"),
+    "fill_colour": ("exemplar", "smooth", "nearest"),
+    "classify": ("depth", "geometry"),
+    "convention": ("thesis", "blender", "openexr"),
+}
+
+
+def _usage(message: str) -> PomcError:
+    err = PomcError(message)
+    err.code = "CLI_USAGE"
+    return err
+
+
+def _positive(name: str, value: Any, allow_zero: bool = False) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise _usage(f"{name} must be a number, got {value!r}") from None
+    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        raise _usage(f"{name} must be a finite number {'>= 0' if allow_zero else '> 0'}, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Issue:
+    """One validation finding."""
+
+    code: str
+    severity: str
+    message: str
+    location: str
+
+
+@dataclass(frozen=True)
+class Report:
+    """What :meth:`Panorama.validate` found (the JSON of ``pomc validate --json``)."""
+
+    valid: bool
+    errors: int
+    warnings: int
+    issues: List[Issue] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Layer:
+    """One layer as full-canvas arrays: colour H×W×3 float32 linear, depth H×W float32 metres
+    along the ray (inf: infinitely far, NaN: unknown), mask H×W bool (inside the layer)."""
+
+    name: str
+    role: Optional[str]
+    order: int
+    colour: np.ndarray
+    depth: np.ndarray
+    mask: np.ndarray
+
+
+class Panorama:
+    """A layered panorama held in memory (from :func:`build` or :func:`open`)."""
+
+    def __init__(self, inner: "_pomc.Panorama") -> None:
+        self._inner = inner
+
+    def __len__(self) -> int:
+        return len(self._inner)
+
+    def __repr__(self) -> str:
+        where = f" at {self.path}" if self.path else ""
+        return f"<pomc.Panorama: {len(self)} layers, freedom radius {self.freedom_radius} m{where}>"
+
+    @property
+    def path(self) -> Optional[str]:
+        """Directory the panorama was read from or last saved to."""
+        p = self._inner.path
+        return None if p is None else os.fspath(p)
+
+    @property
+    def freedom_radius(self) -> float:
+        return self._inner.freedom_radius
+
+    @property
+    def manifest_xml(self) -> str:
+        """The manifest (``panorama.xml``) as text."""
+        return self._inner.manifest_xml()
+
+    @property
+    def layers(self) -> List[Layer]:
+        """Every layer, in manifest order, as full-canvas numpy arrays (packed layers unpacked)."""
+        out = []
+        for k in range(len(self._inner)):
+            name, role, order = self._inner.layer_info(k)
+            colour, depth, mask = self._inner.layer_arrays(k)
+            out.append(Layer(name, role, order, colour, depth, mask))
+        return out
+
+    def save(self, directory: "os.PathLike[str] | str") -> None:
+        """Write the panorama into ``directory`` (manifest + one OpenEXR per layer, atomically)."""
+        self._inner.save(os.fspath(directory))
+
+    def validate(self) -> Report:
+        """Check the panorama against the POMC 1 spec, as ``pomc validate``."""
+        raw = json.loads(self._inner.validate_json())
+        issues = [Issue(i["code"], i["severity"], i["message"], i["location"]) for i in raw["issues"]]
+        return Report(raw["valid"], raw["errors"], raw["warnings"], issues)
+
+    def render(
+        self,
+        eye: Sequence[float],
+        look_at: Sequence[float],
+        *,
+        up: Sequence[float] = (0.0, 0.0, 1.0),
+        fov: float = 60.0,
+        size: Tuple[int, int] = (960, 540),
+        method: str = "splat",
+    ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Render a perspective view (world frame, metres; ``fov`` horizontal degrees; ``size``
+        = (width, height)) as ``pomc render``: colour H×W×3 float32 linear, depth H×W float32
+        (distance from the eye; -1 in holes), mask H×W bool (covered)."""
+        if method not in ("splat", "mesh"):
+            raise _usage(f"method must be 'splat' or 'mesh', got {method!r}")
+        w, h = (int(size[0]), int(size[1]))
+        colour, depth, mask, _ = self._inner.render(
+            _vec3("eye", eye), _vec3("look_at", look_at), _vec3("up", up), float(fov), (w, h), method
+        )
+        return colour, depth, mask
+
+    def mesh(self, layer: Optional[int] = None, **options: Any) -> List[Dict[str, Any]]:
+        """Mesh every layer (painter's order) or one, as ``pomc mesh``: a list of dicts with
+        ``name``, ``layer``, ``vertices`` (N×3, panorama-local metres), ``triangles`` (M×3),
+        ``uv`` (N×2, canvas coordinates) and ``sky_radius`` (the sky dome's, for the infinity
+        layer). Options: ``max_error``, ``max_angle``, ``simplify`` (default True), ``sky_radius``."""
+        return self._inner.mesh(layer, **_mesh_options(options))
+
+    def export_mesh(self, path: "os.PathLike[str] | str", **options: Any) -> List[str]:
+        """Write every layer's mesh into one scene file (.glb, .obj + .mtl + textures, .ply) as
+        ``pomc mesh PANO -o PATH``; returns the files written. Also ``local=True`` for
+        panorama-local coordinates."""
+        local = bool(options.pop("local", False))
+        files = self._inner.export_mesh(os.fspath(path), local=local, **_mesh_options(options))
+        return [os.fspath(f) for f in files]
+
+
+def _vec3(name: str, v: Sequence[float]) -> List[float]:
+    a = np.asarray(v, dtype=np.float64).reshape(-1)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise _usage(f"{name} must be three finite numbers, got {v!r}")
+    return [float(x) for x in a]
+
+
+def _mesh_options(options: Dict[str, Any]) -> Dict[str, Any]:
+    known = {"max_error", "max_angle", "simplify", "sky_radius"}
+    unknown = set(options) - known
+    if unknown:
+        raise _usage(f"unknown mesh option(s) {sorted(unknown)}; known: {sorted(known)}")
+    out = dict(options)
+    for k in ("max_error", "sky_radius"):
+        if out.get(k) is not None:
+            out[k] = _positive(k, out[k])
+    if out.get("max_angle") is not None:
+        out["max_angle"] = _positive("max_angle", out["max_angle"], allow_zero=True)
+    return out
+
+
+def open(path: "os.PathLike[str] | str") -> Panorama:  # noqa: A001 (the documented name)
+    """Open a panorama directory (or its ``panorama.xml``), reading every layer."""
+    return Panorama(_pomc.open(os.fspath(path)))
+
+
+def build(
+    colour: np.ndarray,
+    depth: np.ndarray,
+    *,
+    freedom_radius: float = 0.5,
+    convention: str = "thesis",
+    center: Sequence[float] = (0.0, 0.0, 0.0),
+    **options: Any,
+) -> Panorama:
+    """Build a layered panorama from a plain RGB-D panorama, as ``pomc build``.
+
+    ``colour``: H×W×3 uint8 or uint16 (sRGB) or float32 (linear); ``depth``: H×W metres along
+    the ray (``inf`` sky, ``nan`` or 0 unknown; integer depth needs ``depth_scale`` or ``preset``).
+    A 2:1 canvas is an equirect, 3:2 a cube map. Every ``pomc build`` option is a keyword
+    (``-`` as ``_``): see :data:`BUILD_OPTIONS` for names and defaults.
+    """
+    unknown = set(options) - set(BUILD_OPTIONS)
+    if unknown:
+        raise _usage(f"unknown build option(s) {sorted(unknown)}; known: {sorted(BUILD_OPTIONS)}")
+    opts: Dict[str, Any] = {k: v for k, v in options.items() if v is not None}
+    opts["freedom_radius"] = _positive("freedom_radius", freedom_radius)
+    opts["convention"] = convention
+    opts["center"] = _vec3("center", center)
+    for k, allowed in _CHOICES.items():
+        if k in opts and opts[k] not in allowed:
+            raise _usage(f"{k} must be one of {allowed}, got {opts[k]!r}")
+    for k in ("jump", "depth_scale"):
+        if k in opts:
+            opts[k] = _positive(k, opts[k])
+    if "fold_deg" in opts:
+        opts["fold_deg"] = _positive("fold_deg", opts["fold_deg"])
+    if "fill_margin" in opts:
+        opts["fill_margin"] = _positive("fill_margin", opts["fill_margin"], allow_zero=True)
+    if "depth_bands" in opts:
+        opts["depth_bands"] = [_positive("depth_bands", d) for d in opts["depth_bands"]]
+    colour = np.ascontiguousarray(colour)
+    if colour.dtype not in (np.uint8, np.uint16, np.float32):
+        if np.issubdtype(colour.dtype, np.floating):
+            colour = colour.astype(np.float32)
+        else:
+            raise _usage(f"colour must be uint8, uint16 or float32, got {colour.dtype}")
+    depth_arr = np.asarray(depth)
+    if np.issubdtype(depth_arr.dtype, np.integer) and "depth_scale" not in opts and "preset" not in opts:
+        err = PomcError(
+            "integer depth has no unit; give depth_scale (metres per stored unit, e.g. 0.001 for "
+            "millimetres) or a dataset preset (matterport3d, stanford2d3ds, structured3d)"
+        )
+        err.code = "INPUT_DEPTH_SCALE_NEEDED"
+        raise err
+    if depth_arr.ndim != 2:
+        raise _usage(f"depth must be H×W, got shape {depth_arr.shape}")
+    depth_arr = np.ascontiguousarray(depth_arr, dtype=np.float32)
+    return Panorama(_pomc.build(colour, depth_arr, opts))

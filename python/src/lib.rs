@@ -1,0 +1,457 @@
+//! `pomc._pomc`: the Python binding. It translates arguments and calls `pomc::jobs`; the Python
+//! package (`pomc/__init__.py`) wraps it in the documented API. Heavy calls release the GIL.
+
+#![forbid(unsafe_code)]
+
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+use glam::DVec3;
+use numpy::{
+    IntoPyArray, PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,
+};
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use pomc::build::input::{ColourSamples, Convention, DepthKind, Preset};
+use pomc::build::{Classify, FillColour};
+use pomc::colour::ColourSpace;
+use pomc::jobs::{self, BuildSettings, RenderMethod, Renderer};
+use pomc::layer::{LayerImage, Sample};
+use pomc::layer_io::ReadLimits;
+use pomc::manifest::Manifest;
+use pomc::mesh::MeshParams;
+use pomc::panorama::{Panorama, SaveOptions};
+use pomc::render::{Camera, Perspective};
+
+create_exception!(_pomc, PomcError, PyException, "A pomc failure; `.code` is its stable code.");
+
+fn fail(code: &str, message: String) -> PyErr {
+    let err = PomcError::new_err(message);
+    Python::with_gil(|py| {
+        let _ = err.value(py).setattr("code", code);
+    });
+    err
+}
+
+fn to_py(e: pomc::Error) -> PyErr {
+    fail(e.code(), e.to_string())
+}
+
+fn usage(message: String) -> PyErr {
+    fail("CLI_USAGE", message)
+}
+
+/// A panorama in memory: manifest and full-canvas layers (manifest order), and the directory it was
+/// read from (until changed).
+#[pyclass(module = "pomc._pomc", name = "Panorama")]
+struct PyPanorama {
+    manifest: Manifest,
+    layers: Vec<LayerImage>,
+    dir: Option<PathBuf>,
+    renderers: Mutex<Vec<(RenderMethod, std::sync::Arc<Renderer>)>>,
+}
+
+impl PyPanorama {
+    fn new(manifest: Manifest, layers: Vec<LayerImage>, dir: Option<PathBuf>) -> Self {
+        PyPanorama { manifest, layers, dir, renderers: Mutex::new(Vec::new()) }
+    }
+
+    fn renderer(&self, method: RenderMethod) -> Result<std::sync::Arc<Renderer>, pomc::Error> {
+        if let Ok(cache) = self.renderers.lock() {
+            if let Some((_, r)) = cache.iter().find(|(m, _)| *m == method) {
+                return Ok(r.clone());
+            }
+        }
+        let r = std::sync::Arc::new(Renderer::from_layers(&self.manifest, self.layers.clone(), method)?);
+        if let Ok(mut cache) = self.renderers.lock() {
+            cache.push((method, r.clone()));
+        }
+        Ok(r)
+    }
+}
+
+#[pymethods]
+impl PyPanorama {
+    /// Number of layers.
+    fn __len__(&self) -> usize {
+        self.layers.len()
+    }
+
+    /// The directory this panorama was read from or last saved to.
+    #[getter]
+    fn path(&self) -> Option<PathBuf> {
+        self.dir.clone()
+    }
+
+    /// The manifest as XML (what `panorama.xml` holds).
+    fn manifest_xml(&self) -> String {
+        self.manifest.to_xml()
+    }
+
+    /// Freedom radius in metres.
+    #[getter]
+    fn freedom_radius(&self) -> f64 {
+        self.manifest.freedom_radius
+    }
+
+    /// `(name, role, order)` of layer `k`.
+    fn layer_info(&self, k: usize) -> PyResult<(String, Option<String>, u32)> {
+        let decl = self.manifest.layers.get(k).ok_or_else(|| usage(format!("no layer {k}")))?;
+        let name = decl.name.clone().unwrap_or_else(|| format!("layer{k}"));
+        let order = decl.order.unwrap_or(k as u32);
+        Ok((name, decl.role.map(|r| r.as_str().to_string()), order))
+    }
+
+    /// Colour (H×W×3 float32 linear, 0 where absent), depth (H×W float32) and mask (H×W bool) of
+    /// layer `k`.
+    #[allow(clippy::type_complexity)]
+    fn layer_arrays<'py>(
+        &self,
+        py: Python<'py>,
+        k: usize,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let l = self.layers.get(k).ok_or_else(|| usage(format!("no layer {k}")))?;
+        let (w, h, n) = (l.width, l.height, l.width * l.height);
+        let mut rgb = vec![0f32; n * 3];
+        for (c, name) in ["R", "G", "B"].iter().enumerate() {
+            if let Some(ch) = l.channel(name) {
+                for (i, v) in ch.data.iter().enumerate() {
+                    rgb[i * 3 + c] = *v;
+                }
+            }
+        }
+        let depth = l.depth().map(<[f32]>::to_vec).unwrap_or_else(|| vec![f32::NAN; n]);
+        let sample = l.sampler();
+        let mask: Vec<bool> = (0..n).map(|i| sample(i) != Sample::Outside).collect();
+        let shape =
+            |a: Bound<'py, PyArray1<f32>>, dims: &[usize]| a.reshape(dims.to_vec()).map(Bound::into_any);
+        Ok((
+            shape(rgb.into_pyarray(py), &[h, w, 3])?,
+            shape(depth.into_pyarray(py), &[h, w])?,
+            mask.into_pyarray(py).reshape(vec![h, w])?.into_any(),
+        ))
+    }
+
+    /// Write the panorama into `dir` (patch-packing sparse layers), as `pomc build -o` does.
+    fn save(&mut self, py: Python<'_>, dir: PathBuf) -> PyResult<()> {
+        let written = py
+            .allow_threads(|| {
+                pomc::panorama::write_panorama(&dir, &self.manifest, &self.layers, &SaveOptions::default())
+            })
+            .map_err(to_py)?;
+        self.manifest = written;
+        self.dir = Some(dir);
+        Ok(())
+    }
+
+    /// Validate (as `pomc validate`) and return the report as JSON.
+    fn validate_json(&self, py: Python<'_>) -> PyResult<String> {
+        let report = py
+            .allow_threads(|| -> Result<_, pomc::Error> {
+                let options = pomc::validate::ValidateOptions::default();
+                match &self.dir {
+                    Some(dir) => pomc::validate::validate(dir, &options),
+                    None => {
+                        let tmp = tempfile::tempdir()
+                            .map_err(|source| pomc::Error::Io { path: std::env::temp_dir(), source })?;
+                        pomc::panorama::write_panorama(
+                            tmp.path(),
+                            &self.manifest,
+                            &self.layers,
+                            &SaveOptions::default(),
+                        )?;
+                        pomc::validate::validate(tmp.path(), &options)
+                    }
+                }
+            })
+            .map_err(to_py)?;
+        serde_json::to_string(&report).map_err(|e| usage(e.to_string()))
+    }
+
+    /// Render a perspective view: colour (H×W×3 float32 linear), depth (H×W float32), mask (H×W
+    /// bool: covered), and the hole ratio.
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn render<'py>(
+        &self,
+        py: Python<'py>,
+        eye: [f64; 3],
+        look_at: [f64; 3],
+        up: [f64; 3],
+        fov: f64,
+        size: (usize, usize),
+        method: &str,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>, f64)> {
+        let method = match method {
+            "splat" => RenderMethod::Splat,
+            "mesh" => RenderMethod::Mesh,
+            other => return Err(usage(format!("method `{other}`: use \"splat\" or \"mesh\""))),
+        };
+        let (w, h) = size;
+        let cam = Perspective::new(DVec3::from(eye), DVec3::from(look_at), DVec3::from(up), fov, w, h)
+            .map_err(|e| to_py(e.into()))?;
+        let view = py
+            .allow_threads(|| self.renderer(method).and_then(|r| r.render(&Camera::Perspective(cam))))
+            .map_err(to_py)?;
+        let f = view.frame;
+        let n = f.width * f.height;
+        let mut rgb = vec![0f32; n * 3];
+        for (c, plane) in f.rgb.iter().enumerate() {
+            for (i, v) in plane.iter().enumerate() {
+                rgb[i * 3 + c] = *v;
+            }
+        }
+        let (fw, fh) = (f.width, f.height);
+        Ok((
+            rgb.into_pyarray(py).reshape(vec![fh, fw, 3])?.into_any(),
+            f.depth.into_pyarray(py).reshape(vec![fh, fw])?.into_any(),
+            f.covered.into_pyarray(py).reshape(vec![fh, fw])?.into_any(),
+            view.hole_ratio,
+        ))
+    }
+
+    /// Mesh every layer (painter's order) or layer `layer`: a list of dicts with `name`, `layer`,
+    /// `vertices` (N×3 float64, panorama-local), `triangles` (M×3 uint32), `uv` (N×2 float32),
+    /// `sky_radius`.
+    #[pyo3(signature = (layer=None, max_error=None, max_angle=None, simplify=true, sky_radius=None))]
+    fn mesh<'py>(
+        &self,
+        py: Python<'py>,
+        layer: Option<usize>,
+        max_error: Option<f64>,
+        max_angle: Option<f64>,
+        simplify: bool,
+        sky_radius: Option<f64>,
+    ) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let params = mesh_params(max_error, max_angle, simplify);
+        let meshes = py
+            .allow_threads(|| jobs::mesh_scene(&self.manifest, &self.layers, layer, &params, sky_radius))
+            .map_err(to_py)?;
+        meshes
+            .into_iter()
+            .map(|m| {
+                let d = PyDict::new(py);
+                let mesh = &m.meshed.mesh;
+                let (w, h) = (mesh.width, mesh.height);
+                let uv: Vec<f32> = mesh
+                    .sources
+                    .iter()
+                    .flat_map(|&id| {
+                        if pomc::mesh::is_pole(id, w, h) {
+                            [0.5, if id as usize > w * h { 1.0 } else { 0.0 }]
+                        } else {
+                            let (x, y) = (id as usize % w, id as usize / w);
+                            [((x as f64 + 0.5) / w as f64) as f32, ((y as f64 + 0.5) / h as f64) as f32]
+                        }
+                    })
+                    .collect();
+                let v: Vec<f64> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
+                let t: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+                let (nv, nt) = (mesh.positions.len(), mesh.triangles.len());
+                d.set_item("name", &m.name)?;
+                d.set_item("layer", m.index)?;
+                d.set_item("vertices", v.into_pyarray(py).reshape(vec![nv, 3])?)?;
+                d.set_item("triangles", t.into_pyarray(py).reshape(vec![nt, 3])?)?;
+                d.set_item("uv", uv.into_pyarray(py).reshape(vec![nv, 2])?)?;
+                d.set_item("sky_radius", m.sky_radius)?;
+                Ok(d)
+            })
+            .collect()
+    }
+
+    /// Mesh every layer and write one scene file (.glb, .obj, .ply), as `pomc mesh PANO -o PATH`.
+    #[pyo3(signature = (path, max_error=None, max_angle=None, simplify=true, sky_radius=None, local=false))]
+    #[allow(clippy::too_many_arguments)]
+    fn export_mesh(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        max_error: Option<f64>,
+        max_angle: Option<f64>,
+        simplify: bool,
+        sky_radius: Option<f64>,
+        local: bool,
+    ) -> PyResult<Vec<PathBuf>> {
+        let params = mesh_params(max_error, max_angle, simplify);
+        let exported = py
+            .allow_threads(|| {
+                let meshes = jobs::mesh_scene(&self.manifest, &self.layers, None, &params, sky_radius)?;
+                jobs::export_scene(&path, &meshes, (!local).then(|| self.manifest.local_to_world()))
+            })
+            .map_err(to_py)?;
+        Ok(exported.files)
+    }
+}
+
+fn mesh_params(max_error: Option<f64>, max_angle: Option<f64>, simplify: bool) -> MeshParams {
+    let mut p = if simplify { MeshParams::default() } else { MeshParams::quadtree() };
+    if let Some(e) = max_error {
+        p.max_error = Some(e);
+        if let Some(s) = &mut p.simplify {
+            s.max_error = e;
+        }
+    }
+    if let Some(a) = max_angle {
+        p.max_angle_deg = (a > 0.0).then_some(a);
+        if let Some(s) = &mut p.simplify {
+            s.max_angle_deg = p.max_angle_deg;
+        }
+    }
+    p
+}
+
+/// Open a panorama directory (or its manifest), reading every layer.
+#[pyfunction]
+fn open(py: Python<'_>, path: PathBuf) -> PyResult<PyPanorama> {
+    let (manifest, layers, dir) = py
+        .allow_threads(|| -> Result<_, pomc::Error> {
+            let pano = Panorama::open(&path)?;
+            let layers = (0..pano.manifest.layers.len())
+                .map(|k| pano.read_layer(k, &ReadLimits::default()))
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok((pano.manifest, layers, pano.dir))
+        })
+        .map_err(to_py)?;
+    Ok(PyPanorama::new(manifest, layers, Some(dir)))
+}
+
+/// Build a panorama from arrays; `options` holds the keyword options, already checked by Python.
+#[pyfunction]
+fn build(
+    py: Python<'_>,
+    colour: &Bound<'_, PyAny>,
+    depth: PyReadonlyArray2<'_, f32>,
+    options: &Bound<'_, PyDict>,
+) -> PyResult<PyPanorama> {
+    let settings = settings(options)?;
+    let shape = depth.shape();
+    let (h, w) = (shape[0], shape[1]);
+    let depth = depth.as_slice().map_err(|e| usage(format!("depth: {e}")))?.to_vec();
+    let built = if let Ok(c) = colour.extract::<PyReadonlyArray3<'_, u8>>() {
+        check_colour(c.shape(), h, w)?;
+        let c = c.as_slice().map_err(|e| usage(format!("colour: {e}")))?.to_vec();
+        py.allow_threads(|| jobs::build_arrays(w, h, ColourSamples::U8(&c), &depth, &settings, &|_| {}))
+    } else if let Ok(c) = colour.extract::<PyReadonlyArray3<'_, u16>>() {
+        check_colour(c.shape(), h, w)?;
+        let c = c.as_slice().map_err(|e| usage(format!("colour: {e}")))?.to_vec();
+        py.allow_threads(|| jobs::build_arrays(w, h, ColourSamples::U16(&c), &depth, &settings, &|_| {}))
+    } else if let Ok(c) = colour.extract::<PyReadonlyArray3<'_, f32>>() {
+        check_colour(c.shape(), h, w)?;
+        let c = c.as_slice().map_err(|e| usage(format!("colour: {e}")))?.to_vec();
+        py.allow_threads(|| jobs::build_arrays(w, h, ColourSamples::F32(&c), &depth, &settings, &|_| {}))
+    } else {
+        return Err(usage("colour must be an H×W×3 uint8, uint16 or float32 array".into()));
+    }
+    .map_err(to_py)?;
+    Ok(PyPanorama::new(built.manifest, built.layers, None))
+}
+
+fn check_colour(shape: &[usize], h: usize, w: usize) -> PyResult<()> {
+    if shape != [h, w, 3] {
+        return Err(fail(
+            "INPUT_SIZE_MISMATCH",
+            format!(
+                "colour is {shape:?} but depth is {h}×{w}: colour must be H×W×3 with the depth's H and W"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// `BuildSettings` from the checked keyword options (names as the command's, `-` as `_`).
+fn settings(o: &Bound<'_, PyDict>) -> PyResult<BuildSettings> {
+    let mut s = BuildSettings::default();
+    let get = |k: &str| o.get_item(k);
+    if let Some(v) = get("freedom_radius")? {
+        s.options.freedom_radius = v.extract()?;
+    }
+    if let Some(v) = get("convention")? {
+        s.convention = match v.extract::<String>()?.as_str() {
+            "thesis" => Convention::Thesis,
+            "blender" => Convention::Blender,
+            "openexr" => Convention::OpenExr,
+            other => return Err(usage(format!("convention `{other}`: use thesis, blender or openexr"))),
+        };
+    }
+    if let Some(v) = get("center")? {
+        let c: [f64; 3] = v.extract()?;
+        s.center = (c != [0.0; 3]).then(|| DVec3::from(c));
+    }
+    if let Some(v) = get("colour_space")? {
+        s.colour_space = match v.extract::<String>()?.as_str() {
+            "auto" => ColourSpace::Auto,
+            "srgb" => ColourSpace::Srgb,
+            "linear" => ColourSpace::Linear,
+            other => return Err(usage(format!("colour_space `{other}`: use auto, srgb or linear"))),
+        };
+    }
+    if let Some(v) = get("preset")? {
+        let preset = match v.extract::<String>()?.as_str() {
+            "matterport3d" => Preset::Matterport3d,
+            "stanford2d3ds" => Preset::Stanford2d3ds,
+            "structured3d" => Preset::Structured3d,
+            "pano3d" => Preset::Pano3d,
+            other => {
+                return Err(usage(format!(
+                    "preset `{other}`: use matterport3d, stanford2d3ds, structured3d or pano3d"
+                )))
+            }
+        };
+        s.depth = preset.encoding();
+    }
+    if let Some(v) = get("depth_scale")? {
+        s.depth.scale = Some(v.extract()?);
+    }
+    if let Some(v) = get("depth_invalid")? {
+        s.depth.invalid = Some(v.extract()?);
+    }
+    if let Some(v) = get("depth_kind")? {
+        s.depth.kind = if v.extract::<String>()? == "z" { DepthKind::Z } else { DepthKind::Ray };
+    }
+    if let Some(v) = get("jump")? {
+        s.options.segment.edges.jump = v.extract()?;
+    }
+    if let Some(v) = get("fold_deg")? {
+        s.options.segment.edges.fold_deg = Some(v.extract()?);
+    }
+    if get("no_fold")?.map(|v| v.is_truthy()).transpose()?.unwrap_or(false) {
+        s.options.segment.edges.fold_deg = None;
+    }
+    if let Some(v) = get("fill_margin")? {
+        s.options.margin_px = v.extract()?;
+    }
+    if let Some(v) = get("fill_colour")? {
+        s.options.fill_colour = match v.extract::<String>()?.as_str() {
+            "exemplar" => FillColour::Exemplar,
+            "smooth" => FillColour::Smooth,
+            "nearest" => FillColour::Nearest,
+            other => return Err(usage(format!("fill_colour `{other}`: use exemplar, smooth or nearest"))),
+        };
+    }
+    if let Some(v) = get("depth_bands")? {
+        s.options.depth_bands = v.extract()?;
+    }
+    if let Some(v) = get("classify")? {
+        s.options.classify =
+            if v.extract::<String>()? == "geometry" { Classify::Geometry } else { Classify::Depth };
+    }
+    let flag =
+        |k: &str| -> PyResult<bool> { Ok(get(k)?.map(|v| v.is_truthy()).transpose()?.unwrap_or(false)) };
+    s.options.normals_out = flag("normals")?;
+    s.options.infinity = !flag("no_infinity")?;
+    s.options.drop_mixed = !flag("keep_mixed")?;
+    s.options.soft_edges = flag("soft_edges")?;
+    s.save.pack = !flag("no_pack")?;
+    Ok(s)
+}
+
+#[pymodule]
+fn _pomc(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("PomcError", m.py().get_type::<PomcError>())?;
+    m.add_class::<PyPanorama>()?;
+    m.add_function(wrap_pyfunction!(open, m)?)?;
+    m.add_function(wrap_pyfunction!(build, m)?)?;
+    Ok(())
+}

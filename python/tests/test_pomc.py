@@ -1,0 +1,155 @@
+"""The Python package against the command line and independent readers (OpenEXR, Pillow)."""
+
+import os
+import subprocess
+import threading
+from pathlib import Path
+
+import numpy as np
+import OpenEXR
+import pytest
+from PIL import Image
+
+import pomc
+
+ROOT = Path(__file__).resolve().parents[2]
+FIXTURE = ROOT / "fixtures" / "data" / "room-rgbd"
+
+
+def pomc_bin() -> str:
+    found = os.environ.get("POMC_BIN")
+    if found:
+        return found
+    for profile in ("release", "debug"):
+        p = ROOT / "target" / profile / "pomc"
+        if p.exists():
+            return str(p)
+    pytest.skip("no pomc binary: build it (cargo build -p pomc-cli) or set POMC_BIN")
+
+
+def cli(*args: str) -> None:
+    subprocess.run([pomc_bin(), "--quiet", *args], check=True)
+
+
+def exr_channels(path: Path) -> dict:
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        return {name: np.asarray(ch.pixels) for name, ch in f.channels().items()}
+
+
+def fixture_arrays():
+    colour = np.asarray(Image.open(FIXTURE / "colour.png").convert("RGB"))
+    depth = exr_channels(FIXTURE / "depth.exr")
+    z = depth.get("Z", next(iter(depth.values())))
+    return colour, z.astype(np.float32)
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """The fixture built twice: by `pomc build` from the files, by `pomc.build` from arrays."""
+    d = tmp_path_factory.mktemp("built")
+    cli("build", "--colour", str(FIXTURE / "colour.png"), "--depth", str(FIXTURE / "depth.exr"), "-o", str(d / "cli"))
+    colour, depth = fixture_arrays()
+    pano = pomc.build(colour, depth)
+    pano.save(d / "py")
+    return d
+
+
+def test_building_from_arrays_equals_the_command(built):
+    a, b = pomc.open(built / "cli"), pomc.open(built / "py")
+    assert len(a) == len(b) >= 2
+    for la, lb in zip(a.layers, b.layers):
+        assert (la.name, la.role, la.order) == (lb.name, lb.role, lb.order)
+        assert la.colour.dtype == np.float32 and la.colour.shape == la.depth.shape + (3,)
+        assert la.mask.dtype == np.bool_
+        for x, y in ((la.colour, lb.colour), (la.depth, lb.depth), (la.mask, lb.mask)):
+            assert np.array_equal(x, y, equal_nan=True)
+    assert a.manifest_xml == b.manifest_xml
+
+
+def test_layers_are_the_files_read_by_openexr(built):
+    pano = pomc.open(built / "py")
+    background = pano.layers[0]
+    z = exr_channels(built / "py" / f"{background.name}.exr")["Z"]
+    inside = background.mask
+    assert np.array_equal(z[inside], background.depth[inside])
+
+
+def test_render_equals_the_command(built, tmp_path):
+    pano = pomc.open(built / "py")
+    eye, look = (0.15, -0.1, 0.05), (0.15, 1.0, 0.0)
+    for method in ("splat", "mesh"):
+        out = tmp_path / f"{method}.exr"
+        cli(
+            "render", str(built / "py"), "-o", str(out), "--method", method,
+            "--eye", ",".join(map(str, eye)), "--look-at", ",".join(map(str, look)), "--size", "160x90",
+        )
+        truth = exr_channels(out)
+        colour, depth, mask = pano.render(eye, look, size=(160, 90), method=method)
+        assert colour.shape == (90, 160, 3) and depth.shape == (90, 160) and mask.shape == (90, 160)
+        for c, name in enumerate("RGB"):
+            assert np.array_equal(colour[..., c], truth[name]), f"{method} {name}"
+        assert mask.mean() > 0.99
+
+
+def test_validate_mesh_and_export(built, tmp_path):
+    pano = pomc.open(built / "py")
+    report = pano.validate()
+    assert report.valid and report.errors == 0, report.issues
+    meshes = pano.mesh()
+    assert [m["layer"] for m in meshes] and all(m["triangles"].shape[1] == 3 for m in meshes)
+    for m in meshes:
+        n = m["vertices"].shape[0]
+        assert m["uv"].shape == (n, 2) and m["triangles"].max() < n
+        assert np.all((m["uv"] >= 0) & (m["uv"] <= 1))
+    files = pano.export_mesh(tmp_path / "scene.glb")
+    assert files[0].endswith("scene.glb") and os.path.getsize(files[0]) > 1000
+    # In memory, not yet saved: validated through a temporary copy.
+    colour, depth = fixture_arrays()
+    assert pomc.build(colour, depth, freedom_radius=0.3).validate().valid
+
+
+def test_failures_carry_stable_codes(tmp_path):
+    with pytest.raises(pomc.PomcError) as e:
+        pomc.open(tmp_path / "nothing-here")
+    assert e.value.code == "PANORAMA_NOT_FOUND"
+    colour, depth = fixture_arrays()
+    with pytest.raises(pomc.PomcError) as e:
+        pomc.build(colour, depth, freedom_radius=-1)
+    assert e.value.code == "CLI_USAGE"
+    with pytest.raises(pomc.PomcError) as e:
+        pomc.build(colour, depth, no_such_option=1)
+    assert e.value.code == "CLI_USAGE"
+    with pytest.raises(pomc.PomcError) as e:
+        pomc.build(colour, (depth * 1000).astype(np.uint16))
+    assert e.value.code == "INPUT_DEPTH_SCALE_NEEDED"
+    with pytest.raises(pomc.PomcError) as e:
+        pomc.build(colour[:, :-2], depth)
+    assert e.value.code == "INPUT_SIZE_MISMATCH"
+    assert issubclass(pomc.PomcError, Exception)
+
+
+def test_integer_depth_with_a_scale_is_metres():
+    colour, depth = fixture_arrays()
+    mm = np.where(np.isfinite(depth), np.round(depth * 1000), 0).astype(np.uint16)
+    pano = pomc.build(colour, mm, depth_scale=0.001)
+    assert pano.validate().valid
+
+
+def test_rendering_releases_the_gil(built):
+    pano = pomc.open(built / "py")
+    pano.render((0.1, 0, 0), (0.1, 1, 0), size=(64, 36))  # warm the renderer cache
+    done = threading.Event()
+    ticks = 0
+
+    def work():
+        for _ in range(5):
+            pano.render((0.1, 0, 0), (0.1, 1, 0), size=(640, 360))
+        done.set()
+
+    t = threading.Thread(target=work)
+    t.start()
+    while not done.is_set():
+        ticks += 1
+    t.join()
+    # With the GIL held by the renders this thread could not have run meanwhile.
+    assert ticks > 1000
