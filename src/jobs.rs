@@ -103,7 +103,11 @@ pub struct BuiltPanorama {
 }
 
 /// Build from an RGB-D panorama already read ([`build_panorama`] without the files).
-pub fn build_rgbd(rgbd: &build::RgbdInput, s: &BuildSettings, progress: &dyn Fn(&str)) -> crate::Result<BuiltPanorama> {
+pub fn build_rgbd(
+    rgbd: &build::RgbdInput,
+    s: &BuildSettings,
+    progress: &dyn Fn(&str),
+) -> crate::Result<BuiltPanorama> {
     let built = build::build(rgbd, &s.options, progress)?;
     let mut transforms = Vec::new();
     if let Some(c) = s.center {
@@ -126,7 +130,7 @@ pub fn build_arrays(
     progress: &dyn Fn(&str),
 ) -> crate::Result<BuiltPanorama> {
     let name = Path::new("<array>");
-    let n = width.checked_mul(height).unwrap_or(usize::MAX);
+    let n = width.saturating_mul(height);
     let colour_len = match colour {
         input::ColourSamples::U8(v) => v.len(),
         input::ColourSamples::U16(v) => v.len(),
@@ -229,7 +233,11 @@ impl Renderer {
 
     /// A renderer over layers already in memory (full canvases, in manifest order) placed by
     /// `manifest`; the mesh method builds every layer's mesh (no stored ones to decode).
-    pub fn from_layers(manifest: &Manifest, images: Vec<LayerImage>, method: RenderMethod) -> crate::Result<Renderer> {
+    pub fn from_layers(
+        manifest: &Manifest,
+        images: Vec<LayerImage>,
+        method: RenderMethod,
+    ) -> crate::Result<Renderer> {
         let kind = render::mapping_kind(manifest.mapping.kind);
         if images.is_empty() {
             return Err(render::RenderError::NoLayers.into());
@@ -248,7 +256,8 @@ impl Renderer {
         let meshes = match method {
             RenderMethod::Splat => None,
             RenderMethod::Mesh => {
-                let geometry = rasterize::mesh_layers(&refs(&layers), &MeshParams::quadtree(), &MeshOptions::default())?;
+                let geometry =
+                    rasterize::mesh_layers(&refs(&layers), &MeshParams::quadtree(), &MeshOptions::default())?;
                 let sources = vec![rasterize::MeshSource::Built; geometry.len()];
                 Some((geometry, sources, Vec::new()))
             }
@@ -338,7 +347,9 @@ pub fn mesh_scene(
     let order = match only {
         Some(k) if k >= images.len() => {
             let manifest = PathBuf::from(crate::panorama::MANIFEST_NAME);
-            return Err(panorama::PanoramaError::NoSuchLayer { manifest, index: k, count: images.len() }.into());
+            return Err(
+                panorama::PanoramaError::NoSuchLayer { manifest, index: k, count: images.len() }.into()
+            );
         }
         Some(k) => vec![k],
         None => manifest.painter_order().into_iter().filter(|&k| k < images.len()).collect(),
@@ -351,14 +362,19 @@ pub fn mesh_scene(
             let image = &images[k];
             let (w, h) = (image.width, image.height);
             let want_h = if kind == crate::mapping::MappingKind::Equirect { w / 2 } else { w * 2 / 3 };
-            let mapping = AnyMapping::new(kind, w, h)
-                .map_err(|_| mesh::MeshError::CanvasMismatch { got_w: w, got_h: h, want_w: w, want_h })?;
+            let mapping = AnyMapping::new(kind, w, h).map_err(|_| mesh::MeshError::CanvasMismatch {
+                got_w: w,
+                got_h: h,
+                want_w: w,
+                want_h,
+            })?;
             let dome = mesh::sky_at(image, radius)?;
             let meshed = match &dome {
                 Some(d) => mesh::mesh_layer(d, &mapping, &mesh::sky_params(params))?,
                 None => mesh::mesh_layer(image, &mapping, params)?,
             };
-            let name = manifest.layers.get(k).and_then(|d| d.name.clone()).unwrap_or_else(|| format!("layer{k}"));
+            let name =
+                manifest.layers.get(k).and_then(|d| d.name.clone()).unwrap_or_else(|| format!("layer{k}"));
             let sky_radius = dome.is_some().then_some(radius);
             Ok(SceneMesh { index: k, name, image: dome.unwrap_or_else(|| image.clone()), sky_radius, meshed })
         })
