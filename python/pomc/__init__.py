@@ -21,7 +21,7 @@ import numpy as np
 from . import _pomc
 from ._pomc import PomcError
 
-__all__ = ["build", "open", "Panorama", "Layer", "Report", "Issue", "PomcError"]
+__all__ = ["build", "build_files", "open", "Panorama", "Layer", "Report", "Issue", "PomcError"]
 
 #: Keyword options of :func:`build`, with the values ``pomc build`` uses by default.
 BUILD_OPTIONS: Dict[str, Any] = {
@@ -214,6 +214,45 @@ def open(path: "os.PathLike[str] | str") -> Panorama:  # noqa: A001 (the documen
     return Panorama(_pomc.open(os.fspath(path)))
 
 
+def _build_options(freedom_radius: float, convention: str, center: Sequence[float], options: Dict[str, Any]) -> Dict[str, Any]:
+    """Check the keyword options of a build (names as ``pomc build``'s, ``-`` as ``_``)."""
+    unknown = set(options) - set(BUILD_OPTIONS)
+    if unknown:
+        raise _usage(f"unknown build option(s) {sorted(unknown)}; known: {sorted(BUILD_OPTIONS)}")
+    opts: Dict[str, Any] = {k: v for k, v in options.items() if v is not None}
+    opts["freedom_radius"] = _positive("freedom_radius", freedom_radius)
+    opts["convention"] = convention
+    opts["center"] = _vec3("center", center)
+    for k, allowed in _CHOICES.items():
+        if k in opts and opts[k] not in allowed:
+            raise _usage(f"{k} must be one of {allowed}, got {opts[k]!r}")
+    for k in ("jump", "depth_scale", "fold_deg"):
+        if k in opts:
+            opts[k] = _positive(k, opts[k])
+    if "fill_margin" in opts:
+        opts["fill_margin"] = _positive("fill_margin", opts["fill_margin"], allow_zero=True)
+    if "depth_bands" in opts:
+        opts["depth_bands"] = [_positive("depth_bands", d) for d in opts["depth_bands"]]
+    return opts
+
+
+def build_files(
+    colour: "os.PathLike[str] | str",
+    depth: "os.PathLike[str] | str",
+    output: "os.PathLike[str] | str",
+    *,
+    freedom_radius: float = 0.5,
+    convention: str = "thesis",
+    center: Sequence[float] = (0.0, 0.0, 0.0),
+    **options: Any,
+) -> Dict[str, Any]:
+    """Build from image files straight into ``output``, exactly as ``pomc build --colour C --depth
+    D -o OUTPUT`` (the library reads the images; the panorama is written atomically). Returns
+    ``{"layers", "read_s", "build_s", "write_s"}``."""
+    opts = _build_options(freedom_radius, convention, center, options)
+    return json.loads(_pomc.build_files(os.fspath(colour), os.fspath(depth), os.fspath(output), opts))
+
+
 def build(
     colour: np.ndarray,
     depth: np.ndarray,
@@ -230,25 +269,7 @@ def build(
     A 2:1 canvas is an equirect, 3:2 a cube map. Every ``pomc build`` option is a keyword
     (``-`` as ``_``): see :data:`BUILD_OPTIONS` for names and defaults.
     """
-    unknown = set(options) - set(BUILD_OPTIONS)
-    if unknown:
-        raise _usage(f"unknown build option(s) {sorted(unknown)}; known: {sorted(BUILD_OPTIONS)}")
-    opts: Dict[str, Any] = {k: v for k, v in options.items() if v is not None}
-    opts["freedom_radius"] = _positive("freedom_radius", freedom_radius)
-    opts["convention"] = convention
-    opts["center"] = _vec3("center", center)
-    for k, allowed in _CHOICES.items():
-        if k in opts and opts[k] not in allowed:
-            raise _usage(f"{k} must be one of {allowed}, got {opts[k]!r}")
-    for k in ("jump", "depth_scale"):
-        if k in opts:
-            opts[k] = _positive(k, opts[k])
-    if "fold_deg" in opts:
-        opts["fold_deg"] = _positive("fold_deg", opts["fold_deg"])
-    if "fill_margin" in opts:
-        opts["fill_margin"] = _positive("fill_margin", opts["fill_margin"], allow_zero=True)
-    if "depth_bands" in opts:
-        opts["depth_bands"] = [_positive("depth_bands", d) for d in opts["depth_bands"]]
+    opts = _build_options(freedom_radius, convention, center, options)
     colour = np.ascontiguousarray(colour)
     if colour.dtype not in (np.uint8, np.uint16, np.float32):
         if np.issubdtype(colour.dtype, np.floating):

@@ -348,6 +348,28 @@ fn build(
     Ok(PyPanorama::new(built.manifest, built.layers, None))
 }
 
+/// Build from image files into `output` as `pomc build` does (the library reads and writes the
+/// files, atomically); returns a JSON summary (`layers`, `read_s`, `build_s`, `write_s`).
+#[pyfunction]
+fn build_files(
+    py: Python<'_>,
+    colour: PathBuf,
+    depth: PathBuf,
+    output: PathBuf,
+    options: &Bound<'_, PyDict>,
+) -> PyResult<String> {
+    let settings = settings(options)?;
+    let summary =
+        py.allow_threads(|| jobs::build_panorama(&colour, &depth, &output, &settings)).map_err(to_py)?;
+    let json = serde_json::json!({
+        "layers": summary.manifest.layers.len(),
+        "read_s": summary.read_s,
+        "build_s": summary.build_s,
+        "write_s": summary.write_s,
+    });
+    Ok(json.to_string())
+}
+
 fn check_colour(shape: &[usize], h: usize, w: usize) -> PyResult<()> {
     if shape != [h, w, 3] {
         return Err(fail(
@@ -453,5 +475,6 @@ fn _pomc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyPanorama>()?;
     m.add_function(wrap_pyfunction!(open, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;
+    m.add_function(wrap_pyfunction!(build_files, m)?)?;
     Ok(())
 }
