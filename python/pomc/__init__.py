@@ -143,7 +143,7 @@ class Panorama:
 
     def save(self, directory: "os.PathLike[str] | str") -> None:
         """Write the panorama into ``directory`` (manifest + one OpenEXR per layer, atomically)."""
-        self._inner.save(os.fspath(directory))
+        _pomc.Panorama.save_into(self._inner, os.fspath(directory))
 
     def validate(self) -> Report:
         """Check the panorama against the POMC 1 spec, as ``pomc validate``."""

@@ -36,7 +36,7 @@ def load_items(spec: str, depth_glob: Optional[str] = None) -> List[Dict[str, An
         colours, depths = sorted(glob.glob(spec)), sorted(glob.glob(depth_glob))
         if len(colours) != len(depths):
             raise SystemExit(f"pomc-batch: {len(colours)} colour and {len(depths)} depth files match the globs")
-        return [{"colour": c, "depth": d} for c, d in zip(colours, depths)]
+        return [{"colour": os.path.abspath(c), "depth": os.path.abspath(d)} for c, d in zip(colours, depths)]
     base = os.path.dirname(os.path.abspath(spec))
     items = []
     with open(spec, encoding="utf-8") as f:
@@ -66,7 +66,7 @@ def item_name(item: Dict[str, Any]) -> str:
 
 def run_item(item: Dict[str, Any], out: str, options: Dict[str, Any]) -> Dict[str, Any]:
     """Build one item (on a worker); never raises."""
-    name = item_name(item)
+    name = item["name"]
     dest = os.path.join(out, name)
     result: Dict[str, Any] = {"name": name, "colour": item["colour"], "depth": item["depth"], "output": dest}
     if os.path.exists(os.path.join(dest, _DONE)):
@@ -81,7 +81,9 @@ def run_item(item: Dict[str, Any], out: str, options: Dict[str, Any]) -> Dict[st
         result.update(status="ok", layers=summary["layers"], stages=summary)
     except PomcError as e:
         result.update(status="failed", code=getattr(e, "code", "POMC_ERROR"), message=str(e))
-    except Exception as e:  # a worker must report, not die
+    except BaseException as e:  # a worker must report, not die (a Rust panic is a BaseException)
+        if isinstance(e, (KeyboardInterrupt, SystemExit)):
+            raise
         code = getattr(e, "code", None)
         message = str(e) if isinstance(code, str) else f"{type(e).__name__}: {e}"
         result.update(status="failed", code=code if isinstance(code, str) else "BATCH_ITEM_FAILED", message=message)
@@ -151,6 +153,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
     items = load_items(args.items, args.depth_glob)
     names = [item_name(i) for i in items]
+    bad = [n for n in names if os.sep in n or "/" in n or n in ("", ".", "..") or n.startswith(".")]
+    if bad:
+        parser.error(f"item name {bad[0]!r} is not a plain directory name; names may not hold / or start with .")
+    for item, name in zip(items, names):
+        item["name"] = name
     dupes = sorted({n for n in names if names.count(n) > 1})
     if dupes:
         parser.error(f"item names repeat ({', '.join(dupes[:5])}); give each item a \"name\"")
@@ -178,8 +185,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     bar = _Progress(len(items), args.quiet)
     try:
         futures = client.map(run_item, items, out=out, options=options, pure=False)
+        by_key = {f.key: item for f, item in zip(futures, items)}
         for future in as_completed(futures):
-            r = future.result()
+            try:
+                r = future.result()
+            except Exception as e:  # the worker died (memory limit, crash): the item failed
+                item = by_key[future.key]
+                r = {
+                    "name": item["name"], "colour": item["colour"], "depth": item["depth"],
+                    "output": os.path.join(out, item["name"]), "status": "failed",
+                    "code": "BATCH_WORKER_LOST", "message": f"{type(e).__name__}: {e}",
+                }
             results.append(r)
             bar.step(r["status"] == "failed")
     finally:

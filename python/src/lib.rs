@@ -136,14 +136,21 @@ impl PyPanorama {
     }
 
     /// Write the panorama into `dir` (patch-packing sparse layers), as `pomc build -o` does.
-    fn save(&mut self, py: Python<'_>, dir: PathBuf) -> PyResult<()> {
-        let written = py
-            .allow_threads(|| {
-                pomc::panorama::write_panorama(&dir, &self.manifest, &self.layers, &SaveOptions::default())
+    #[staticmethod]
+    fn save_into(slf: &Bound<'_, Self>, dir: PathBuf) -> PyResult<()> {
+        let py = slf.py();
+        // A shared borrow while the GIL is released (other threads may render meanwhile).
+        let written = {
+            let this = slf.borrow();
+            let (manifest, layers) = (&this.manifest, &this.layers);
+            py.allow_threads(|| {
+                pomc::panorama::write_panorama(&dir, manifest, layers, &SaveOptions::default())
             })
-            .map_err(to_py)?;
-        self.manifest = written;
-        self.dir = Some(dir);
+            .map_err(to_py)?
+        };
+        let mut this = slf.borrow_mut();
+        this.manifest = written;
+        this.dir = Some(dir);
         Ok(())
     }
 
@@ -328,18 +335,21 @@ fn build(
     let settings = settings(options)?;
     let shape = depth.shape();
     let (h, w) = (shape[0], shape[1]);
+    if !depth.is_c_contiguous() {
+        return Err(usage("depth must be a C-contiguous array (np.ascontiguousarray)".into()));
+    }
     let depth = depth.as_slice().map_err(|e| usage(format!("depth: {e}")))?.to_vec();
     let built = if let Ok(c) = colour.extract::<PyReadonlyArray3<'_, u8>>() {
         check_colour(c.shape(), h, w)?;
-        let c = c.as_slice().map_err(|e| usage(format!("colour: {e}")))?.to_vec();
+        let c = contiguous(&c)?;
         py.allow_threads(|| jobs::build_arrays(w, h, ColourSamples::U8(&c), &depth, &settings, &|_| {}))
     } else if let Ok(c) = colour.extract::<PyReadonlyArray3<'_, u16>>() {
         check_colour(c.shape(), h, w)?;
-        let c = c.as_slice().map_err(|e| usage(format!("colour: {e}")))?.to_vec();
+        let c = contiguous(&c)?;
         py.allow_threads(|| jobs::build_arrays(w, h, ColourSamples::U16(&c), &depth, &settings, &|_| {}))
     } else if let Ok(c) = colour.extract::<PyReadonlyArray3<'_, f32>>() {
         check_colour(c.shape(), h, w)?;
-        let c = c.as_slice().map_err(|e| usage(format!("colour: {e}")))?.to_vec();
+        let c = contiguous(&c)?;
         py.allow_threads(|| jobs::build_arrays(w, h, ColourSamples::F32(&c), &depth, &settings, &|_| {}))
     } else {
         return Err(usage("colour must be an H×W×3 uint8, uint16 or float32 array".into()));
@@ -368,6 +378,13 @@ fn build_files(
         "write_s": summary.write_s,
     });
     Ok(json.to_string())
+}
+
+fn contiguous<T: numpy::Element + Copy>(a: &PyReadonlyArray3<'_, T>) -> PyResult<Vec<T>> {
+    if !a.is_c_contiguous() {
+        return Err(usage("colour must be a C-contiguous array (np.ascontiguousarray)".into()));
+    }
+    Ok(a.as_slice().map_err(|e| usage(format!("colour: {e}")))?.to_vec())
 }
 
 fn check_colour(shape: &[usize], h: usize, w: usize) -> PyResult<()> {

@@ -82,3 +82,11 @@ def test_the_module_runs_as_a_command(items, tmp_path):
     )
     assert done.returncode == 1, done.stderr
     assert "failed pano03: error[LAYER_NOT_FOUND]" in done.stderr
+
+
+def test_names_that_leave_the_output_are_refused(tmp_path):
+    items = tmp_path / "items.jsonl"
+    items.write_text(json.dumps({"colour": "c.png", "depth": "d.exr", "name": "../escape"}) + "\n")
+    with pytest.raises(SystemExit) as e:
+        batch.main([str(items), "-o", str(tmp_path / "out"), "--quiet"])
+    assert e.value.code == 2

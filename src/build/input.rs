@@ -199,15 +199,50 @@ fn open_image(path: &Path, limits: &ReadLimits) -> Result<image::DynamicImage, I
     Ok(image)
 }
 
-/// Whether the last scan (`FF DA`) is followed by an end-of-image marker (`FF D9`). Entropy-coded
-/// data stuffs every `FF` byte, so neither marker can occur inside a scan; a thumbnail's markers
-/// come before the main image's last scan.
-fn jpeg_is_complete(bytes: &[u8]) -> bool {
-    let marker = |m: u8| move |w: &[u8]| w == [0xFF, m];
-    let Some(sos) = bytes.windows(2).rposition(marker(0xDA)) else {
+/// Whether the primary image reaches its end-of-image marker (`FF D9`): the marker segments are
+/// walked from the start by their lengths and each scan's entropy-coded data up to the next marker
+/// (its `FF` bytes are stuffed), so data after the image (a thumbnail inside `APP1`, a trailer such
+/// as a motion photo's video) cannot be mistaken for it.
+fn jpeg_is_complete(b: &[u8]) -> bool {
+    if !b.starts_with(&[0xFF, 0xD8]) {
         return false;
-    };
-    bytes[sos..].windows(2).any(marker(0xD9))
+    }
+    let mut i = 2;
+    loop {
+        // Fill bytes (`FF FF …`) may precede a marker.
+        while b.get(i) == Some(&0xFF) && b.get(i + 1) == Some(&0xFF) {
+            i += 1;
+        }
+        let (Some(&0xFF), Some(&m)) = (b.get(i), b.get(i + 1)) else { return false };
+        i += 2;
+        match m {
+            0xD9 => return true,
+            // Restart markers and TEM stand alone.
+            0xD0..=0xD7 | 0x01 => continue,
+            _ => {}
+        }
+        let Some(len) = b.get(i..i + 2).map(|l| usize::from(u16::from_be_bytes([l[0], l[1]]))) else {
+            return false;
+        };
+        if len < 2 {
+            return false;
+        }
+        i += len;
+        if m == 0xDA {
+            // Entropy-coded data: runs to the next marker that is not a stuffed `FF 00` or a restart.
+            loop {
+                let Some(k) = b.get(i..).and_then(|r| r.iter().position(|&x| x == 0xFF)) else {
+                    return false;
+                };
+                i += k;
+                match b.get(i + 1) {
+                    None => return false,
+                    Some(0x00) | Some(0xD0..=0xD7) => i += 2,
+                    Some(_) => break,
+                }
+            }
+        }
+    }
 }
 
 /// Colour as planar linear RGB f32: 8/16-bit images are decoded from sRGB unless `space` says
@@ -394,7 +429,13 @@ mod tests {
         assert!(jpeg_is_complete(&whole));
         let limits = ReadLimits::default();
         assert!(open_image(&path, &limits).is_ok());
+        // Data after the end-of-image marker (a motion photo's video, a trailer) is no truncation,
+        // even when it holds `FF DA` bytes.
+        let mut trailer = whole.clone();
+        trailer.extend_from_slice(&[0xFF, 0xDA, 0x00, 0x08, 1, 2, 3, 4, 5, 6, 0xAB, 0xFF, 0xDA, 0x12]);
+        assert!(jpeg_is_complete(&trailer));
         let cut = &whole[..whole.len() * 2 / 3];
+        assert!(!jpeg_is_complete(cut));
         // The decoder alone accepts the cut file (the missing rows come out grey).
         assert!(image::load_from_memory(cut).is_ok());
         std::fs::write(&path, cut).unwrap();

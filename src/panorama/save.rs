@@ -241,7 +241,34 @@ fn write_files(
         Layers::Given(_) => {
             jobs.collect::<Vec<_>>().into_par_iter().map(|(k, (f, p))| write_one(k, f, &p)).collect()
         }
-        Layers::Made(_) => jobs.map(|(k, (f, p))| write_one(k, f, &p)).collect(),
+        // A made layer may be read from the file it replaces (`convert` in place): each goes to a
+        // staged name first, and all are renamed into place only once every one is written.
+        Layers::Made(_) => {
+            let mut staged = Vec::new();
+            let mut results = Vec::new();
+            for (k, (file, path)) in jobs {
+                let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                let stage = path.with_file_name(format!(".pomc-tmp-stage-{name}"));
+                let result = write_one(k, file, &stage);
+                let failed = result.is_err();
+                staged.push((stage, path));
+                results.push(result);
+                if failed {
+                    break;
+                }
+            }
+            if results.iter().any(Result::is_err) {
+                for (stage, _) in &staged {
+                    let _ = std::fs::remove_file(stage);
+                }
+            } else {
+                for (stage, path) in &staged {
+                    std::fs::rename(stage, path)
+                        .map_err(|source| Error::Io { path: path.clone(), source })?;
+                }
+            }
+            results
+        }
     };
     for (decl, result) in out.layers.iter_mut().zip(written) {
         let Written { file, size, packing } = result?;
@@ -351,6 +378,33 @@ mod tests {
         }
         let short = write_panorama(&root.path().join("short"), &m, &l[..1], &SaveOptions::default());
         assert_eq!(short.unwrap_err().code(), "PANORAMA_NO_SUCH_LAYER");
+    }
+
+    #[test]
+    fn a_made_layer_that_fails_leaves_the_old_files() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        let (mut m, mut l) = pano("a.exr", 2.0);
+        m.layers.push(LayerDecl::native("b.exr"));
+        l.push(pano("b.exr", 3.0).1.remove(0));
+        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        // A foreign file keeps the next write in place, over the files the layers are made from.
+        std::fs::write(out.join("input.png"), b"x").unwrap();
+        let before: Vec<Vec<u8>> =
+            ["a.exr", "b.exr"].iter().map(|f| std::fs::read(out.join(f)).unwrap()).collect();
+        let failing = |k: usize| -> Result<LayerImage, Error> {
+            if k == 1 {
+                return Err(PanoramaError::NoSuchLayer { manifest: "x".into(), index: 1, count: 1 }.into());
+            }
+            let mut img = l[0].clone();
+            img.channel_mut("Z").unwrap().data.fill(9.0);
+            Ok(img)
+        };
+        assert!(write_panorama_with(&out, &m, &failing, &SaveOptions::default()).is_err());
+        let after: Vec<Vec<u8>> =
+            ["a.exr", "b.exr"].iter().map(|f| std::fs::read(out.join(f)).unwrap()).collect();
+        assert_eq!(before, after);
+        assert_eq!(names(&out), ["a.exr", "b.exr", "input.png", "panorama.xml"]);
     }
 
     #[cfg(unix)]
