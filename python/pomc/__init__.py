@@ -266,8 +266,9 @@ def build(
 
     ``colour``: H×W×3 uint8 or uint16 (sRGB) or float32 (linear); ``depth``: H×W metres along
     the ray (``inf`` sky, ``nan`` or 0 unknown; integer depth needs ``depth_scale`` or ``preset``).
-    A 2:1 canvas is an equirect, 3:2 a cube map. Every ``pomc build`` option is a keyword
-    (``-`` as ``_``): see :data:`BUILD_OPTIONS` for names and defaults.
+    A 2:1 canvas is an equirect, 3:2 a cube map. The ``pomc build`` options are keywords (``-`` as
+    ``_``; all but ``--normals-in`` and ``--max-pixels``): see :data:`BUILD_OPTIONS` for names and
+    defaults.
     """
     opts = _build_options(freedom_radius, convention, center, options)
     colour = np.ascontiguousarray(colour)
