@@ -245,14 +245,7 @@ impl PyPanorama {
                 let uv: Vec<f32> = mesh
                     .sources
                     .iter()
-                    .flat_map(|&id| {
-                        if pomc::mesh::is_pole(id, w, h) {
-                            [0.5, if id as usize > w * h { 1.0 } else { 0.0 }]
-                        } else {
-                            let (x, y) = (id as usize % w, id as usize / w);
-                            [((x as f64 + 0.5) / w as f64) as f32, ((y as f64 + 0.5) / h as f64) as f32]
-                        }
-                    })
+                    .flat_map(|&id| pomc::mesh::export::canvas_uv(id, w, h).map(|c| c as f32))
                     .collect();
                 let v: Vec<f64> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
                 let t: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();

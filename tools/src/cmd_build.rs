@@ -301,19 +301,12 @@ fn convention(c: ConventionArg) -> Convention {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        args: Args,
-    }
+    use crate::args::parse;
 
     /// The library's `BuildOptions::default()` is what `pomc build` does without options.
     #[test]
     fn default_options_are_the_library_default() {
-        let cli = Cli::try_parse_from(["pomc-build", "--colour", "c.png", "--depth", "d.exr", "-o", "out"])
-            .unwrap();
-        assert_eq!(format!("{:?}", build_options(&cli.args)), format!("{:?}", BuildOptions::default()));
+        let args: Args = parse(&["pomc-build", "--colour", "c.png", "--depth", "d.exr", "-o", "out"]);
+        assert_eq!(format!("{:?}", build_options(&args)), format!("{:?}", BuildOptions::default()));
     }
 }

@@ -397,20 +397,12 @@ fn report(args: &Args, out: Output, l: &Layer, sky: Option<f64>) -> serde_json::
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        args: Args,
-    }
+    use crate::args::parse;
 
     /// The library's `MeshParams::default()` is what `pomc mesh` does without options.
     #[test]
     fn default_options_are_the_library_default() {
-        let cli = Cli::try_parse_from(["pomc-mesh", "pano"]).unwrap();
-        assert_eq!(params(&cli.args), MeshParams::default());
-        let quadtree = Cli::try_parse_from(["pomc-mesh", "pano", "--no-simplify"]).unwrap();
-        assert_eq!(params(&quadtree.args), MeshParams::quadtree());
+        assert_eq!(params(&parse(&["pomc-mesh", "pano"])), MeshParams::default());
+        assert_eq!(params(&parse(&["pomc-mesh", "pano", "--no-simplify"])), MeshParams::quadtree());
     }
 }

@@ -47,18 +47,22 @@ pub struct ExportMesh {
     pub triangles: Vec<[u32; 3]>,
 }
 
+/// Canvas coordinates in `[0, 1]²` of source pixel `id` of a `w` × `h` layer: its pixel centre, or
+/// the middle of the top (north) or bottom (south) edge for the equirect pole vertices.
+pub fn canvas_uv(id: u32, w: usize, h: usize) -> [f64; 2] {
+    if is_pole(id, w, h) {
+        let south = id as usize > w * h;
+        [0.5, if south { 1.0 } else { 0.0 }]
+    } else {
+        [((id as usize % w) as f64 + 0.5) / w as f64, ((id as usize / w) as f64 + 0.5) / h as f64]
+    }
+}
+
 /// Prepare `mesh` for writing. `colour(id)` gives a source pixel's linear RGB.
 pub fn prepare(mesh: &LayerMesh, transform: DMat4, colour: &dyn Fn(u32) -> [f32; 3]) -> ExportMesh {
     let (w, h) = (mesh.width, mesh.height);
     let flip = transform.determinant() < 0.0;
-    let base_uv = |id: u32| -> [f64; 2] {
-        if is_pole(id, w, h) {
-            let south = id as usize > w * h;
-            [0.5, if south { 1.0 } else { 0.0 }]
-        } else {
-            [((id as usize % w) as f64 + 0.5) / w as f64, ((id as usize / w) as f64 + 0.5) / h as f64]
-        }
-    };
+    let base_uv = |id: u32| canvas_uv(id, w, h);
     let mut out = ExportMesh::default();
     let mut map = std::collections::HashMap::new();
     for t in &mesh.triangles {
