@@ -42,5 +42,6 @@ pub mod raster;
 pub mod render;
 pub mod resample;
 pub mod validate;
+pub mod viewer;
 
 pub use error::{Error, Result};

@@ -13,6 +13,7 @@ mod cmd_mesh;
 mod cmd_pack;
 mod cmd_render;
 mod cmd_validate;
+mod cmd_view;
 mod output;
 
 use std::process::ExitCode;
@@ -25,7 +26,7 @@ use output::Output;
 #[command(
     name = "pomc",
     version,
-    about = "Layered omnidirectional RGB-D panoramas (POMC): build, validate, inspect, convert, pack, mesh, render"
+    about = "Layered omnidirectional RGB-D panoramas (POMC): build, validate, inspect, convert, pack, mesh, render, view"
 )]
 struct Cli {
     /// Machine-readable JSON on stdout (no progress bars).
@@ -56,6 +57,8 @@ enum Command {
     Mesh(cmd_mesh::Args),
     /// Render views from cameras near the panorama centre (point splatting or mesh rasterisation).
     Render(cmd_render::Args),
+    /// Step inside a panorama in the browser: serve the viewer on localhost, or export it as a static site.
+    View(cmd_view::Args),
 }
 
 /// A failed command: what to print and the exit code.
@@ -109,6 +112,7 @@ fn main() -> ExitCode {
         Command::Unpack(a) => cmd_pack::run_unpack(a, out),
         Command::Mesh(a) => cmd_mesh::run(a, out),
         Command::Render(a) => cmd_render::run(a, out),
+        Command::View(a) => cmd_view::run(a, out),
     };
     match result {
         Ok(code) => ExitCode::from(code),

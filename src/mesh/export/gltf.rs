@@ -65,6 +65,8 @@ pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8], bool)]) -> Result<Vec<
         }
         let pos = view(&mut bin, &f32s(&mut m.positions.iter().flatten().copied()), Some(34962));
         let uv = view(&mut bin, &f32s(&mut m.uvs.iter().flatten().copied()), Some(34962));
+        let canvas = (!m.canvas_uvs.is_empty())
+            .then(|| view(&mut bin, &f32s(&mut m.canvas_uvs.iter().flatten().copied()), Some(34962)));
         let idx: Vec<u8> = m.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
         let idx = view(&mut bin, &idx, Some(34963));
         let img = view(&mut bin, png, None);
@@ -82,8 +84,13 @@ pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8], bool)]) -> Result<Vec<
             "doubleSided": l.sky_radius.is_none(),
             "extensions": {"KHR_materials_unlit": {}}
         }));
+        let mut attributes = json!({"POSITION": a, "TEXCOORD_0": a + 1});
+        if let Some(canvas) = canvas {
+            attributes["TEXCOORD_1"] = json!(accessors.len());
+            accessors.push(json!({"bufferView": canvas, "componentType": 5126, "count": m.canvas_uvs.len(), "type": "VEC2"}));
+        }
         meshes.push(json!({"name": l.name, "primitives": [{
-            "attributes": {"POSITION": a, "TEXCOORD_0": a + 1}, "indices": a + 2, "material": k, "mode": 4
+            "attributes": attributes, "indices": a + 2, "material": k, "mode": 4
         }]}));
         let mut extras = json!({"layer": l.index});
         if let Some(r) = l.sky_radius {

@@ -45,6 +45,9 @@ pub struct ExportMesh {
     /// Linear RGB of the vertex's pixel (0..1), for formats with vertex colours.
     pub colours: Vec<[f32; 3]>,
     pub triangles: Vec<[u32; 3]>,
+    /// Canvas coordinates of each vertex before [`texture::crop`] moves `uvs` into the packed
+    /// texture (seam and pole copies as in `uvs`); written as glTF `TEXCOORD_1` when asked for.
+    pub canvas_uvs: Vec<[f32; 2]>,
 }
 
 /// Canvas coordinates in `[0, 1]²` of source pixel `id` of a `w` × `h` layer: its pixel centre, or
@@ -95,6 +98,7 @@ pub fn prepare(mesh: &LayerMesh, transform: DMat4, colour: &dyn Fn(u32) -> [f32;
                 let p: DVec3 = transform.transform_point3(mesh.positions[t[k] as usize]);
                 out.positions.push(p.as_vec3().to_array());
                 out.uvs.push(uvf);
+                out.canvas_uvs.push(uvf);
                 out.colours.push(if is_pole(ids[k], w, h) { [0.5; 3] } else { colour(ids[k]) });
                 (out.positions.len() - 1) as u32
             });
@@ -208,6 +212,18 @@ pub fn scene_files(
     format: Format,
     stem: &str,
 ) -> Result<(Files, Vec<usize>), MeshError> {
+    scene_files_with(layers, local_to_world, format, stem, false)
+}
+
+/// [`scene_files`], with each vertex's canvas coordinates as glTF `TEXCOORD_1` when `canvas_uv`
+/// (what the viewer needs to sample the layer by direction, as the renderer does).
+pub fn scene_files_with(
+    layers: &[SceneLayer],
+    local_to_world: Option<DMat4>,
+    format: Format,
+    stem: &str,
+    canvas_uv: bool,
+) -> Result<(Files, Vec<usize>), MeshError> {
     let all = layers;
     let layers: Vec<&SceneLayer> = all.iter().filter(|l| !l.mesh.triangles.is_empty()).collect();
     if layers.is_empty() {
@@ -218,6 +234,9 @@ pub fn scene_files(
         transform = gltf::z_up_to_y_up() * transform;
     }
     let mut meshes: Vec<ExportMesh> = layers.iter().map(|l| prepare_layer(l, transform)).collect();
+    if !(canvas_uv && format == Format::Glb) {
+        meshes.iter_mut().for_each(|m| m.canvas_uvs = Vec::new());
+    }
     let mut counts = meshes.iter().map(|m| m.positions.len());
     let vertices =
         all.iter().map(|l| if l.mesh.triangles.is_empty() { 0 } else { counts.next().unwrap_or(0) });

@@ -228,6 +228,7 @@ mod tests {
             uvs: px.iter().map(|p| [p[0] / w as f32, p[1] / h as f32]).collect(),
             colours: vec![[0.0; 3]; px.len()],
             triangles: (0..px.len() as u32 / 3).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect(),
+            canvas_uvs: Vec::new(),
         }
     }
 

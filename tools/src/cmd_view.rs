@@ -1,0 +1,103 @@
+//! `pomc view PANO [--port N] [--open] | --export DIR`: the browser viewer, served on localhost or
+//! written as a static site.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use pomc::panorama::Panorama;
+use pomc::viewer::{self, SiteOptions};
+
+use crate::args::Range;
+use crate::output::Output;
+use crate::Failure;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Panorama directory or panorama.xml.
+    pano: PathBuf,
+    /// Write the viewer as a static site into DIR (HTML, JavaScript, the scene, textures) instead of
+    /// serving it; any static file server can serve DIR.
+    #[arg(long, value_name = "DIR")]
+    export: Option<PathBuf>,
+    /// Port to serve on, on 127.0.0.1 (0 picks a free one).
+    #[arg(long, default_value_t = 8080)]
+    port: u16,
+    /// Open the page in the default browser.
+    #[arg(long)]
+    open: bool,
+    /// Radius of the sky dome (drawn as infinitely far whatever its radius).
+    #[arg(long, value_name = "R", value_parser = Range::POSITIVE.parser())]
+    sky_radius: Option<f64>,
+}
+
+pub fn run(a: Args, out: Output) -> Result<u8, Failure> {
+    let t = Instant::now();
+    let pano = Panorama::open(&a.pano)?;
+    let spinner = out.spinner("meshing the layers");
+    let options = SiteOptions { sky_radius: a.sky_radius, ..SiteOptions::default() };
+    let site = viewer::site(&pano, &options)?;
+    spinner.finish_and_clear();
+    let triangles: usize = site.triangles.iter().map(|t| t.1).sum();
+    let summary = serde_json::json!({
+        "panorama": pano.dir.display().to_string(),
+        "bytes": site.bytes(),
+        "files": site.files.len(),
+        "triangles": triangles,
+        "layers": site.triangles.iter().map(|(n, t)| serde_json::json!({"name": n, "triangles": t})).collect::<Vec<_>>(),
+        "seconds": t.elapsed().as_secs_f64(),
+    });
+    if let Some(dir) = &a.export {
+        site.write(dir)?;
+        if out.json {
+            let mut s = summary;
+            s["export"] = serde_json::json!(dir.display().to_string());
+            out.json(&s);
+        } else {
+            out.say(&format!(
+                "wrote {} ({} files, {:.1} MB, {triangles} triangles); serve it with any static file server, e.g. `python3 -m http.server -d {}`",
+                dir.display(),
+                site.files.len(),
+                site.bytes() as f64 / 1e6,
+                dir.display()
+            ));
+        }
+        return Ok(0);
+    }
+    let server = tiny_http::Server::http(("127.0.0.1", a.port)).map_err(|e| Failure {
+        code: "VIEW_SERVE_FAILED",
+        message: format!("cannot listen on 127.0.0.1:{}: {e} (pick another --port, or 0 for any free one)", a.port),
+        exit: 2,
+    })?;
+    let port = server.server_addr().to_ip().map(|a| a.port()).unwrap_or(a.port);
+    let url = format!("http://127.0.0.1:{port}/");
+    if out.json {
+        let mut s = summary;
+        s["url"] = serde_json::json!(url);
+        out.json(&s);
+    } else if !out.quiet {
+        crate::output::line(format!(
+            "serving {} on {url} ({:.1} MB, {triangles} triangles); Ctrl-C to stop",
+            pano.dir.display(),
+            site.bytes() as f64 / 1e6
+        ));
+    }
+    if a.open {
+        if let Err(e) = open::that_detached(&url) {
+            eprintln!("note: could not open a browser ({e}); open {url} yourself");
+        }
+    }
+    for request in server.incoming_requests() {
+        let path = request.url().split(['?', '#']).next().unwrap_or("").trim_start_matches('/');
+        let response = match (request.method(), site.get(path)) {
+            (tiny_http::Method::Get | tiny_http::Method::Head, Some((bytes, mime))) => {
+                let mime = tiny_http::Header::from_bytes("Content-Type", mime).expect("static header");
+                tiny_http::Response::from_data(bytes.to_vec()).with_header(mime)
+            }
+            (_, Some(_)) => tiny_http::Response::from_string("method not allowed").with_status_code(405),
+            (_, None) => tiny_http::Response::from_string("not found").with_status_code(404),
+        };
+        // A client that went away is its own business; keep serving the others.
+        let _ = request.respond(response);
+    }
+    Ok(0)
+}
