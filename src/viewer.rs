@@ -361,3 +361,43 @@ fn info_json(manifest: &Manifest, nodes: &[Node], title: &str, to_world: DMat4) 
         "layers": layers,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layer::SampleType;
+
+    #[test]
+    fn padding_spreads_kept_colour_only_into_uncovered_pixels() {
+        let (w, h) = (8, 4);
+        let mut image = LayerImage::new(w, h);
+        let red: Vec<f32> = (0..w * h).map(|i| if i % w < 3 { 0.5 } else { 0.0 }).collect();
+        for c in ["R", "G", "B"] {
+            image.set_channel(c, SampleType::F32, red.clone());
+        }
+        let keep: Vec<bool> = (0..w * h).map(|i| i % w < 3).collect();
+        let out = padded(&image, keep);
+        let r = &out.channel("R").unwrap().data;
+        for y in 0..h {
+            for x in 0..w {
+                // Kept pixels unchanged; PAD columns past the edge take the colour; beyond, unchanged.
+                let want = if x < 3 + PAD { 0.5 } else { 0.0 };
+                assert_eq!(r[y * w + x], want, "({x}, {y})");
+            }
+        }
+    }
+
+    #[test]
+    fn a_site_serves_its_index_for_the_root_with_its_type() {
+        let site = Site {
+            files: vec![("index.html".into(), b"<html>".to_vec()), ("a/b.js".into(), b"x".to_vec())],
+            triangles: Vec::new(),
+        };
+        assert_eq!(site.get(""), Some((&b"<html>"[..], "text/html; charset=utf-8")));
+        assert_eq!(site.get("a/b.js").map(|f| f.1), Some("text/javascript; charset=utf-8"));
+        assert_eq!(site.get("a/"), None);
+        assert_eq!(site.get("../index.html"), None);
+        assert_eq!(site.bytes(), 7);
+        assert!(ASSETS.iter().all(|(_, bytes)| !bytes.is_empty()));
+    }
+}

@@ -388,3 +388,154 @@ fn outdoor_scene_obj_and_ply_hold_every_layer() {
     }
     assert_eq!(seen.len(), names.len(), "vertices of every layer");
 }
+
+/// The JSON chunk of a `.glb`.
+fn glb_json(glb: &[u8]) -> Value {
+    assert_eq!(&glb[..4], b"glTF");
+    let len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    assert_eq!(&glb[16..20], b"JSON");
+    serde_json::from_slice(&glb[20..20 + len]).unwrap()
+}
+
+#[test]
+fn view_exports_a_self_contained_site_of_every_layer_and_the_sky() {
+    let dir = tempfile::tempdir().unwrap();
+    let pano = sky_pano(dir.path(), 256);
+    let site = dir.path().join("site");
+    // A stale file from an earlier export must not survive: the site is replaced as a whole.
+    std::fs::create_dir_all(&site).unwrap();
+    std::fs::write(site.join("stale.txt"), "old").unwrap();
+    let out = pomc(&["view", pano.to_str().unwrap(), "--export", site.to_str().unwrap(), "--json"]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(!site.join("stale.txt").exists());
+    let mut bytes = 0;
+    for e in walk(&site) {
+        bytes += std::fs::metadata(&e).unwrap().len();
+    }
+    assert_eq!(v["bytes"].as_u64(), Some(bytes));
+
+    // Nothing is fetched from elsewhere: every script the page names is in the site.
+    let html = std::fs::read_to_string(site.join("index.html")).unwrap();
+    assert!(!html.contains("http://") && !html.contains("https://"), "{html}");
+    for path in ["vendor/three/build/three.module.min.js", "pomc-viewer.js"] {
+        assert!(html.contains(path), "{path}");
+    }
+    for path in ["vendor/three/build/three.core.min.js", "vendor/three/LICENSE", "scene.glb", "pano.json"] {
+        assert!(site.join(path).is_file(), "{path}");
+    }
+    let js = std::fs::read_to_string(site.join("pomc-viewer.js")).unwrap();
+    assert!(!js.contains("http://") && !js.contains("https://"));
+
+    let manifest = Panorama::open(&pano).unwrap().manifest;
+    let info: Value = serde_json::from_slice(&std::fs::read(site.join("pano.json")).unwrap()).unwrap();
+    assert_eq!(info["freedom_radius"].as_f64(), Some(manifest.freedom_radius));
+    assert_eq!(info["mapping"]["kind"], "equirect");
+
+    // One node per drawn piece: the sky dome of the infinity layer first, then every layer with
+    // triangles in painter's order; each samples its layer by direction (TEXCOORD_1 canvas uv).
+    let glb = std::fs::read(site.join("scene.glb")).unwrap();
+    let doc = glb_json(&glb);
+    let nodes = doc["nodes"].as_array().unwrap();
+    let layers = info["layers"].as_array().unwrap();
+    assert_eq!(nodes.len(), layers.len());
+    assert!(nodes[0]["extras"]["sky_radius"].as_f64().unwrap() > 0.0);
+    assert_eq!(nodes[0]["extras"]["layer"].as_u64(), Some(0));
+    let order: Vec<u64> = nodes[1..].iter().map(|n| n["extras"]["layer"].as_u64().unwrap()).collect();
+    let painter: Vec<u64> = manifest.painter_order().into_iter().map(|k| k as u64).filter(|&k| k != 0).collect();
+    assert_eq!(order, painter);
+    for m in doc["meshes"].as_array().unwrap() {
+        assert!(m["primitives"][0]["attributes"]["TEXCOORD_1"].is_u64(), "{m}");
+    }
+    let Ok(modules) = std::env::var("POMC_GLTF_VALIDATOR") else { return };
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/../tools/gltf_validate.mjs");
+    let out = Command::new("node")
+        .arg(script)
+        .arg(site.join("scene.glb"))
+        .env("POMC_GLTF_VALIDATOR", &modules)
+        .output()
+        .unwrap();
+    let r: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(r["numErrors"].as_u64(), Some(0), "{r}");
+}
+
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// A GET over plain HTTP/1.0: status line, `Content-Type` and body.
+fn http_get(port: u16, path: &str) -> (String, String, Vec<u8>) {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    write!(s, "GET {path} HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n").unwrap();
+    let mut buf = Vec::new();
+    s.read_to_end(&mut buf).unwrap();
+    let split = buf.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
+    let head = String::from_utf8_lossy(&buf[..split]).to_string();
+    let status = head.lines().next().unwrap().to_string();
+    let ctype = head
+        .lines()
+        .find_map(|l| l.to_ascii_lowercase().strip_prefix("content-type:").map(|v| v.trim().to_string()))
+        .unwrap_or_default();
+    (status, ctype, buf[split + 4..].to_vec())
+}
+
+#[test]
+fn view_serves_the_site_on_localhost_and_reports_a_busy_port() {
+    use std::io::Read;
+    let dir = tempfile::tempdir().unwrap();
+    room(dir.path(), MappingKind::Cube3x2, 96, 64);
+    let pano = dir.path().join("panorama.xml");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_pomc"))
+        .args(["view", pano.to_str().unwrap(), "--port", "0", "--json"])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The JSON summary (with the URL) is printed once the server listens.
+    let mut stdout = child.stdout.take().unwrap();
+    let mut text = String::new();
+    let mut byte = [0u8; 1];
+    let summary: Value = loop {
+        assert_eq!(stdout.read(&mut byte).unwrap(), 1, "pomc view ended early: {text}");
+        text.push(byte[0] as char);
+        if byte[0] == b'}' {
+            if let Ok(v) = serde_json::from_str(&text) {
+                break v;
+            }
+        }
+    };
+    let url = summary["url"].as_str().unwrap();
+    let port: u16 = url.trim_start_matches("http://127.0.0.1:").trim_end_matches('/').parse().unwrap();
+    let (status, ctype, body) = http_get(port, "/");
+    assert!(status.contains("200"), "{status}");
+    assert!(ctype.starts_with("text/html"), "{ctype}");
+    assert!(String::from_utf8_lossy(&body).contains("pomc-viewer.js"));
+    let (status, ctype, body) = http_get(port, "/pano.json?cache=1");
+    assert!(status.contains("200") && ctype == "application/json", "{status} {ctype}");
+    let info: Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(info["mapping"]["kind"], "cube3x2");
+    assert_eq!(info["mapping"]["faces"].as_array().unwrap().len(), 6);
+    let (status, ctype, body) = http_get(port, "/scene.glb");
+    assert!(status.contains("200") && ctype == "model/gltf-binary", "{status} {ctype}");
+    assert_eq!(&body[..4], b"glTF");
+    let (status, ..) = http_get(port, "/../panorama.xml");
+    assert!(status.contains("404"), "{status}");
+
+    // A second server on the same port: a clear error with a code, exit 2.
+    let busy = pomc(&["view", pano.to_str().unwrap(), "--port", &port.to_string(), "--json"]);
+    child.kill().unwrap();
+    let _ = child.wait();
+    assert_eq!(busy.status.code(), Some(2));
+    let e: Value = serde_json::from_slice(&busy.stdout).unwrap();
+    assert_eq!(e["error"]["code"], "VIEW_SERVE_FAILED", "{e}");
+    assert!(e["error"]["message"].as_str().unwrap().contains("--port"));
+}
