@@ -9,15 +9,15 @@ use glam::DMat4;
 use serde_json::json;
 
 use crate::layer::{LayerImage, Sample};
-use crate::mapping::AnyMapping;
-use crate::mesh::{self, LayerMesh};
-use crate::render::rasterize::{self, LayerGeometry, MeshOptions};
-use crate::render::RenderLayer;
 use crate::manifest::Manifest;
+use crate::mapping::AnyMapping;
 use crate::mapping::{CubeFace, MappingKind};
 use crate::mesh::export::{gltf, scene_files_with, Format, SceneLayer};
 use crate::mesh::MeshParams;
+use crate::mesh::{self, LayerMesh};
 use crate::panorama::Panorama;
+use crate::render::rasterize::{self, LayerGeometry, MeshOptions};
+use crate::render::RenderLayer;
 
 /// The bundled files of the page, `(path in the site, bytes)`: the viewer and three.js r180 (MIT,
 /// its licence beside it).
@@ -25,8 +25,14 @@ pub const ASSETS: &[(&str, &[u8])] = &[
     ("index.html", include_bytes!("../viewer/index.html")),
     ("pomc-viewer.js", include_bytes!("../viewer/pomc-viewer.js")),
     ("vendor/three/LICENSE", include_bytes!("../viewer/vendor/three/LICENSE")),
-    ("vendor/three/build/three.module.min.js", include_bytes!("../viewer/vendor/three/build/three.module.min.js")),
-    ("vendor/three/build/three.core.min.js", include_bytes!("../viewer/vendor/three/build/three.core.min.js")),
+    (
+        "vendor/three/build/three.module.min.js",
+        include_bytes!("../viewer/vendor/three/build/three.module.min.js"),
+    ),
+    (
+        "vendor/three/build/three.core.min.js",
+        include_bytes!("../viewer/vendor/three/build/three.core.min.js"),
+    ),
     (
         "vendor/three/examples/jsm/loaders/GLTFLoader.js",
         include_bytes!("../viewer/vendor/three/examples/jsm/loaders/GLTFLoader.js"),
@@ -76,7 +82,11 @@ impl Site {
     /// The bytes of `path` (no leading `/`; empty or ending in `/` means its `index.html`) and
     /// their MIME type.
     pub fn get(&self, path: &str) -> Option<(&[u8], &'static str)> {
-        let path = if path.is_empty() || path.ends_with('/') { format!("{path}index.html") } else { path.to_string() };
+        let path = if path.is_empty() || path.ends_with('/') {
+            format!("{path}index.html")
+        } else {
+            path.to_string()
+        };
         self.files.iter().find(|f| f.0 == path).map(|f| (f.1.as_slice(), mime_type(&path)))
     }
 
@@ -112,7 +122,8 @@ pub fn mime_type(path: &str) -> &'static str {
 /// `pomc render --method mesh` meshes them (stored meshes decoded).
 pub fn site(pano: &Panorama, options: &SiteOptions) -> crate::Result<Site> {
     let layers = crate::render::read_layers(pano, &crate::layer_io::ReadLimits::default())?;
-    let refs: Vec<RenderLayer> = layers.iter().map(|(image, mapping)| RenderLayer { image, mapping: *mapping }).collect();
+    let refs: Vec<RenderLayer> =
+        layers.iter().map(|(image, mapping)| RenderLayer { image, mapping: *mapping }).collect();
     let (geometry, ..) = rasterize::panorama_meshes(pano, &refs, &options.mesh, &MeshOptions::default())?;
     let title = options.title.clone().unwrap_or_else(|| {
         pano.dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "panorama".into())
@@ -141,8 +152,11 @@ pub fn site_of(
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let refs: Vec<RenderLayer> =
-        images.iter().zip(&mappings).map(|(image, mapping)| RenderLayer { image, mapping: *mapping }).collect();
+    let refs: Vec<RenderLayer> = images
+        .iter()
+        .zip(&mappings)
+        .map(|(image, mapping)| RenderLayer { image, mapping: *mapping })
+        .collect();
     let geometry = rasterize::mesh_layers(&refs, &options.mesh, &MeshOptions::default())?;
     site_from(manifest, images, geometry, title, options)
 }
@@ -177,12 +191,20 @@ fn site_from(
     let mut domes = Vec::new();
     for &k in &order {
         let Some(dome) = infinite_only(&images[k], radius)? else { continue };
-        let mapping = AnyMapping::new(kind, dome.width, dome.height)
-            .map_err(|_| crate::render::RenderError::LayerSize { index: k, width: dome.width, height: dome.height, kind })?;
+        let mapping = AnyMapping::new(kind, dome.width, dome.height).map_err(|_| {
+            crate::render::RenderError::LayerSize { index: k, width: dome.width, height: dome.height, kind }
+        })?;
         let meshed = mesh::mesh_layer(&dome, &mapping, &mesh::sky_params(&MeshParams::default()))?;
-        let keep = dome.depth().map(|z| z.iter().map(|d| *d == f32::INFINITY || *d == radius as f32).collect());
+        let keep =
+            dome.depth().map(|z| z.iter().map(|d| *d == f32::INFINITY || *d == radius as f32).collect());
         let image = padded(&dome, keep.unwrap_or_default());
-        domes.push(Node { index: k, name: format!("{}-sky", name_of(k)), mesh: meshed.mesh, image, sky_radius: Some(radius) });
+        domes.push(Node {
+            index: k,
+            name: format!("{}-sky", name_of(k)),
+            mesh: meshed.mesh,
+            image,
+            sky_radius: Some(radius),
+        });
     }
     let mut geometry: Vec<Option<LayerGeometry>> = geometry.into_iter().map(Some).collect();
     let mut nodes = domes;
@@ -192,9 +214,8 @@ fn site_from(
             continue;
         }
         let image = &images[k];
-        let keep: Vec<bool> = (0..image.width * image.height)
-            .map(|i| matches!(image.sample(i), Sample::Surface(_)))
-            .collect();
+        let keep: Vec<bool> =
+            (0..image.width * image.height).map(|i| matches!(image.sample(i), Sample::Surface(_))).collect();
         let mesh = LayerMesh {
             width: g.width,
             height: g.height,
@@ -232,7 +253,8 @@ fn site_from(
 /// domain); `None` when it has none.
 fn infinite_only(image: &LayerImage, radius: f64) -> crate::Result<Option<LayerImage>> {
     let Some(mut dome) = mesh::sky_at(image, radius)? else { return Ok(None) };
-    let infinite: Vec<bool> = (0..image.width * image.height).map(|i| image.sample(i) == Sample::Infinite).collect();
+    let infinite: Vec<bool> =
+        (0..image.width * image.height).map(|i| image.sample(i) == Sample::Infinite).collect();
     if let Some(z) = dome.channel_mut("Z") {
         for (d, _) in z.data.iter_mut().zip(&infinite).filter(|(_, &inf)| !inf) {
             *d = -1.0;
@@ -259,8 +281,10 @@ fn padded(image: &LayerImage, mut keep: Vec<bool>) -> LayerImage {
     if keep.len() != w * h {
         return out;
     }
-    let mut rgb: Vec<Vec<f32>> =
-        ["R", "G", "B"].iter().map(|c| image.channel(c).map(|c| c.data.clone()).unwrap_or_default()).collect();
+    let mut rgb: Vec<Vec<f32>> = ["R", "G", "B"]
+        .iter()
+        .map(|c| image.channel(c).map(|c| c.data.clone()).unwrap_or_default())
+        .collect();
     if rgb.iter().any(|c| c.len() != w * h) {
         return out;
     }

@@ -301,10 +301,11 @@ async function main() {
   window.addEventListener('blur', () => keys.clear());
   window.addEventListener('resize', () => { resize(); redraw(); });
 
-  if ('xr' in navigator) {
+  // "Enter VR" only where the browser offers immersive sessions.
+  if ('xr' in navigator && (await navigator.xr.isSessionSupported('immersive-vr').catch(() => false))) {
     renderer.xr.enabled = true;
     renderer.xr.setReferenceSpaceType('local');
-    $('vr').appendChild(VRButton.createButton(renderer));
+    document.body.appendChild(VRButton.createButton(renderer));
     renderer.xr.addEventListener('sessionstart', redraw);
     renderer.xr.addEventListener('sessionend', redraw);
   }

@@ -53,7 +53,7 @@ pub fn run(a: Args, out: Output) -> Result<u8, Failure> {
             s["export"] = serde_json::json!(dir.display().to_string());
             out.json(&s);
         } else {
-            out.say(&format!(
+            out.say(format!(
                 "wrote {} ({} files, {:.1} MB, {triangles} triangles); serve it with any static file server, e.g. `python3 -m http.server -d {}`",
                 dir.display(),
                 site.files.len(),
@@ -65,7 +65,10 @@ pub fn run(a: Args, out: Output) -> Result<u8, Failure> {
     }
     let server = tiny_http::Server::http(("127.0.0.1", a.port)).map_err(|e| Failure {
         code: "VIEW_SERVE_FAILED",
-        message: format!("cannot listen on 127.0.0.1:{}: {e} (pick another --port, or 0 for any free one)", a.port),
+        message: format!(
+            "cannot listen on 127.0.0.1:{}: {e} (pick another --port, or 0 for any free one)",
+            a.port
+        ),
         exit: 2,
     })?;
     let port = server.server_addr().to_ip().map(|a| a.port()).unwrap_or(a.port);

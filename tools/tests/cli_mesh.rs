@@ -442,7 +442,8 @@ fn view_exports_a_self_contained_site_of_every_layer_and_the_sky() {
     assert!(nodes[0]["extras"]["sky_radius"].as_f64().unwrap() > 0.0);
     assert_eq!(nodes[0]["extras"]["layer"].as_u64(), Some(0));
     let order: Vec<u64> = nodes[1..].iter().map(|n| n["extras"]["layer"].as_u64().unwrap()).collect();
-    let painter: Vec<u64> = manifest.painter_order().into_iter().map(|k| k as u64).filter(|&k| k != 0).collect();
+    let painter: Vec<u64> =
+        manifest.painter_order().into_iter().map(|k| k as u64).filter(|&k| k != 0).collect();
     assert_eq!(order, painter);
     for m in doc["meshes"].as_array().unwrap() {
         assert!(m["primitives"][0]["attributes"]["TEXCOORD_1"].is_u64(), "{m}");
