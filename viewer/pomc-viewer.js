@@ -310,6 +310,15 @@ async function main() {
     renderer.xr.addEventListener('sessionend', redraw);
   }
 
+  // For tests and scripts: the camera in the world frame and its distance from the centre in the
+  // panorama frame (where the freedom radius is).
+  window.pomcCamera = () => ({
+    eye: state.eye.toArray(),
+    direction: (state.exact ? state.exact.clone().sub(state.eye).normalize() : direction()).toArray(),
+    distance: localDistance(state.eye),
+    freedomRadius: radius,
+  });
+
   reset();
   resize();
   let last = performance.now();

@@ -182,6 +182,31 @@ async function main() {
       const hidden = (await frame(page, base, cams.inside[0], `&holes=1&layers=${rest.join(',')}`)).image;
       entry.magenta_without_farthest_layer = +magentaShare(hidden).toFixed(5);
       failIf(entry.magenta_without_farthest_layer < 0.01, `${name}: hiding layer ${farthest} shows no holes in magenta`);
+      // Controls: keys move and stay inside the freedom radius, a drag turns the view, R resets.
+      await frame(page, base, cams.inside[2]);
+      const before = await page.evaluate('window.pomcCamera()');
+      await page.focus('canvas');
+      await page.keyboard.down('w');
+      await new Promise((ok) => setTimeout(ok, 2500));
+      await page.keyboard.up('w');
+      await page.keyboard.down('e');
+      await new Promise((ok) => setTimeout(ok, 1500));
+      await page.keyboard.up('e');
+      const moved = await page.evaluate('window.pomcCamera()');
+      await page.mouse.move(200, 130);
+      await page.mouse.down();
+      await page.mouse.move(320, 100, { steps: 5 });
+      await page.mouse.up();
+      const turned = await page.evaluate('window.pomcCamera()');
+      await page.keyboard.press('r');
+      const reset = await page.evaluate('window.pomcCamera()');
+      const dist = (a, b) => Math.hypot(...a.map((x, i) => x - b[i]));
+      entry.controls = { moved_m: +dist(before.eye, moved.eye).toFixed(4), distance_after_m: +moved.distance.toFixed(4),
+        turned_deg: +(Math.acos(Math.min(1, moved.direction.reduce((a, x, i) => a + x * turned.direction[i], 0))) * 180 / Math.PI).toFixed(2) };
+      failIf(entry.controls.moved_m < 0.01, `${name}: keys did not move the eye`);
+      failIf(moved.distance > moved.freedomRadius * (1 + 1e-6), `${name}: keys moved the eye outside the freedom radius (${moved.distance} m)`);
+      failIf(entry.controls.turned_deg < 5, `${name}: a drag did not turn the view`);
+      failIf(dist(reset.eye, before.eye) > 1e-9, `${name}: R did not reset the camera`);
       // The first page load of a fresh tab, start to pomcReady.
       const fresh = await browser.newPage();
       await fresh.bringToFront();
