@@ -162,7 +162,12 @@ pub fn build_arrays(
         input::z_to_ray(&mapping, &mut depth);
     }
     let rgb = input::colour_planes(colour, s.colour_space);
-    build_rgbd(&build::RgbdInput { mapping, rgb, depth, normals: None }, s, progress)
+    let normals = s
+        .normals_in
+        .as_deref()
+        .map(|p| input::read_normals(p, name, width, height, &s.limits))
+        .transpose()?;
+    build_rgbd(&build::RgbdInput { mapping, rgb, depth, normals }, s, progress)
 }
 
 /// How [`Renderer`] draws a view (`pomc render --method`).

@@ -21,7 +21,18 @@ import numpy as np
 from . import _pomc
 from ._pomc import PomcError
 
-__all__ = ["build", "build_files", "open", "Panorama", "Layer", "Report", "Issue", "PomcError"]
+__all__ = [
+    "build",
+    "build_files",
+    "open",
+    "Panorama",
+    "Layer",
+    "Report",
+    "Issue",
+    "PomcError",
+    "BUILD_OPTIONS",
+    "MESH_OPTIONS",
+]
 
 #: Keyword options of :func:`build`, with the values ``pomc build`` uses by default.
 BUILD_OPTIONS: Dict[str, Any] = {
@@ -42,6 +53,23 @@ BUILD_OPTIONS: Dict[str, Any] = {
     "keep_mixed": False,
     "soft_edges": False,
     "no_pack": False,
+    "normals_in": None,
+    "max_pixels": None,
+}
+
+#: Keyword options of :meth:`Panorama.mesh` and :meth:`Panorama.export_mesh`, with the values
+#: ``pomc mesh`` uses by default (``simplify`` and ``greedy`` are the negations of
+#: ``--no-simplify`` and ``--no-greedy``; 0 turns ``max_error`` and ``max_angle`` off).
+MESH_OPTIONS: Dict[str, Any] = {
+    "max_error": 0.005,
+    "max_angle": 20.0,
+    "feature_angle": None,
+    "residual": 0.05,
+    "normal_weighting": "area",
+    "uniform": None,
+    "simplify": True,
+    "greedy": True,
+    "sky_radius": None,
 }
 
 _CHOICES = {
@@ -176,15 +204,16 @@ class Panorama:
         """Mesh every layer (painter's order) or one, as ``pomc mesh``: a list of dicts with
         ``name``, ``layer``, ``vertices`` (N×3, panorama-local metres), ``triangles`` (M×3),
         ``uv`` (N×2, canvas coordinates) and ``sky_radius`` (the sky dome's, for the infinity
-        layer). Options: ``max_error``, ``max_angle``, ``simplify`` (default True), ``sky_radius``."""
-        return self._inner.mesh(layer, **_mesh_options(options))
+        layer). Options: every ``pomc mesh`` option, see :data:`MESH_OPTIONS` for names and
+        defaults."""
+        return self._inner.mesh(layer, _mesh_options(options))
 
     def export_mesh(self, path: "os.PathLike[str] | str", **options: Any) -> List[str]:
         """Write every layer's mesh into one scene file (.glb, .obj + .mtl + textures, .ply) as
         ``pomc mesh PANO -o PATH``; returns the files written. Also ``local=True`` for
         panorama-local coordinates."""
         local = bool(options.pop("local", False))
-        files = self._inner.export_mesh(os.fspath(path), local=local, **_mesh_options(options))
+        files = self._inner.export_mesh(os.fspath(path), _mesh_options(options), local=local)
         return [os.fspath(f) for f in files]
 
 
@@ -196,16 +225,25 @@ def _vec3(name: str, v: Sequence[float]) -> List[float]:
 
 
 def _mesh_options(options: Dict[str, Any]) -> Dict[str, Any]:
-    known = {"max_error", "max_angle", "simplify", "sky_radius"}
-    unknown = set(options) - known
+    unknown = set(options) - set(MESH_OPTIONS)
     if unknown:
-        raise _usage(f"unknown mesh option(s) {sorted(unknown)}; known: {sorted(known)}")
-    out = dict(options)
-    for k in ("max_error", "sky_radius"):
-        if out.get(k) is not None:
+        raise _usage(f"unknown mesh option(s) {sorted(unknown)}; known: {sorted(MESH_OPTIONS)}")
+    out = {k: v for k, v in options.items() if v is not None}
+    for k in ("residual", "sky_radius", "feature_angle"):
+        if k in out:
             out[k] = _positive(k, out[k])
-    if out.get("max_angle") is not None:
-        out["max_angle"] = _positive("max_angle", out["max_angle"], allow_zero=True)
+    for k in ("max_error", "max_angle"):
+        if k in out:
+            out[k] = _positive(k, out[k], allow_zero=True)
+    if "feature_angle" in out and out["feature_angle"] >= 180:
+        raise _usage(f"feature_angle must be below 180 degrees, got {out['feature_angle']!r}")
+    if "normal_weighting" in out and out["normal_weighting"] not in ("area", "angle"):
+        raise _usage(f"normal_weighting must be 'area' or 'angle', got {out['normal_weighting']!r}")
+    if "uniform" in out:
+        u = out["uniform"]
+        if isinstance(u, bool) or not isinstance(u, (int, np.integer)) or u < 1:
+            raise _usage(f"uniform must be a whole number of cells >= 1, got {u!r}")
+        out["uniform"] = int(u)
     return out
 
 
@@ -231,6 +269,13 @@ def _build_options(freedom_radius: float, convention: str, center: Sequence[floa
             opts[k] = _positive(k, opts[k])
     if "fill_margin" in opts:
         opts["fill_margin"] = _positive("fill_margin", opts["fill_margin"], allow_zero=True)
+    if "normals_in" in opts:
+        opts["normals_in"] = os.fspath(opts["normals_in"])
+    if "max_pixels" in opts:
+        m = opts["max_pixels"]
+        if isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1:
+            raise _usage(f"max_pixels must be a whole number >= 1, got {m!r}")
+        opts["max_pixels"] = int(m)
     if "depth_bands" in opts:
         opts["depth_bands"] = [_positive("depth_bands", d) for d in opts["depth_bands"]]
     return opts
@@ -267,8 +312,8 @@ def build(
     ``colour``: H×W×3 uint8 or uint16 (sRGB) or float32 (linear); ``depth``: H×W metres along
     the ray (``inf`` sky, ``nan`` or 0 unknown; integer depth needs ``depth_scale`` or ``preset``).
     A 2:1 canvas is an equirect, 3:2 a cube map. The ``pomc build`` options are keywords (``-`` as
-    ``_``; all but ``--normals-in`` and ``--max-pixels``): see :data:`BUILD_OPTIONS` for names and
-    defaults.
+    ``_``; ``normals_in`` is the path of a normals EXR of the same size): see :data:`BUILD_OPTIONS`
+    for names and defaults.
     """
     opts = _build_options(freedom_radius, convention, center, options)
     colour = np.ascontiguousarray(colour)

@@ -28,23 +28,8 @@ class Panorama:
         size: Tuple[int, int],
         method: str,
     ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, float]: ...
-    def mesh(
-        self,
-        layer: Optional[int] = None,
-        max_error: Optional[float] = None,
-        max_angle: Optional[float] = None,
-        simplify: bool = True,
-        sky_radius: Optional[float] = None,
-    ) -> List[Dict[str, Any]]: ...
-    def export_mesh(
-        self,
-        path: str,
-        max_error: Optional[float] = None,
-        max_angle: Optional[float] = None,
-        simplify: bool = True,
-        sky_radius: Optional[float] = None,
-        local: bool = False,
-    ) -> List[str]: ...
+    def mesh(self, layer: Optional[int], options: Dict[str, Any]) -> List[Dict[str, Any]]: ...
+    def export_mesh(self, path: str, options: Dict[str, Any], local: bool = False) -> List[str]: ...
 
 def open(path: str) -> Panorama: ...
 def build(colour: np.ndarray, depth: np.ndarray, options: Dict[str, Any]) -> Panorama: ...

@@ -22,7 +22,8 @@ use pomc::jobs::{self, BuildSettings, RenderMethod, Renderer};
 use pomc::layer::{LayerImage, Sample};
 use pomc::layer_io::ReadLimits;
 use pomc::manifest::Manifest;
-use pomc::mesh::MeshParams;
+use pomc::mesh::normals::NormalWeighting;
+use pomc::mesh::{MeshParams, MeshSettings};
 use pomc::panorama::{Panorama, SaveOptions};
 use pomc::render::{Camera, Perspective};
 
@@ -221,18 +222,15 @@ impl PyPanorama {
 
     /// Mesh every layer (painter's order) or layer `layer`: a list of dicts with `name`, `layer`,
     /// `vertices` (N×3 float64, panorama-local), `triangles` (M×3 uint32), `uv` (N×2 float32),
-    /// `sky_radius`.
-    #[pyo3(signature = (layer=None, max_error=None, max_angle=None, simplify=true, sky_radius=None))]
+    /// `sky_radius`. `options`: the `pomc mesh` options, checked by Python.
+    #[pyo3(signature = (layer, options))]
     fn mesh<'py>(
         &self,
         py: Python<'py>,
         layer: Option<usize>,
-        max_error: Option<f64>,
-        max_angle: Option<f64>,
-        simplify: bool,
-        sky_radius: Option<f64>,
+        options: &Bound<'py, PyDict>,
     ) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        let params = mesh_params(max_error, max_angle, simplify);
+        let (params, sky_radius) = mesh_settings(options)?;
         let meshes = py
             .allow_threads(|| jobs::mesh_scene(&self.manifest, &self.layers, layer, &params, sky_radius))
             .map_err(to_py)?;
@@ -262,19 +260,15 @@ impl PyPanorama {
     }
 
     /// Mesh every layer and write one scene file (.glb, .obj, .ply), as `pomc mesh PANO -o PATH`.
-    #[pyo3(signature = (path, max_error=None, max_angle=None, simplify=true, sky_radius=None, local=false))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (path, options, local=false))]
     fn export_mesh(
         &self,
         py: Python<'_>,
         path: PathBuf,
-        max_error: Option<f64>,
-        max_angle: Option<f64>,
-        simplify: bool,
-        sky_radius: Option<f64>,
+        options: &Bound<'_, PyDict>,
         local: bool,
     ) -> PyResult<Vec<PathBuf>> {
-        let params = mesh_params(max_error, max_angle, simplify);
+        let (params, sky_radius) = mesh_settings(options)?;
         let exported = py
             .allow_threads(|| {
                 let meshes = jobs::mesh_scene(&self.manifest, &self.layers, None, &params, sky_radius)?;
@@ -285,21 +279,41 @@ impl PyPanorama {
     }
 }
 
-fn mesh_params(max_error: Option<f64>, max_angle: Option<f64>, simplify: bool) -> MeshParams {
-    let mut p = if simplify { MeshParams::default() } else { MeshParams::quadtree() };
-    if let Some(e) = max_error {
-        p.max_error = Some(e);
-        if let Some(s) = &mut p.simplify {
-            s.max_error = e;
-        }
+/// Mesh parameters and the sky radius from the checked keyword options (names as `pomc mesh`'s,
+/// `-` as `_`; `simplify` and `greedy` for `--no-simplify` and `--no-greedy`).
+fn mesh_settings(o: &Bound<'_, PyDict>) -> PyResult<(MeshParams, Option<f64>)> {
+    let mut m = MeshSettings::default();
+    let get = |k: &str| o.get_item(k);
+    if let Some(v) = get("max_error")? {
+        m.max_error = v.extract()?;
     }
-    if let Some(a) = max_angle {
-        p.max_angle_deg = (a > 0.0).then_some(a);
-        if let Some(s) = &mut p.simplify {
-            s.max_angle_deg = p.max_angle_deg;
-        }
+    if let Some(v) = get("max_angle")? {
+        m.max_angle = v.extract()?;
     }
-    p
+    if let Some(v) = get("feature_angle")? {
+        m.feature_angle = Some(v.extract()?);
+    }
+    if let Some(v) = get("residual")? {
+        m.residual = v.extract()?;
+    }
+    if let Some(v) = get("normal_weighting")? {
+        m.normal_weighting = match v.extract::<String>()?.as_str() {
+            "area" => NormalWeighting::Area,
+            "angle" => NormalWeighting::Angle,
+            other => return Err(usage(format!("normal_weighting `{other}`: use area or angle"))),
+        };
+    }
+    if let Some(v) = get("uniform")? {
+        m.uniform = Some(v.extract()?);
+    }
+    if let Some(v) = get("simplify")? {
+        m.simplify = v.is_truthy()?;
+    }
+    if let Some(v) = get("greedy")? {
+        m.greedy = v.is_truthy()?;
+    }
+    let sky_radius = get("sky_radius")?.map(|v| v.extract()).transpose()?;
+    Ok((m.params(), sky_radius))
 }
 
 /// Open a panorama directory (or its manifest), reading every layer.
@@ -476,6 +490,12 @@ fn settings(o: &Bound<'_, PyDict>) -> PyResult<BuildSettings> {
     s.options.drop_mixed = !flag("keep_mixed")?;
     s.options.soft_edges = flag("soft_edges")?;
     s.save.pack = !flag("no_pack")?;
+    if let Some(v) = get("normals_in")? {
+        s.normals_in = Some(v.extract()?);
+    }
+    if let Some(v) = get("max_pixels")? {
+        s.limits = ReadLimits::with_max_pixels(v.extract()?);
+    }
     Ok(s)
 }
 

@@ -153,3 +153,55 @@ def test_rendering_releases_the_gil(built):
     t.join()
     # With the GIL held by the renders this thread could not have run meanwhile.
     assert ticks > 1000
+
+
+def test_every_mesh_option_equals_the_command(built, tmp_path):
+    pano = pomc.open(built / "py")
+    cases = [
+        ({}, []),
+        ({"feature_angle": 30, "residual": 0.1, "normal_weighting": "angle"},
+         ["--feature-angle", "30", "--residual", "0.1", "--normal-weighting", "angle"]),
+        ({"uniform": 4}, ["--uniform", "4"]),
+        ({"greedy": False, "max_error": 0.01, "max_angle": 0}, ["--no-greedy", "--max-error", "0.01", "--max-angle", "0"]),
+        ({"simplify": False, "sky_radius": 50}, ["--no-simplify", "--sky-radius", "50"]),
+    ]
+    sizes = set()
+    for k, (options, flags) in enumerate(cases):
+        mine, theirs = tmp_path / f"py{k}.ply", tmp_path / f"cli{k}.ply"
+        pano.export_mesh(mine, **options)
+        cli("mesh", str(built / "py"), "-o", str(theirs), "--no-metric", *flags)
+        assert mine.read_bytes() == theirs.read_bytes(), (options, flags)
+        sizes.add(mine.stat().st_size)
+    assert len(sizes) >= 4, "the options change the mesh"
+    assert set(pomc.MESH_OPTIONS) >= {"feature_angle", "residual", "normal_weighting", "uniform", "greedy"}
+    for bad in ({"uniform": 0}, {"normal_weighting": "volume"}, {"feature_angle": 200}, {"residual": -1}):
+        with pytest.raises(pomc.PomcError) as e:
+            pano.mesh(**bad)
+        assert e.value.code == "CLI_USAGE", bad
+
+
+def test_normals_in_and_max_pixels_are_the_command_options(tmp_path):
+    colour, depth = fixture_arrays()
+    normals = FIXTURE / "normals.exr"
+    cli("build", "--colour", str(FIXTURE / "colour.png"), "--depth", str(FIXTURE / "depth.exr"),
+        "--normals-in", str(normals), "--normals", "-o", str(tmp_path / "cli"))
+    pano = pomc.build(colour, depth, normals_in=normals, normals=True)
+    pano.save(tmp_path / "py")
+    a, b = pomc.open(tmp_path / "cli"), pomc.open(tmp_path / "py")
+    assert a.manifest_xml == b.manifest_xml
+    for la, lb in zip(a.layers, b.layers):
+        for x, y in ((la.colour, lb.colour), (la.depth, lb.depth), (la.mask, lb.mask)):
+            assert np.array_equal(x, y, equal_nan=True)
+    # The normals given are the ones stored (not re-estimated from depth).
+    ch = exr_channels(tmp_path / "py" / f"{b.layers[0].name}.exr")
+    assert "N.X" in ch
+    plain = pomc.build(colour, depth, normals=True)
+    plain.save(tmp_path / "plain")
+    assert not np.array_equal(ch["N.X"], exr_channels(tmp_path / "plain" / f"{b.layers[0].name}.exr")["N.X"])
+    h, w = depth.shape
+    for call in (lambda: pomc.build(colour, depth, max_pixels=w * h - 1),
+                 lambda: pomc.build_files(FIXTURE / "colour.png", FIXTURE / "depth.exr", tmp_path / "x", max_pixels=1000)):
+        with pytest.raises(pomc.PomcError) as e:
+            call()
+        assert e.value.code == "INPUT_TOO_LARGE"
+    assert pomc.build(colour, depth, max_pixels=w * h).validate().valid

@@ -388,29 +388,33 @@ pub fn load(
         }
         z_to_ray(&mapping, &mut d);
     }
-    let normals = match normals {
-        Some(p) => {
-            let l = layer_io::read_exr(p, limits)?;
-            let get = |names: [&str; 2]| names.iter().find_map(|n| l.channel(n)).map(|c| c.data.clone());
-            match (get(["N.X", "R"]), get(["N.Y", "G"]), get(["N.Z", "B"])) {
-                (Some(x), Some(y), Some(z)) if l.width == cw && l.height == ch => {
-                    Some((0..x.len()).map(|i| Vec3::new(x[i], y[i], z[i])).collect())
-                }
-                _ => {
-                    return Err(InputError::SizeMismatch {
-                        colour: colour.to_path_buf(),
-                        cw,
-                        ch,
-                        depth: p.to_path_buf(),
-                        dw: l.width,
-                        dh: l.height,
-                    })
-                }
-            }
-        }
-        None => None,
-    };
+    let normals = normals.map(|p| read_normals(p, colour, cw, ch, limits)).transpose()?;
     Ok(RgbdInput { mapping, rgb, depth: d, normals })
+}
+
+/// The normals image `path` (`N.X N.Y N.Z`, or `R G B`) of a `cw` × `ch` colour image `colour`.
+pub fn read_normals(
+    path: &Path,
+    colour: &Path,
+    cw: usize,
+    ch: usize,
+    limits: &ReadLimits,
+) -> Result<Vec<Vec3>, InputError> {
+    let l = layer_io::read_exr(path, limits)?;
+    let get = |names: [&str; 2]| names.iter().find_map(|n| l.channel(n)).map(|c| c.data.clone());
+    match (get(["N.X", "R"]), get(["N.Y", "G"]), get(["N.Z", "B"])) {
+        (Some(x), Some(y), Some(z)) if l.width == cw && l.height == ch => {
+            Ok((0..x.len()).map(|i| Vec3::new(x[i], y[i], z[i])).collect())
+        }
+        _ => Err(InputError::SizeMismatch {
+            colour: colour.to_path_buf(),
+            cw,
+            ch,
+            depth: path.to_path_buf(),
+            dw: l.width,
+            dh: l.height,
+        }),
+    }
 }
 
 #[cfg(test)]

@@ -35,6 +35,16 @@ pub struct ReadLimits {
 }
 
 impl ReadLimits {
+    /// The default limits with the pixel count raised (or lowered) to `max_pixels`, and the side
+    /// and decoded-size limits that go with it (`pomc build --max-pixels`).
+    pub fn with_max_pixels(max_pixels: u64) -> ReadLimits {
+        let mut l = ReadLimits::default();
+        l.max_pixels = max_pixels;
+        l.max_dimension = l.max_dimension.max((2.0 * max_pixels as f64).sqrt().ceil() as usize);
+        l.max_decoded_bytes = l.max_decoded_bytes.max(max_pixels.saturating_mul(16));
+        l
+    }
+
     /// Refuse `width × height × channels` when beyond these limits (checked in u64: no overflow).
     pub fn check(&self, width: u64, height: u64, channels: usize) -> Result<(), String> {
         let max_dim = self.max_dimension as u64;

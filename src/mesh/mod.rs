@@ -126,6 +126,62 @@ impl MeshParams {
     }
 }
 
+/// The options of `pomc mesh` as a user gives them (`0` disables a tolerance); [`MeshSettings::params`]
+/// turns them into [`MeshParams`]. `Default` is the command's default.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshSettings {
+    /// `--max-error`: relative distance along the ray (0 disables the test and simplification).
+    pub max_error: f64,
+    /// `--feature-angle`, degrees.
+    pub feature_angle: Option<f64>,
+    /// `--residual`.
+    pub residual: f64,
+    /// `--normal-weighting`.
+    pub normal_weighting: normals::NormalWeighting,
+    /// `--max-angle`, degrees (0 disables).
+    pub max_angle: f64,
+    /// `--uniform STEP`.
+    pub uniform: Option<u32>,
+    /// Not `--no-simplify`.
+    pub simplify: bool,
+    /// Not `--no-greedy`.
+    pub greedy: bool,
+}
+
+impl Default for MeshSettings {
+    fn default() -> Self {
+        MeshSettings {
+            max_error: DEFAULT_MAX_ERROR,
+            feature_angle: None,
+            residual: DEFAULT_RESIDUAL,
+            normal_weighting: normals::NormalWeighting::Area,
+            max_angle: DEFAULT_MAX_ANGLE_DEG,
+            uniform: None,
+            simplify: true,
+            greedy: true,
+        }
+    }
+}
+
+impl MeshSettings {
+    /// The mesher's parameters: simplification runs unless turned off, uniform, or without a
+    /// tolerance.
+    pub fn params(&self) -> MeshParams {
+        let max_angle_deg = (self.max_angle > 0.0).then_some(self.max_angle);
+        MeshParams {
+            max_error: (self.max_error > 0.0).then_some(self.max_error),
+            feature_angle_deg: self.feature_angle,
+            residual_threshold: self.residual,
+            normal_weighting: self.normal_weighting,
+            max_angle_deg,
+            uniform: self.uniform,
+            simplify: (self.simplify && self.uniform.is_none() && self.max_error > 0.0).then_some(
+                simplify::SimplifyParams { max_error: self.max_error, max_angle_deg, greedy: self.greedy },
+            ),
+        }
+    }
+}
+
 impl MeshParams {
     /// Reject non-finite or out-of-range values.
     pub fn check(&self) -> Result<(), MeshError> {
@@ -490,4 +546,20 @@ fn assemble(grids: &[Grid], mapping: &AnyMapping, tris: &[[u32; 3]], poles: [f64
         })
         .collect();
     LayerMesh { width: w, height: h, sources, positions, triangles }
+}
+
+#[cfg(test)]
+mod settings_tests {
+    use super::*;
+
+    #[test]
+    fn mesh_settings_default_to_the_command_and_turn_off_as_the_flags_do() {
+        assert_eq!(MeshSettings::default().params(), MeshParams::default());
+        assert_eq!(MeshSettings { simplify: false, ..Default::default() }.params(), MeshParams::quadtree());
+        let p = MeshSettings { max_error: 0.0, max_angle: 0.0, ..Default::default() }.params();
+        assert_eq!((p.max_error, p.max_angle_deg, p.simplify), (None, None, None));
+        assert!(MeshSettings { uniform: Some(4), ..Default::default() }.params().simplify.is_none());
+        let g = MeshSettings { greedy: false, ..Default::default() }.params();
+        assert!(!g.simplify.unwrap().greedy);
+    }
 }

@@ -37,6 +37,8 @@ impl Range {
     pub const FRACTION: Range = Range { lo: 0.0, lo_closed: false, hi: 1.0, hi_closed: true };
     /// An angle in (0, 180] degrees.
     pub const ANGLE: Range = Range { lo: 0.0, lo_closed: false, hi: 180.0, hi_closed: true };
+    /// An angle in [0, 180] degrees, where 0 turns a test off.
+    pub const ANGLE_OR_OFF: Range = Range { lo: 0.0, lo_closed: true, hi: 180.0, hi_closed: true };
     /// An angle in (0, 180) degrees (a field of view, a feature angle).
     pub const OPEN_ANGLE: Range = Range { lo: 0.0, lo_closed: false, hi: 180.0, hi_closed: false };
 

@@ -172,18 +172,6 @@ fn check_report_path(p: &std::path::Path) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The reader limits, the pixel count raised (or lowered) to `max_pixels` with the side and
-/// decoded-size limits that go with it.
-fn limits(max_pixels: Option<u64>) -> ReadLimits {
-    let mut l = ReadLimits::default();
-    if let Some(n) = max_pixels {
-        l.max_pixels = n;
-        l.max_dimension = l.max_dimension.max((2.0 * n as f64).sqrt().ceil() as usize);
-        l.max_decoded_bytes = l.max_decoded_bytes.max(n.saturating_mul(16));
-    }
-    l
-}
-
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     // The report is checked before any work: failing on it after the panorama is written would
     // report an error for a run that did its job.
@@ -212,7 +200,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         center: args.center,
         options: build_options(&args),
         save: SaveOptions { pack: !args.no_pack, ..SaveOptions::default() },
-        limits: limits(args.max_pixels),
+        limits: args.max_pixels.map(ReadLimits::with_max_pixels).unwrap_or_default(),
     };
     // Reading, the build's stages (`fill colour` unless nearest), writing: a bar with an ETA.
     let stages = 9 - (args.fill_colour == FillColourArg::Nearest) as u64;

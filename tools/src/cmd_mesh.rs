@@ -34,7 +34,7 @@ pub struct Args {
     #[arg(long, value_name = "R", value_parser = Range::POSITIVE.parser())]
     sky_radius: Option<f64>,
     /// Maximum relative distance along each pixel's ray between mesh and depth (0 disables).
-    #[arg(long, default_value_t = mesh::DEFAULT_MAX_ERROR, value_parser = Range::POSITIVE.parser())]
+    #[arg(long, default_value_t = mesh::DEFAULT_MAX_ERROR, value_parser = Range::NON_NEGATIVE.parser())]
     max_error: f64,
     /// Thesis normal test: split where neighbouring normals differ by more than DEG degrees.
     #[arg(long, value_name = "DEG", value_parser = Range::OPEN_ANGLE.parser())]
@@ -46,7 +46,7 @@ pub struct Args {
     #[arg(long, default_value = "area", value_parser = ["area", "angle"])]
     normal_weighting: String,
     /// Cap on a node's angular extent, degrees (texture distortion; 0 disables).
-    #[arg(long, default_value_t = mesh::DEFAULT_MAX_ANGLE_DEG, value_name = "DEG", value_parser = Range::ANGLE.parser())]
+    #[arg(long, default_value_t = mesh::DEFAULT_MAX_ANGLE_DEG, value_name = "DEG", value_parser = Range::ANGLE_OR_OFF.parser())]
     max_angle: f64,
     /// Uniform 4-8 baseline with leaves of at most STEP cells a side (overrides the other tests).
     #[arg(long, value_name = "STEP")]
@@ -84,25 +84,21 @@ impl From<mesh::MeshError> for Failure {
 }
 
 fn params(a: &Args) -> MeshParams {
-    MeshParams {
-        max_error: (a.max_error > 0.0).then_some(a.max_error),
-        feature_angle_deg: a.feature_angle,
-        residual_threshold: a.residual,
+    mesh::MeshSettings {
+        max_error: a.max_error,
+        feature_angle: a.feature_angle,
+        residual: a.residual,
         normal_weighting: if a.normal_weighting == "angle" {
             mesh::normals::NormalWeighting::Angle
         } else {
             mesh::normals::NormalWeighting::Area
         },
-        max_angle_deg: (a.max_angle > 0.0).then_some(a.max_angle),
+        max_angle: a.max_angle,
         uniform: a.uniform,
-        simplify: (!a.no_simplify && a.uniform.is_none() && a.max_error > 0.0).then(|| {
-            mesh::simplify::SimplifyParams {
-                max_error: a.max_error,
-                max_angle_deg: (a.max_angle > 0.0).then_some(a.max_angle),
-                greedy: !a.no_greedy,
-            }
-        }),
+        simplify: !a.no_simplify,
+        greedy: !a.no_greedy,
     }
+    .params()
 }
 
 fn ms(t: Instant) -> f64 {
