@@ -198,6 +198,12 @@ async function main() {
       await page.mouse.move(320, 100, { steps: 5 });
       await page.mouse.up();
       const turned = await page.evaluate('window.pomcCamera()');
+      // A one-finger drag on a touch screen turns the view too.
+      await page.touchscreen.touchStart(240, 135);
+      await page.touchscreen.touchMove(300, 135);
+      await page.touchscreen.touchMove(360, 140);
+      await page.touchscreen.touchEnd();
+      const touched = await page.evaluate('window.pomcCamera()');
       await page.keyboard.press('r');
       const reset = await page.evaluate('window.pomcCamera()');
       const dist = (a, b) => Math.hypot(...a.map((x, i) => x - b[i]));
@@ -206,6 +212,8 @@ async function main() {
       failIf(entry.controls.moved_m < 0.01, `${name}: keys did not move the eye`);
       failIf(moved.distance > moved.freedomRadius * (1 + 1e-6), `${name}: keys moved the eye outside the freedom radius (${moved.distance} m)`);
       failIf(entry.controls.turned_deg < 5, `${name}: a drag did not turn the view`);
+      entry.controls.touch_turned_deg = +(Math.acos(Math.min(1, turned.direction.reduce((a, x, i) => a + x * touched.direction[i], 0))) * 180 / Math.PI).toFixed(2);
+      failIf(entry.controls.touch_turned_deg < 5, `${name}: a touch drag did not turn the view`);
       failIf(dist(reset.eye, before.eye) > 1e-9, `${name}: R did not reset the camera`);
       // The first page load of a fresh tab, start to pomcReady.
       const fresh = await browser.newPage();
