@@ -251,9 +251,7 @@ impl Renderer {
             .into_iter()
             .enumerate()
             .map(|(index, image)| {
-                let mapping = AnyMapping::new(kind, image.width, image.height).map_err(|_| {
-                    render::RenderError::LayerSize { index, width: image.width, height: image.height, kind }
-                })?;
+                let mapping = render::layer_mapping(kind, index, &image)?;
                 Ok((image, mapping))
             })
             .collect::<crate::Result<Vec<_>>>()?;

@@ -10,7 +10,6 @@ use serde_json::json;
 
 use crate::layer::{LayerImage, Sample};
 use crate::manifest::Manifest;
-use crate::mapping::AnyMapping;
 use crate::mapping::{CubeFace, MappingKind};
 use crate::mesh::export::{gltf, scene_files_with, Format, SceneLayer};
 use crate::mesh::MeshParams;
@@ -143,14 +142,7 @@ pub fn site_of(
     let mappings = images
         .iter()
         .enumerate()
-        .map(|(index, i)| {
-            AnyMapping::new(kind, i.width, i.height).map_err(|_| crate::render::RenderError::LayerSize {
-                index,
-                width: i.width,
-                height: i.height,
-                kind,
-            })
-        })
+        .map(|(index, image)| crate::render::layer_mapping(kind, index, image))
         .collect::<Result<Vec<_>, _>>()?;
     let refs: Vec<RenderLayer> = images
         .iter()
@@ -191,9 +183,7 @@ fn site_from(
     let mut domes = Vec::new();
     for &k in &order {
         let Some(dome) = infinite_only(&images[k], radius)? else { continue };
-        let mapping = AnyMapping::new(kind, dome.width, dome.height).map_err(|_| {
-            crate::render::RenderError::LayerSize { index: k, width: dome.width, height: dome.height, kind }
-        })?;
+        let mapping = crate::render::layer_mapping(kind, k, &dome)?;
         let meshed = mesh::mesh_layer(&dome, &mapping, &mesh::sky_params(&MeshParams::default()))?;
         let keep =
             dome.depth().map(|z| z.iter().map(|d| *d == f32::INFINITY || *d == radius as f32).collect());

@@ -200,12 +200,20 @@ pub fn read_layers(pano: &Panorama, limits: &ReadLimits) -> crate::Result<Vec<(L
         .into_par_iter()
         .map(|index| {
             let image = pano.read_layer(index, limits)?;
-            let mapping = AnyMapping::new(kind, image.width, image.height).map_err(|_| {
-                RenderError::LayerSize { index, width: image.width, height: image.height, kind }
-            })?;
+            let mapping = layer_mapping(kind, index, &image)?;
             Ok((image, mapping))
         })
         .collect()
+}
+
+/// The mapping of layer `index`'s canvas, or the error naming the layer whose size does not fit it.
+pub fn layer_mapping(kind: MappingKind, index: usize, image: &LayerImage) -> Result<AnyMapping, RenderError> {
+    AnyMapping::new(kind, image.width, image.height).map_err(|_| RenderError::LayerSize {
+        index,
+        width: image.width,
+        height: image.height,
+        kind,
+    })
 }
 
 /// The panorama centre in the world: the default eye.
