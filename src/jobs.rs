@@ -371,11 +371,7 @@ pub fn mesh_scene(
                 want_w: w,
                 want_h,
             })?;
-            let dome = mesh::sky_at(image, radius)?;
-            let meshed = match &dome {
-                Some(d) => mesh::mesh_layer(d, &mapping, &mesh::sky_params(params))?,
-                None => mesh::mesh_layer(image, &mapping, params)?,
-            };
+            let (meshed, dome) = mesh::mesh_scene_layer(image, &mapping, params, radius)?;
             let name =
                 manifest.layers.get(k).and_then(|d| d.name.clone()).unwrap_or_else(|| format!("layer{k}"));
             let sky_radius = dome.is_some().then_some(radius);

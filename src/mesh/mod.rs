@@ -284,6 +284,23 @@ pub fn sky_at(image: &LayerImage, radius: f64) -> Result<Option<LayerImage>, Mes
     Ok(Some(out))
 }
 
+/// Mesh `image` as a scene shows it (`pomc mesh` without `--layer`, spec §8.9): a layer with
+/// infinitely far samples as the sky dome of `sky_radius` ([`sky_at`], meshed with [`sky_params`]),
+/// any other as itself. Returns the mesh and, for the sky, the dome's image.
+pub fn mesh_scene_layer(
+    image: &LayerImage,
+    mapping: &AnyMapping,
+    params: &MeshParams,
+    sky_radius: f64,
+) -> Result<(Meshed, Option<LayerImage>), MeshError> {
+    let dome = sky_at(image, sky_radius)?;
+    let meshed = match &dome {
+        Some(d) => mesh_layer(d, mapping, &sky_params(params))?,
+        None => mesh_layer(image, mapping, params)?,
+    };
+    Ok((meshed, dome))
+}
+
 /// A vertex's origin: a canvas pixel (its centre, at its depth) or, on the equirect, a pole.
 pub fn is_pole(id: u32, width: usize, height: usize) -> bool {
     id as usize >= width * height

@@ -249,11 +249,7 @@ fn mesh_one(
     sky_radius: f64,
 ) -> Result<Layer, Failure> {
     let mapping = mapping_of(pano, &image)?;
-    let dome = mesh::sky_at(&image, sky_radius)?;
-    let meshed = match &dome {
-        Some(d) => mesh::mesh_layer(d, &mapping, &mesh::sky_params(params))?,
-        None => mesh::mesh_layer(&image, &mapping, params)?,
-    };
+    let (meshed, dome) = mesh::mesh_scene_layer(&image, &mapping, params, sky_radius)?;
     let t = Instant::now();
     // The encoding stores the quadtrees of the layer itself (the dome is not part of it); lattices
     // meshed by greedy insertion have none yet, so they are built only when the encoding is stored.
