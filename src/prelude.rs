@@ -9,6 +9,7 @@
 //! | mesh | [`mesh_layer`] with [`MeshParams`] | `pomc mesh` |
 //! | render | [`Renderer::render`] | `pomc render` |
 //! | convert | [`convert_layer`] with [`SampleOptions`] | `pomc convert` |
+//! | view | [`viewer::site`] with [`SiteOptions`], then [`Site::write`] | `pomc view` |
 //!
 //! ```
 //! use pomc::prelude::*;
@@ -51,4 +52,5 @@ pub use crate::panorama::{write_panorama, Panorama, SaveOptions};
 pub use crate::render::{Camera, EquirectCamera, Frame, Perspective};
 pub use crate::resample::{convert_layer, Canvas, Filter, SampleOptions};
 pub use crate::validate::{validate, Report, Severity, ValidateOptions};
+pub use crate::viewer::{self, Site, SiteOptions};
 pub use glam::DVec3;
