@@ -185,9 +185,7 @@ fn site_from(
         let Some(dome) = infinite_only(&images[k], radius)? else { continue };
         let mapping = crate::render::layer_mapping(kind, k, &dome)?;
         let meshed = mesh::mesh_layer(&dome, &mapping, &mesh::sky_params(&MeshParams::default()))?;
-        let keep =
-            dome.depth().map(|z| z.iter().map(|d| *d == f32::INFINITY || *d == radius as f32).collect());
-        let image = padded(&dome, keep.unwrap_or_default());
+        let image = padded(&dome, surface_pixels(&dome));
         domes.push(Node {
             index: k,
             name: format!("{}-sky", name_of(k)),
@@ -204,8 +202,7 @@ fn site_from(
             continue;
         }
         let image = &images[k];
-        let keep: Vec<bool> =
-            (0..image.width * image.height).map(|i| matches!(image.sample(i), Sample::Surface(_))).collect();
+        let keep = surface_pixels(image);
         let mesh = LayerMesh {
             width: g.width,
             height: g.height,
@@ -237,6 +234,11 @@ fn site_from(
     site.files.push(("scene.glb".into(), glb));
     site.triangles = nodes.iter().map(|n| (n.name.clone(), n.mesh.triangles.len())).collect();
     Ok(site)
+}
+
+/// Whether each pixel of `image` is a surface at a finite distance.
+fn surface_pixels(image: &LayerImage) -> Vec<bool> {
+    (0..image.width * image.height).map(|i| matches!(image.sample(i), Sample::Surface(_))).collect()
 }
 
 /// `image` with only its infinitely far samples, at distance `radius` (the rest outside the

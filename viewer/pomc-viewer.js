@@ -209,7 +209,8 @@ async function main() {
   }
   const only = params.get('layers');
   if (only !== null) {
-    const keep = new Set(only.split(',').map(Number));
+    // `layers=` (empty) hides every layer.
+    const keep = new Set(only.split(',').filter((k) => k.trim() !== '').map(Number));
     layerNodes.forEach((n) => { n.visible = keep.has(n.userData.layer); });
     layersBox.querySelectorAll('input').forEach((b) => { b.checked = keep.has(Number(b.dataset.layer)); });
   }

@@ -176,12 +176,10 @@ async function main() {
           failIf(magenta > 0.001, `${name} ${cam.name}: hole switch paints ${(100 * magenta).toFixed(3)} % inside the freedom radius`);
         }
       }
-      // The switch paints what no visible layer covers: hide the farthest layer and holes appear.
-      const farthest = info.layers.find((l) => !l.sky)?.index ?? 0;
-      const rest = [...new Set(info.layers.map((l) => l.index))].filter((k) => k !== farthest);
-      const hidden = (await frame(page, base, cams.inside[0], `&holes=1&layers=${rest.join(',')}`)).image;
-      entry.magenta_without_farthest_layer = +magentaShare(hidden).toFixed(5);
-      failIf(entry.magenta_without_farthest_layer < 0.01, `${name}: hiding layer ${farthest} shows no holes in magenta`);
+      // The switch paints what no visible layer covers: with every layer hidden, all of the view.
+      const hidden = (await frame(page, base, cams.inside[0], '&holes=1&layers=')).image;
+      entry.magenta_with_no_layer = +magentaShare(hidden).toFixed(5);
+      failIf(entry.magenta_with_no_layer < 0.999, `${name}: with every layer hidden, only ${(100 * entry.magenta_with_no_layer).toFixed(2)} % is magenta`);
       // Controls: keys move and stay inside the freedom radius, a drag turns the view, R resets.
       await frame(page, base, cams.inside[2]);
       const before = await page.evaluate('window.pomcCamera()');
