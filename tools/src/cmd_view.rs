@@ -20,10 +20,10 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     export: Option<PathBuf>,
     /// Port to serve on, on 127.0.0.1 (0 picks a free one).
-    #[arg(long, default_value_t = 8080)]
+    #[arg(long, default_value_t = 8080, conflicts_with = "export")]
     port: u16,
     /// Open the page in the default browser.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "export")]
     open: bool,
     /// Radius of the sky dome (drawn as infinitely far whatever its radius).
     #[arg(long, value_name = "R", value_parser = Range::POSITIVE.parser())]
@@ -33,6 +33,18 @@ pub struct Args {
 pub fn run(a: Args, out: Output) -> Result<u8, Failure> {
     let t = Instant::now();
     let pano = Panorama::open(&a.pano)?;
+    // Listen before the meshing, so that a busy port is reported at once.
+    let server = match a.export {
+        Some(_) => None,
+        None => Some(tiny_http::Server::http(("127.0.0.1", a.port)).map_err(|e| Failure {
+            code: "VIEW_SERVE_FAILED",
+            message: format!(
+                "cannot listen on 127.0.0.1:{}: {e} (pick another --port, or 0 for any free one)",
+                a.port
+            ),
+            exit: 2,
+        })?),
+    };
     let spinner = out.spinner("meshing the layers");
     let options = SiteOptions { sky_radius: a.sky_radius, ..SiteOptions::default() };
     let site = viewer::site(&pano, &options)?;
@@ -63,14 +75,7 @@ pub fn run(a: Args, out: Output) -> Result<u8, Failure> {
         }
         return Ok(0);
     }
-    let server = tiny_http::Server::http(("127.0.0.1", a.port)).map_err(|e| Failure {
-        code: "VIEW_SERVE_FAILED",
-        message: format!(
-            "cannot listen on 127.0.0.1:{}: {e} (pick another --port, or 0 for any free one)",
-            a.port
-        ),
-        exit: 2,
-    })?;
+    let Some(server) = server else { return Ok(0) };
     let port = server.server_addr().to_ip().map(|a| a.port()).unwrap_or(a.port);
     let url = format!("http://127.0.0.1:{port}/");
     if out.json {

@@ -539,4 +539,8 @@ fn view_serves_the_site_on_localhost_and_reports_a_busy_port() {
     let e: Value = serde_json::from_slice(&busy.stdout).unwrap();
     assert_eq!(e["error"]["code"], "VIEW_SERVE_FAILED", "{e}");
     assert!(e["error"]["message"].as_str().unwrap().contains("--port"));
+    // Serving options make no sense with --export: refused, not ignored.
+    let both = pomc(&["view", pano.to_str().unwrap(), "--export", "site", "--open", "--json"]);
+    assert_eq!(both.status.code(), Some(2));
+    assert_eq!(serde_json::from_slice::<Value>(&both.stdout).unwrap()["error"]["code"], "CLI_USAGE");
 }
