@@ -131,28 +131,6 @@ pub fn site(pano: &Panorama, options: &SiteOptions) -> crate::Result<Site> {
     site_from(&pano.manifest, &images, geometry, &title, options)
 }
 
-/// The site of a panorama held in memory (`images`: full canvases in manifest order).
-pub fn site_of(
-    manifest: &Manifest,
-    images: &[LayerImage],
-    title: &str,
-    options: &SiteOptions,
-) -> crate::Result<Site> {
-    let kind = crate::render::mapping_kind(manifest.mapping.kind);
-    let mappings = images
-        .iter()
-        .enumerate()
-        .map(|(index, image)| crate::render::layer_mapping(kind, index, image))
-        .collect::<Result<Vec<_>, _>>()?;
-    let refs: Vec<RenderLayer> = images
-        .iter()
-        .zip(&mappings)
-        .map(|(image, mapping)| RenderLayer { image, mapping: *mapping })
-        .collect();
-    let geometry = rasterize::mesh_layers(&refs, &options.mesh, &MeshOptions::default())?;
-    site_from(manifest, images, geometry, title, options)
-}
-
 /// One node of the viewer's scene.
 struct Node {
     index: usize,
