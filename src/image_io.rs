@@ -250,7 +250,7 @@ pub fn encode(path: &Path, p: &Pixels) -> Result<(), ImageIoError> {
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), ImageIoError> {
-    crate::fsutil::write_atomic(path, |w| w.write_all(bytes)).map_err(|e| match e {
+    crate::fsutil::write_atomic(path, |w| std::io::Write::write_all(w, bytes)).map_err(|e| match e {
         crate::Error::Io { path, source } => ImageIoError::Io { path, source },
         other => ImageIoError::Encode { path: path.to_path_buf(), reason: other.to_string() },
     })

@@ -710,24 +710,35 @@ fn resolve<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, ou
 }
 
 /// Walk the target canvas row by row, in parallel, calling `pixel(x, d, out)` with each direction.
-fn render<T: Texel>(
-    target: Canvas,
-    size: usize,
-    ch: usize,
-    progress: &(dyn Fn(usize) + Sync),
-    segment: impl Fn(&Dirs, &mut Coords, &mut [T]) + Sync,
-) -> Result<Raster<T>, ResampleError> {
+/// Width and height of a `target` canvas of `size`, checked so that `channels` interleaved samples
+/// of it can be allocated.
+fn target_size(target: Canvas, size: usize, ch: usize) -> Result<(usize, usize), ResampleError> {
     let (w, h) = match target {
         Canvas::Equirect if size > 0 && size % 2 == 0 => (size, size / 2),
         Canvas::Cube(l) if size > 0 => l.canvas_size(size),
         _ => return Err(ResampleError::BadTargetSize(size)),
     };
-    let len = w.checked_mul(h).and_then(|p| p.checked_mul(ch)).filter(|&l| l <= isize::MAX as usize / 8);
-    let Some(len) = len else {
-        return Err(ResampleError::TooLarge { width: w, height: h, channels: ch });
-    };
-    let zero = T::from_f32(0.0);
-    let mut data = vec![zero; len];
+    match w.checked_mul(h).and_then(|p| p.checked_mul(ch)) {
+        Some(len) if len <= isize::MAX as usize / 8 => Ok((w, h)),
+        _ => Err(ResampleError::TooLarge { width: w, height: h, channels: ch }),
+    }
+}
+
+/// Fill `data`, target rows `y0..` of a `target` canvas of `size` (whole rows of `ch` interleaved
+/// samples), calling `segment` on runs of directions and `progress(1)` per row.
+fn render_rows<T: Texel>(
+    target: Canvas,
+    size: usize,
+    ch: usize,
+    y0: usize,
+    data: &mut [T],
+    progress: &(dyn Fn(usize) + Sync),
+    segment: impl Fn(&Dirs, &mut Coords, &mut [T]) + Sync,
+) -> Result<(), ResampleError> {
+    let (w, h) = target_size(target, size, ch)?;
+    if data.len() % (w * ch) != 0 || y0 + data.len() / (w * ch) > h {
+        return Err(ResampleError::Unsupported);
+    }
     match target {
         Canvas::Equirect => {
             let (cos_phi, sin_phi): (Vec<f32>, Vec<f32>) = (0..w)
@@ -739,6 +750,7 @@ fn render<T: Texel>(
             data.par_chunks_mut(w * ch).enumerate().for_each_init(
                 || (Dirs::with_len(w), Coords::with_len(w)),
                 |(dirs, coords), (y, row)| {
+                    let y = y0 + y;
                     let (st, ct) = (std::f64::consts::PI * (y as f64 + 0.5) / h as f64).sin_cos();
                     let (st, ct) = (st as f32, ct as f32);
                     for x in 0..w {
@@ -760,6 +772,7 @@ fn render<T: Texel>(
             data.par_chunks_mut(w * ch).enumerate().for_each_init(
                 || (Dirs::with_len(n), Coords::with_len(n)),
                 |(dirs, coords), (y, row)| {
+                    let y = y0 + y;
                     let b = a_tab[y % n];
                     for (sc, out) in row.chunks_mut(n * ch).enumerate().take(cols) {
                         let [c, r, d] = frames[(y / n) * cols + sc];
@@ -777,7 +790,7 @@ fn render<T: Texel>(
             );
         }
     }
-    Ok(Raster::from_vec(w, h, ch, data).expect("length computed above"))
+    Ok(())
 }
 
 fn check_channels(ch: usize, opts: &SampleOptions) -> Result<(), ResampleError> {
@@ -812,36 +825,95 @@ pub fn convert_with_progress<T: Texel>(
     opts: &SampleOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Raster<T>, ResampleError> {
-    let ch = src.channels();
-    check_channels(ch, opts)?;
-    match from {
-        Canvas::Equirect => {
-            let (w, h) = (src.width(), src.height());
-            if w == 0 || w != 2 * h {
-                return Err(ResampleError::NotEquirect { width: w, height: h });
-            }
-            let source = EquirectSource { w, h };
-            run(src.data(), ch, &source, to, size, opts, progress)
+    check_channels(src.channels(), opts)?;
+    if let Some(same) = same_face_size(src, from, to, size)? {
+        return Ok(same);
+    }
+    let source = Prepared::new(src, from, opts)?;
+    let (w, h) = target_size(to, size, src.channels())?;
+    let mut data = vec![T::from_f32(0.0); w * h * src.channels()];
+    source.rows(to, size, opts, 0, &mut data, progress)?;
+    Ok(Raster::from_vec(w, h, src.channels(), data).expect("length checked by target_size"))
+}
+
+/// A cube canvas converted to a cube of its own face size only changes layout: no resampling.
+fn same_face_size<T: Texel>(
+    src: &Raster<T>,
+    from: Canvas,
+    to: Canvas,
+    size: usize,
+) -> Result<Option<Raster<T>>, ResampleError> {
+    if let (Canvas::Cube(layout), Canvas::Cube(to_layout)) = (from, to) {
+        if layout.face_size(src.width(), src.height())? == size {
+            return Ok(Some(convert_layout(src, layout, to_layout)?));
         }
-        Canvas::Cube(layout) => {
-            let n = layout.face_size(src.width(), src.height())?;
-            if let Canvas::Cube(to_layout) = to {
-                if size == n {
-                    return Ok(convert_layout(src, layout, to_layout)?);
-                }
-            }
-            let canonical;
-            let data = if layout == CubeLayout::Canonical {
-                src.data()
-            } else {
-                canonical = convert_layout(src, layout, CubeLayout::Canonical)?;
-                canonical.data()
-            };
-            run(data, ch, &CubeSource { n }, to, size, opts, progress)
+    }
+    Ok(None)
+}
+
+/// A source canvas ready to be sampled: checked, and cube maps in the canonical layout.
+enum Prepared<'a, T> {
+    Equirect(&'a [T], usize, EquirectSource),
+    Cube(Canonical<'a, T>, usize, CubeSource),
+}
+
+/// A cube canvas's samples in the canonical layout: the source's own, or a re-laid-out copy.
+enum Canonical<'a, T> {
+    Borrowed(&'a [T]),
+    Owned(Vec<T>),
+}
+
+impl<T> Canonical<'_, T> {
+    fn data(&self) -> &[T] {
+        match self {
+            Canonical::Borrowed(d) => d,
+            Canonical::Owned(d) => d,
         }
     }
 }
 
+impl<'a, T: Texel> Prepared<'a, T> {
+    fn new(src: &'a Raster<T>, from: Canvas, opts: &SampleOptions) -> Result<Self, ResampleError> {
+        let ch = src.channels();
+        check_channels(ch, opts)?;
+        match from {
+            Canvas::Equirect => {
+                let (w, h) = (src.width(), src.height());
+                if w == 0 || w != 2 * h {
+                    return Err(ResampleError::NotEquirect { width: w, height: h });
+                }
+                Ok(Prepared::Equirect(src.data(), ch, EquirectSource { w, h }))
+            }
+            Canvas::Cube(layout) => {
+                let n = layout.face_size(src.width(), src.height())?;
+                let data = if layout == CubeLayout::Canonical {
+                    Canonical::Borrowed(src.data())
+                } else {
+                    Canonical::Owned(convert_layout(src, layout, CubeLayout::Canonical)?.into_vec())
+                };
+                Ok(Prepared::Cube(data, ch, CubeSource { n }))
+            }
+        }
+    }
+
+    /// Resample target rows `y0..` (as many as `out` holds) of a `to` canvas of `size`.
+    fn rows(
+        &self,
+        to: Canvas,
+        size: usize,
+        opts: &SampleOptions,
+        y0: usize,
+        out: &mut [T],
+        progress: &(dyn Fn(usize) + Sync),
+    ) -> Result<(), ResampleError> {
+        match self {
+            Prepared::Equirect(data, ch, s) => run(data, *ch, s, to, size, opts, y0, out, progress),
+            Prepared::Cube(data, ch, s) => run(data.data(), *ch, s, to, size, opts, y0, out, progress),
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
 fn run<T: Texel, S: Source>(
     data: &[T],
     ch: usize,
@@ -849,10 +921,12 @@ fn run<T: Texel, S: Source>(
     to: Canvas,
     size: usize,
     opts: &SampleOptions,
+    y0: usize,
+    out: &mut [T],
     progress: &(dyn Fn(usize) + Sync),
-) -> Result<Raster<T>, ResampleError> {
+) -> Result<(), ResampleError> {
     let plain = opts.depth_channel.is_none();
-    render(to, size, ch, progress, |dirs: &Dirs, coords: &mut Coords, out: &mut [T]| {
+    render_rows(to, size, ch, y0, out, progress, |dirs: &Dirs, coords: &mut Coords, out: &mut [T]| {
         source.coords(dirs, coords);
         if plain && opts.filter == Filter::Bilinear {
             for (i, px) in out.chunks_exact_mut(ch).enumerate() {
@@ -928,6 +1002,17 @@ pub fn convert_layer(
     size: usize,
     opts: &SampleOptions,
 ) -> Result<LayerImage, ResampleError> {
+    convert_layer_in_bands(src, from, to, size, opts, BAND_SAMPLES)
+}
+
+fn convert_layer_in_bands(
+    src: &LayerImage,
+    from: Canvas,
+    to: Canvas,
+    size: usize,
+    opts: &SampleOptions,
+    band_samples: usize,
+) -> Result<LayerImage, ResampleError> {
     let ch = src.channels.len();
     let px = src.width.checked_mul(src.height).ok_or(ResampleError::TooLarge {
         width: src.width,
@@ -958,46 +1043,91 @@ pub fn convert_layer(
     let mut o = *opts;
     o.depth_channel = pos("Z");
     o.coverage_channel = pos("A");
-    let out = convert(&raster, from, to, size, &o)?;
+    if let Some(same) = same_face_size(&raster, from, to, size)? {
+        return Ok(planar(src, &same));
+    }
     let ids = src.channels.iter().any(|c| c.sample_type == SampleType::U32);
-    let nearest = if ids && opts.filter != Filter::Nearest {
-        Some(convert(&raster, from, to, size, &SampleOptions { filter: Filter::Nearest, ..o })?)
-    } else {
-        None
+    let nearest_opts = SampleOptions { filter: Filter::Nearest, ..o };
+    let nearest = ids && opts.filter != Filter::Nearest;
+    let source = Prepared::new(&raster, from, &o)?;
+    let (w, h) = target_size(to, size, ch)?;
+    let normals = match (pos("N.X"), pos("N.Y"), pos("N.Z")) {
+        (Some(x), Some(y), Some(z)) => Some([x, y, z]),
+        _ => None,
     };
-    let (w, h) = (out.width(), out.height());
+    // The output is made a band of rows at a time and scattered into its planar channels, so that
+    // memory holds the output once (plus a band), not an interleaved copy of it too.
+    let too_large = || ResampleError::TooLarge { width: w, height: h, channels: ch };
+    let mut planes: Vec<Vec<f32>> = Vec::with_capacity(ch);
+    for _ in 0..ch {
+        // Memory the system refuses is an error with a code, not an abort.
+        let mut plane = Vec::new();
+        plane.try_reserve_exact(w * h).map_err(|_| too_large())?;
+        plane.resize(w * h, 0.0f32);
+        planes.push(plane);
+    }
+    let band_rows = (band_samples / (w * ch)).clamp(1, h);
+    let mut band = vec![0.0f32; band_rows * w * ch];
+    let mut band_ids = if nearest { vec![0.0f32; band_rows * w * ch] } else { Vec::new() };
+    let none = |_: usize| {};
+    for y0 in (0..h).step_by(band_rows) {
+        let rows = band_rows.min(h - y0);
+        let ids_len = band_ids.len().min(rows * w * ch);
+        let (band, band_ids) = (&mut band[..rows * w * ch], &mut band_ids[..ids_len]);
+        source.rows(to, size, &o, y0, band, &none)?;
+        if nearest {
+            source.rows(to, size, &nearest_opts, y0, band_ids, &none)?;
+        }
+        let at = y0 * w;
+        for (c, channel) in src.channels.iter().enumerate() {
+            let from_band: &[f32] =
+                if nearest && channel.sample_type == SampleType::U32 { band_ids } else { band };
+            let plane = &mut planes[c][at..at + rows * w];
+            for (v, px) in plane.iter_mut().zip(from_band.chunks_exact(ch)) {
+                *v = px[c];
+            }
+            if channel.sample_type == SampleType::F16 {
+                plane.iter_mut().for_each(|v| *v = half::f16::from_f32(*v).to_f32());
+            }
+        }
+        if let Some([x, y, z]) = normals {
+            renormalise(&mut planes, [x, y, z], at..at + rows * w);
+        }
+    }
     let mut dst = LayerImage::new(w, h);
+    for (channel, data) in src.channels.iter().zip(planes) {
+        dst.set_channel(&channel.name, channel.sample_type, data);
+    }
+    Ok(dst)
+}
+
+/// Samples per band of [`convert_layer`]: large enough to keep both cores busy, small against the
+/// output.
+const BAND_SAMPLES: usize = 1 << 22;
+
+/// A resampled interleaved raster as the planar layer of `src`'s channels (`F16` rounded to half).
+fn planar(src: &LayerImage, out: &Raster<f32>) -> LayerImage {
+    let ch = src.channels.len();
+    let mut dst = LayerImage::new(out.width(), out.height());
     for (c, channel) in src.channels.iter().enumerate() {
-        let from_raster = match (&nearest, channel.sample_type) {
-            (Some(nr), SampleType::U32) => nr,
-            _ => &out,
-        };
-        let mut data: Vec<f32> = from_raster.data().iter().skip(c).step_by(ch).copied().collect();
+        let mut data: Vec<f32> = out.data().iter().skip(c).step_by(ch).copied().collect();
         if channel.sample_type == SampleType::F16 {
             data.iter_mut().for_each(|v| *v = half::f16::from_f32(*v).to_f32());
         }
         dst.set_channel(&channel.name, channel.sample_type, data);
     }
-    if let (Some(_), Some(_), Some(_)) = (pos("N.X"), pos("N.Y"), pos("N.Z")) {
-        renormalise(&mut dst);
-    }
-    Ok(dst)
+    dst
 }
 
-fn renormalise(img: &mut LayerImage) {
-    let get = |img: &LayerImage, n: &str| img.channel(n).map(|c| c.data.clone()).unwrap_or_default();
-    let (mut nx, mut ny, mut nz) = (get(img, "N.X"), get(img, "N.Y"), get(img, "N.Z"));
-    for i in 0..nx.len() {
-        let l = (nx[i] * nx[i] + ny[i] * ny[i] + nz[i] * nz[i]).sqrt();
+/// Normals are filtered then renormalised (after rounding, as they are stored).
+fn renormalise(planes: &mut [Vec<f32>], [x, y, z]: [usize; 3], range: std::ops::Range<usize>) {
+    for i in range {
+        let (nx, ny, nz) = (planes[x][i], planes[y][i], planes[z][i]);
+        let l = (nx * nx + ny * ny + nz * nz).sqrt();
         if l > 0.0 && l.is_finite() {
-            nx[i] /= l;
-            ny[i] /= l;
-            nz[i] /= l;
-        }
-    }
-    for (name, data) in [("N.X", nx), ("N.Y", ny), ("N.Z", nz)] {
-        if let Some(c) = img.channel_mut(name) {
-            c.data = data;
+            planes[x][i] = nx / l;
+            planes[y][i] = ny / l;
+            planes[z][i] = nz / l;
         }
     }
 }
@@ -1039,6 +1169,64 @@ mod tests {
         let i = c.texel(0, 4, 1);
         let (x, y) = (i % 12, i / 12);
         assert_eq!((x / 4, y / 4), (1, 1), "{x},{y}");
+    }
+
+    /// A layer of every sample type, with normals, depth and coverage.
+    fn mixed_layer(w: usize, h: usize) -> LayerImage {
+        let n = w * h;
+        let mut img = LayerImage::new(w, h);
+        let f = |k: f32| (0..n).map(|i| (i as f32 * k).sin() * 0.5 + 0.5).collect::<Vec<_>>();
+        img.set_channel("R", SampleType::F16, f(0.37));
+        img.set_channel("N.X", SampleType::F16, f(0.11));
+        img.set_channel("N.Y", SampleType::F16, f(0.05));
+        img.set_channel("N.Z", SampleType::F32, f(0.02));
+        img.set_channel("Z", SampleType::F32, (0..n).map(|i| 1.0 + ((i / 7) % 3) as f32).collect());
+        img.set_channel("A", SampleType::F32, (0..n).map(|i| (i % 11 != 0) as u8 as f32).collect());
+        img.set_channel("id", SampleType::U32, (0..n).map(|i| (i % 97) as f32).collect());
+        img
+    }
+
+    #[test]
+    fn a_layer_converted_in_bands_equals_the_whole_raster_conversion() {
+        let src = mixed_layer(64, 32);
+        let opts = SampleOptions::default();
+        let cube = Canvas::Cube(CubeLayout::Canonical);
+        for (from, to, size, src) in [
+            (Canvas::Equirect, cube, 12, src.clone()),
+            (cube, Canvas::Equirect, 40, convert_layer(&src, Canvas::Equirect, cube, 16, &opts).unwrap()),
+        ] {
+            let whole = convert_layer_in_bands(&src, from, to, size, &opts, usize::MAX).unwrap();
+            for band in [1, 7 * 40, 1000] {
+                let banded = convert_layer_in_bands(&src, from, to, size, &opts, band).unwrap();
+                for (a, b) in whole.channels.iter().zip(&banded.channels) {
+                    assert_eq!((&a.name, a.sample_type), (&b.name, b.sample_type));
+                    let same = a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits());
+                    assert!(same, "channel {} differs with bands of {band} samples", a.name);
+                }
+            }
+            // Against the interleaved conversion it is made of (depth-aware, ids nearest).
+            let ch = src.channels.len();
+            let mut inter = vec![0.0f32; src.width * src.height * ch];
+            for (c, channel) in src.channels.iter().enumerate() {
+                for (i, v) in channel.data.iter().enumerate() {
+                    inter[i * ch + c] = *v;
+                }
+            }
+            let raster = Raster::from_vec(src.width, src.height, ch, inter).unwrap();
+            let o = SampleOptions { depth_channel: Some(4), coverage_channel: Some(5), ..opts };
+            let plain = convert(&raster, from, to, size, &o).unwrap();
+            let near =
+                convert(&raster, from, to, size, &SampleOptions { filter: Filter::Nearest, ..o }).unwrap();
+            let at = |r: &Raster<f32>, i: usize, c: usize| r.data()[i * ch + c];
+            for i in 0..whole.width * whole.height {
+                assert_eq!(whole.channels[4].data[i].to_bits(), at(&plain, i, 4).to_bits(), "Z at {i}");
+                assert_eq!(whole.channels[6].data[i], at(&near, i, 6), "id at {i}");
+                let r = half::f16::from_f32(at(&plain, i, 0)).to_f32();
+                assert_eq!(whole.channels[0].data[i], r, "R rounded to half at {i}");
+                let n: f32 = (1..4).map(|c| whole.channels[c].data[i].powi(2)).sum();
+                assert!((n - 1.0).abs() < 1e-5 || n == 0.0, "normal length² {n} at {i}");
+            }
+        }
     }
 
     #[test]

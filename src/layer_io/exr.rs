@@ -90,8 +90,27 @@ pub fn read_exr_bytes(bytes: &[u8], path: &Path, limits: &ReadLimits) -> Result<
 
 /// Write a layer EXR atomically (single part, scanlines, lossless compression).
 pub fn write_exr(path: &Path, image: &LayerImage, options: &WriteOptions) -> Result<(), crate::Error> {
-    let bytes = write_exr_bytes(path, image, options)?;
-    crate::fsutil::write_bytes_atomic(path, &bytes)
+    check_writable(path, image, options)?;
+    let channels =
+        image.channels.iter().map(|c| xr::AnyChannel::new(c.name.as_str(), to_samples(c))).collect();
+    write_channels(path, (image.width, image.height), channels, options)
+}
+
+/// [`write_exr`] taking the layer: each channel's samples move into the encoder (`F16` ones are
+/// converted one channel at a time), so a large layer is held once, not twice, and the encoded
+/// file streams to disk.
+pub fn write_exr_owned(path: &Path, image: LayerImage, options: &WriteOptions) -> Result<(), crate::Error> {
+    check_writable(path, &image, options)?;
+    let size = (image.width, image.height);
+    let channels = image
+        .channels
+        .into_iter()
+        .map(|c| {
+            let name = c.name.clone();
+            xr::AnyChannel::new(name.as_str(), into_samples(c))
+        })
+        .collect();
+    write_channels(path, size, channels, options)
 }
 
 /// Encode a layer as EXR bytes (what [`write_exr`] writes; `path` only names errors).
@@ -100,6 +119,17 @@ pub fn write_exr_bytes(
     image: &LayerImage,
     options: &WriteOptions,
 ) -> Result<Vec<u8>, LayerIoError> {
+    check_writable(path, image, options)?;
+    let channels =
+        image.channels.iter().map(|c| xr::AnyChannel::new(c.name.as_str(), to_samples(c))).collect();
+    let mut out = Cursor::new(Vec::new());
+    encode(path, (image.width, image.height), channels, options, &mut out)?;
+    Ok(out.into_inner())
+}
+
+type ExrChannels = xr::SmallVec<[xr::AnyChannel<xr::FlatSamples>; 4]>;
+
+fn check_writable(path: &Path, image: &LayerImage, options: &WriteOptions) -> Result<(), LayerIoError> {
     let unsupported = |what: String| LayerIoError::Unsupported { path: path.to_path_buf(), what };
     if !options.compression.is_lossless() {
         return Err(unsupported(format!(
@@ -115,23 +145,43 @@ pub fn write_exr_bytes(
             image.channels.len()
         )));
     }
-    let channels: xr::SmallVec<[xr::AnyChannel<xr::FlatSamples>; 4]> =
-        image.channels.iter().map(|c| xr::AnyChannel::new(c.name.as_str(), to_samples(c))).collect();
+    Ok(())
+}
+
+/// Encode straight into a temporary file that replaces `path` once complete.
+fn write_channels(
+    path: &Path,
+    size: (usize, usize),
+    channels: ExrChannels,
+    options: &WriteOptions,
+) -> Result<(), crate::Error> {
+    let mut failed = None;
+    let written = crate::fsutil::write_atomic(path, |w| {
+        encode(path, size, channels, options, w).map_err(|e| {
+            failed = Some(e);
+            std::io::Error::other("EXR encoding failed")
+        })
+    });
+    match (written, failed) {
+        (_, Some(e)) => Err(e.into()),
+        (r, None) => r,
+    }
+}
+
+fn encode(
+    path: &Path,
+    size: (usize, usize),
+    channels: ExrChannels,
+    options: &WriteOptions,
+    out: impl std::io::Write + std::io::Seek,
+) -> Result<(), LayerIoError> {
     let encoding = xr::Encoding {
         compression: to_exr_compression(options.compression),
         blocks: xr::Blocks::ScanLines,
         line_order: xr::LineOrder::Increasing,
     };
-    let exr_image = xr::Image::from_encoded_channels(
-        (image.width, image.height),
-        encoding,
-        xr::AnyChannels::sort(channels),
-    );
-    let mut out = Cursor::new(Vec::new());
-    match exr_image.write().to_buffered(&mut out) {
-        Ok(()) => Ok(out.into_inner()),
-        Err(e) => Err(map_exr_error(path, e)),
-    }
+    let exr_image = xr::Image::from_encoded_channels(size, encoding, xr::AnyChannels::sort(channels));
+    exr_image.write().to_buffered(out).map_err(|e| map_exr_error(path, e))
 }
 
 /// Where the offset table starts and how many chunks it lists.
@@ -312,6 +362,15 @@ fn from_samples(samples: xr::FlatSamples) -> (SampleType, Vec<f32>) {
 
 /// A channel's samples in its file type. `U32` rounds to the nearest integer, saturating
 /// (NaN becomes 0): in memory such channels are `f32`, exact up to 2²⁴.
+fn into_samples(c: crate::layer::Channel) -> xr::FlatSamples {
+    match c.sample_type {
+        SampleType::F16 => to_samples(&c),
+        SampleType::F32 => xr::FlatSamples::F32(c.data),
+        // Same size: the collect reuses the allocation.
+        SampleType::U32 => xr::FlatSamples::U32(c.data.into_iter().map(|x| x.round() as u32).collect()),
+    }
+}
+
 fn to_samples(c: &crate::layer::Channel) -> xr::FlatSamples {
     match c.sample_type {
         SampleType::F16 => xr::FlatSamples::F16(c.data.iter().map(|&x| f32_to_half(x)).collect()),

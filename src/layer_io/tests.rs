@@ -48,6 +48,28 @@ fn write(dir: &Path, name: &str, img: &LayerImage, compression: Compression) -> 
 }
 
 #[test]
+fn a_layer_written_owned_is_the_same_file() {
+    let d = tmp();
+    for c in [Compression::None, Compression::Zip16, Compression::Piz] {
+        let img = sample_layer(37, 19);
+        let options = WriteOptions { compression: c };
+        let bytes = write_exr_bytes(Path::new("x.exr"), &img, &options).unwrap();
+        let (by_ref, owned) = (d.path().join("ref.exr"), d.path().join("owned.exr"));
+        write_exr(&by_ref, &img, &options).unwrap();
+        super::write_exr_owned(&owned, img, &options).unwrap();
+        assert_eq!(std::fs::read(&by_ref).unwrap(), bytes, "{c:?}");
+        assert_eq!(std::fs::read(&owned).unwrap(), bytes, "{c:?}");
+    }
+    let lossy = super::write_exr_owned(
+        &d.path().join("p.exr"),
+        sample_layer(4, 4),
+        &WriteOptions { compression: Compression::Pxr24 },
+    );
+    assert!(lossy.is_err());
+    assert!(!d.path().join("p.exr").exists());
+}
+
+#[test]
 fn round_trip_all_lossless_compressions() {
     let d = tmp();
     let img = sample_layer(37, 19);

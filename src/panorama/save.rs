@@ -204,14 +204,17 @@ fn write_files(
         }
     }
     let write_one = |k: usize, file: String, path: &Path| -> Result<Written, Error> {
-        let made;
-        let image = match layers {
-            Layers::Given(given) => &given[k],
-            Layers::Made(make) => {
-                made = make(k)?;
-                &made
-            }
+        // A made layer is owned: its samples move into the encoder rather than being copied.
+        let made = match layers {
+            Layers::Given(_) => None,
+            Layers::Made(make) => Some(make(k)?),
         };
+        let image = match (layers, &made) {
+            (_, Some(m)) => m,
+            (Layers::Given(given), None) => &given[k],
+            (Layers::Made(_), None) => unreachable!("made above"),
+        };
+        let size = (image.width as u32, image.height as u32);
         let canvas = image.width as f64 * image.height as f64;
         // An atlas never holds fewer pixels than the domain: a layer fuller than the
         // threshold is not worth cutting up.
@@ -220,19 +223,24 @@ fn write_files(
         let packed = if worth_packing { Some(pack::pack_layer(image, &options.pack_options)?) } else { None };
         let packing = match packed {
             Some(p) if (p.atlas_area() as f64) <= options.pack_threshold * canvas => {
-                layer_io::write_exr(path, &p.atlas, &options.exr)?;
-                Some(Packing {
+                drop(made);
+                let packing = Packing {
                     atlas_width: p.atlas.width as u32,
                     atlas_height: p.atlas.height as u32,
                     patches: p.patches,
-                })
+                };
+                layer_io::write_exr_owned(path, p.atlas, &options.exr)?;
+                Some(packing)
             }
             _ => {
-                layer_io::write_exr(path, image, &options.exr)?;
+                match made {
+                    Some(m) => layer_io::write_exr_owned(path, m, &options.exr)?,
+                    None => layer_io::write_exr(path, image, &options.exr)?,
+                }
                 None
             }
         };
-        Ok(Written { file, size: (image.width as u32, image.height as u32), packing })
+        Ok(Written { file, size, packing })
     };
     // Given layers are packed and encoded in parallel (each EXR encode is parallel too, but packing
     // and the small layers are not); made ones one after another, to hold one at a time.

@@ -289,8 +289,9 @@ fn run_layer(args: &Args, opts: SampleOptions, out: Output, total: Instant) -> R
     let converted = resample::convert_layer(&layer, from, to, size, &opts)
         .map_err(|e| fail(e.code(), format!("{}: {e}", args.input.display())))?;
     let resample_ms = ms(t);
+    let (output, channels) = ((converted.width, converted.height), converted.channels.len());
     let t = Instant::now();
-    layer_io::write_exr(&args.output, &converted, &WriteOptions::default())?;
+    layer_io::write_exr_owned(&args.output, converted, &WriteOptions::default())?;
     let encode_ms = ms(t);
     report(
         args,
@@ -301,8 +302,8 @@ fn run_layer(args: &Args, opts: SampleOptions, out: Output, total: Instant) -> R
             from,
             to,
             input: (layer.width, layer.height),
-            output: (converted.width, converted.height),
-            channels: converted.channels.len(),
+            output,
+            channels,
             timings: [decode_ms, resample_ms, encode_ms, ms(total)],
         },
     );
