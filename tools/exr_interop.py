@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Bit-exact EXR interoperability checks against the OpenEXR C++ library (through its Python
-binding), driven by tests/exr_interop.rs.
+binding), driven by tests/it/exr_interop.rs.
 
 A *dump directory* holds `channels.txt` (one line per channel: `name type width height`, type
 one of half/float/uint) and, per channel, `<name>.bin`: the samples' raw little-endian bits,

@@ -12,7 +12,7 @@ cd "$(dirname "$0")/../.."
 N="${1:-1024}"
 OUT="${OUT:-target/bench-mesh}"
 mkdir -p "$OUT"
-POMC_MESH_N="$N" cargo test --release -q -p pomc --test mesh_figures sweep_max_error -- --ignored --nocapture \
+POMC_MESH_N="$N" cargo test --release -q -p pomc --test it mesh_figures::sweep_max_error -- --ignored --nocapture \
   | grep '^CSV ' | sed 's/^CSV //' > "$OUT/pomc.csv"
 python3 tools/bench/mesh_vs_delatin.py "$N" | grep '^CSV ' | sed 's/^CSV //' > "$OUT/delatin.csv"
 python3 tools/bench/plot_mesh.py "$OUT/pomc.csv" "$OUT/delatin.csv" "$OUT/mesh_vs_delatin.png"

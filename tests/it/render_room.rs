@@ -7,6 +7,7 @@ use pomc::build::{self, BuildOptions};
 use pomc::layer::LayerImage;
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
+use pomc_fixtures::eval::{assert_no_nan, persp, truth};
 use pomc_fixtures::layers::{render_on, rgbd_input, to_layer};
 use pomc_fixtures::{Aabb, Scene, Shape};
 
@@ -31,20 +32,8 @@ fn systems(scene: &Scene, kind: MappingKind, w: usize, h: usize) -> Systems {
 fn draw(images: &[&LayerImage], m: AnyMapping, cam: &Camera) -> Frame {
     let layers: Vec<RenderLayer> = images.iter().map(|&image| RenderLayer { image, mapping: m }).collect();
     let r = render::render(&layers, DMat4::IDENTITY, cam, &SplatOptions::default()).unwrap();
-    for k in 0..3 {
-        assert!(r.frame.rgb[k].iter().all(|v| v.is_finite()), "non-finite colour");
-    }
-    assert!(r.frame.depth.iter().all(|d| !d.is_nan()), "NaN depth");
+    assert_no_nan(&r.frame);
     r.frame
-}
-
-/// Exact view: first surface along each pixel-centre ray.
-fn truth(scene: &Scene, cam: &Camera) -> Frame {
-    pomc_fixtures::eval::truth(scene, cam, 1)
-}
-
-fn persp(eye: DVec3, at: DVec3) -> Camera {
-    Camera::Perspective(Perspective::new(eye, at, DVec3::Z, 60.0, 320, 180).unwrap())
 }
 
 /// Eyes on the freedom sphere (r = 0.5) with a target where moving reveals hidden background.
@@ -66,7 +55,7 @@ fn layered_splat_fills_disocclusions_the_single_layer_leaves() {
     let s = systems(&scene, MappingKind::Equirect, 1024, 512);
     let mut report = Vec::new();
     for cam in edge_views() {
-        let t = truth(&scene, &cam);
+        let t = truth(&scene, &cam, 1);
         let layered = draw(&s.layered.iter().collect::<Vec<_>>(), s.mapping, &cam);
         let single = draw(&[&s.single], s.mapping, &cam);
         let (pl, ps) = (metrics::psnr(&layered, &t), metrics::psnr(&single, &t));
@@ -93,13 +82,13 @@ fn centre_views_match_the_truth() {
     let cam = persp(DVec3::ZERO, DVec3::new(2.0, 0.0, -0.8));
     let f = draw(&layered, s.mapping, &cam);
     assert_eq!(f.holes(), 0);
-    let p = metrics::psnr(&f, &truth(&scene, &cam));
+    let p = metrics::psnr(&f, &truth(&scene, &cam, 1));
     assert!(p > 22.0, "centre PSNR {p}");
     // An equirect view from the centre reproduces the panorama, seam and poles included.
     let eq = Camera::Equirect(EquirectCamera::new(DVec3::ZERO, 512, 256).unwrap());
     let f = draw(&layered, s.mapping, &eq);
     assert_eq!(f.holes(), 0);
-    let p = metrics::ws_psnr(&f, &truth(&scene, &eq));
+    let p = metrics::ws_psnr(&f, &truth(&scene, &eq, 1));
     assert!(p > 22.0, "equirect WS-PSNR {p}");
 }
 
@@ -111,7 +100,7 @@ fn displaced_equirect_view_has_no_holes_on_the_seam_or_poles() {
     let eq = Camera::Equirect(EquirectCamera::new(DVec3::new(0.3, 0.0, 0.4), 512, 256).unwrap());
     let f = draw(&layered, s.mapping, &eq);
     assert!(f.hole_ratio() < 1e-3, "holes {}", f.hole_ratio());
-    let p = metrics::ws_psnr(&f, &truth(&scene, &eq));
+    let p = metrics::ws_psnr(&f, &truth(&scene, &eq, 1));
     assert!(p > 20.0, "displaced equirect WS-PSNR {p}");
 }
 
@@ -165,7 +154,7 @@ fn cube_map_layers_render_like_equirect_ones() {
     for cam in edge_views().into_iter().take(2) {
         let f = draw(&layered, s.mapping, &cam);
         assert!(f.hole_ratio() <= MAX_HOLES, "cube holes {}", f.hole_ratio());
-        let p = metrics::psnr(&f, &truth(&scene, &cam));
+        let p = metrics::psnr(&f, &truth(&scene, &cam, 1));
         assert!(p > 20.0, "cube PSNR {p}");
     }
 }

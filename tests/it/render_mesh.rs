@@ -11,6 +11,7 @@ use pomc::mesh::LayerMesh;
 use pomc::mesh::MeshParams;
 use pomc::render::rasterize::{self, LayerGeometry, MeshOptions, MeshRendered};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
+use pomc_fixtures::eval::{assert_no_nan, persp, truth};
 use pomc_fixtures::layers::{render_on, rgbd_input};
 use pomc_fixtures::{Aabb, Scene, Shape};
 
@@ -40,32 +41,13 @@ impl Pano {
         let r =
             rasterize::render_mesh(&self.refs(), &self.meshes, DMat4::IDENTITY, cam, &MeshOptions::default())
                 .unwrap();
-        no_nan(&r.frame);
+        assert_no_nan(&r.frame);
         r.frame
     }
 
     fn splat(&self, cam: &Camera) -> Frame {
         render::render(&self.refs(), DMat4::IDENTITY, cam, &SplatOptions::default()).unwrap().frame
     }
-}
-
-fn no_nan(f: &Frame) {
-    for k in 0..3 {
-        assert!(f.rgb[k].iter().all(|v| v.is_finite()), "non-finite colour");
-    }
-    assert!(f.depth.iter().all(|d| !d.is_nan()), "NaN depth");
-    for i in 0..f.depth.len() {
-        assert_eq!(f.covered[i], f.depth[i] >= 0.0, "coverage and depth disagree at {i}");
-    }
-}
-
-/// Exact view: first surface along each pixel-centre ray.
-fn truth(scene: &Scene, cam: &Camera) -> Frame {
-    pomc_fixtures::eval::truth(scene, cam, 1)
-}
-
-fn persp(eye: DVec3, at: DVec3) -> Camera {
-    Camera::Perspective(Perspective::new(eye, at, DVec3::Z, 60.0, 320, 180).unwrap())
 }
 
 /// Eyes on the freedom sphere (r = 0.5) and half-way, looking where moving reveals hidden background.
@@ -92,7 +74,7 @@ fn mesh_views_inside_the_freedom_radius_have_no_holes_and_match_the_splat() {
     let p = Pano::new(&scene, MappingKind::Equirect, 1024, 512);
     let mut report = Vec::new();
     for cam in views() {
-        let t = truth(&scene, &cam);
+        let t = truth(&scene, &cam, 1);
         let (m, s) = (p.mesh(&cam), p.splat(&cam));
         let (pm, ps) = (metrics::psnr(&m, &t), metrics::psnr(&s, &t));
         let dm = metrics::depth_error(&m, &t).unwrap();
@@ -122,12 +104,12 @@ fn centre_views_match_the_truth() {
     let cam = persp(DVec3::ZERO, DVec3::new(2.0, 0.0, -0.8));
     let f = p.mesh(&cam);
     assert_eq!(f.holes(), 0);
-    let pm = metrics::psnr(&f, &truth(&scene, &cam));
+    let pm = metrics::psnr(&f, &truth(&scene, &cam, 1));
     assert!(pm > 25.0, "centre PSNR {pm}"); // measured 26.8 dB
     let eq = Camera::Equirect(EquirectCamera::new(DVec3::ZERO, 512, 256).unwrap());
     let (f, s) = (p.mesh(&eq), p.splat(&eq));
     assert_eq!(f.holes(), 0);
-    let t = truth(&scene, &eq);
+    let t = truth(&scene, &eq, 1);
     let (pm, ps) = (metrics::ws_psnr(&f, &t), metrics::ws_psnr(&s, &t));
     // Measured 31.6 dB (splat 28.0: its filter blurs the checkers).
     assert!(pm > 29.0 && pm >= ps - 0.5, "equirect WS-PSNR mesh {pm} splat {ps}");
@@ -139,7 +121,7 @@ fn displaced_equirect_view_has_no_streaks_across_the_seam_or_poles() {
     let p = Pano::new(&scene, MappingKind::Equirect, 1024, 512);
     let eq = Camera::Equirect(EquirectCamera::new(DVec3::new(0.3, 0.0, 0.4), 512, 256).unwrap());
     let (f, s) = (p.mesh(&eq), p.splat(&eq));
-    let t = truth(&scene, &eq);
+    let t = truth(&scene, &eq, 1);
     assert!(f.hole_ratio() < 1e-4, "holes {}", f.hole_ratio()); // measured 0
     let (pm, ps) = (metrics::ws_psnr(&f, &t), metrics::ws_psnr(&s, &t));
     eprintln!("displaced equirect: mesh {pm:.2} dB, splat {ps:.2} dB, holes {}", f.hole_ratio());
@@ -180,7 +162,7 @@ fn render_one(img: &LayerImage, m: AnyMapping, cam: &Camera, o: &MeshOptions) ->
     let layers = [RenderLayer { image: img, mapping: m }];
     let g = rasterize::mesh_layers(&layers, &MeshParams::quadtree(), o).unwrap();
     let r = rasterize::render_mesh(&layers, &g, DMat4::IDENTITY, cam, o).unwrap();
-    no_nan(&r.frame);
+    assert_no_nan(&r.frame);
     r
 }
 
@@ -292,7 +274,7 @@ fn triangles_across_depth_jumps_are_not_drawn() {
     };
     let o = MeshOptions::default();
     let f = rasterize::render_mesh(&layers, &[g], DMat4::IDENTITY, &cam, &o).unwrap().frame;
-    no_nan(&f);
+    assert_no_nan(&f);
     let mut gap = 0;
     let mut drawn_in_gap = 0;
     for y in 0..cam.height() {
@@ -410,7 +392,7 @@ fn rasterisation_is_watertight_and_clipped_at_the_near_plane() {
     ];
     for cam in cams {
         let r = rasterize::render_mesh(&layers, std::slice::from_ref(&g), DMat4::IDENTITY, &cam, &o).unwrap();
-        no_nan(&r.frame);
+        assert_no_nan(&r.frame);
         let f = &r.frame;
         let mut mismatches = 0;
         let mut covered = 0;
@@ -448,7 +430,7 @@ fn infinity_layer_is_drawn_behind_everything() {
     assert_eq!(f.holes(), 0);
     assert!(f.depth[90 * 320 + 160].is_finite(), "the box hides the sky");
     assert!(f.depth.iter().any(|d| d.is_infinite()));
-    let t = truth(&scene, &cam);
+    let t = truth(&scene, &cam, 1);
     let (pm, ps) = (metrics::psnr(&f, &t), metrics::psnr(&p.splat(&cam), &t));
     assert!(pm >= ps - 0.5, "mesh {pm} vs splat {ps}");
 }
@@ -459,7 +441,7 @@ fn cube_map_layers_render_like_equirect_ones() {
     let p = Pano::new(&scene, MappingKind::Cube3x2, 3 * 384, 2 * 384);
     for cam in views().into_iter().take(2) {
         let f = p.mesh(&cam);
-        let t = truth(&scene, &cam);
+        let t = truth(&scene, &cam, 1);
         let (pm, ps) = (metrics::psnr(&f, &t), metrics::psnr(&p.splat(&cam), &t));
         eprintln!("cube {}: holes {:.5} PSNR {pm:.2} (splat {ps:.2})", cam.eye(), f.hole_ratio());
         assert_eq!(f.holes(), 0, "cube holes {}", f.hole_ratio());

@@ -8,9 +8,7 @@ use pomc::panorama::{self, SaveOptions};
 use pomc_fixtures::layers::{render_on, room_manifest, to_layer};
 use pomc_fixtures::Scene;
 
-fn pomc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pomc")).args(args).output().expect("pomc runs")
-}
+use crate::pomc;
 
 /// The two-layer room, centre 1.2 m above the world origin, stored unpacked.
 fn room(dir: &Path) {

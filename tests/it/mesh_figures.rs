@@ -1,5 +1,6 @@
 //! Figures for docs/mesh.md (ignored by default: large canvases; run in release):
-//! `cargo test --release -p pomc --test mesh_figures -- --ignored --nocapture`.
+//! `cargo test --release -p pomc --test it mesh_figures -- --ignored --nocapture`.
+//! Meshing time: `cargo bench -p pomc --bench mesh`.
 
 use std::time::Instant;
 
@@ -64,29 +65,6 @@ fn thesis_reproduction_cube_1024() {
         assert!(s.p99_rel <= 0.005);
         // Thesis 7.4.2.7: a mesh of 1 M triangles in < 122 KB (the encoding is the quadtree's).
         assert!(bytes as f64 * 1e6 / (qt as f64) < 122_000.0);
-    }
-}
-
-/// A 6×2048² cube layer meshed in ≤ 1 s (release, 2 cores): reported, asserted loosely (shared CI).
-#[test]
-#[ignore]
-fn timing_cube_2048() {
-    let (m, bg) = background(2048);
-    // `pomc mesh` defaults: --max-error 0.005 --max-angle 20, simplified; then --no-simplify.
-    let cli = simplified(0.005, Some(20.0));
-    let raw = MeshParams::quadtree();
-    for (name, p) in [("default (simplified)", &cli), ("--no-simplify", &raw)] {
-        for _ in 0..3 {
-            let t = Instant::now();
-            let a = mesh::mesh_layer(&bg, &m, p).unwrap();
-            println!(
-                "6x2048^2 {name}: {} triangles in {:.3} s ({:?}, {:?})",
-                a.mesh.triangles.len(),
-                t.elapsed().as_secs_f64(),
-                a.times,
-                a.simplify
-            );
-        }
     }
 }
 

@@ -8,9 +8,7 @@ use pomc::layer_io::ReadLimits;
 use pomc::mapping::{AnyMapping, MappingKind};
 use pomc::panorama::Panorama;
 
-fn pomc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pomc")).args(args).output().expect("pomc runs")
-}
+use crate::pomc;
 
 fn json(out: &Output) -> serde_json::Value {
     serde_json::from_slice(&out.stdout)

@@ -9,9 +9,7 @@ use pomc::mapping::{AnyMapping, MappingKind};
 use pomc::panorama::Panorama;
 use serde_json::Value;
 
-fn pomc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pomc")).args(args).output().expect("pomc runs")
-}
+use crate::pomc;
 
 fn room(dir: &Path, kind: MappingKind, w: usize, h: usize) {
     let m = AnyMapping::new(kind, w, h).unwrap();

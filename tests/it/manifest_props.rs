@@ -7,8 +7,8 @@ use pomc::manifest::{
 use pomc::pack::Patch;
 use proptest::prelude::*;
 
-const SEED: &str = include_str!("../fixtures/manifests/native-packed.xml");
-const THESIS: &[u8] = include_bytes!("../fixtures/manifests/thesis-example.xml");
+const SEED: &str = include_str!("../../fixtures/manifests/native-packed.xml");
+const THESIS: &[u8] = include_bytes!("../../fixtures/manifests/thesis-example.xml");
 
 fn finite() -> impl Strategy<Value = f64> {
     prop_oneof![
