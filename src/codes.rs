@@ -9,8 +9,11 @@ use serde::Serialize;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Severity {
+    /// The panorama is invalid (`error` in the report).
     Error,
+    /// Suspicious but valid (`warning` in the report).
     Warning,
+    /// A note only (`info` in the report).
     Info,
 }
 

@@ -6,29 +6,42 @@ use std::path::PathBuf;
 /// Any error pomc can return.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
+    /// Reading, parsing or checking a manifest failed.
     #[error(transparent)]
     Manifest(#[from] crate::manifest::ManifestError),
+    /// Reading or writing a layer file failed.
     #[error(transparent)]
     LayerIo(#[from] crate::layer_io::LayerIoError),
+    /// Packing or unpacking layers into an atlas failed.
     #[error(transparent)]
     Pack(#[from] crate::pack::PackError),
+    /// Resampling between mappings or sizes failed.
     #[error(transparent)]
     Resample(#[from] crate::resample::ResampleError),
+    /// Opening, checking or saving a panorama failed.
     #[error(transparent)]
     Panorama(#[from] crate::panorama::PanoramaError),
+    /// Building a layered panorama from inputs failed.
     #[error(transparent)]
     Build(#[from] crate::build::BuildError),
+    /// Loading or checking the build inputs failed.
     #[error(transparent)]
     Input(#[from] crate::build::input::InputError),
+    /// Meshing, or reading or writing a stored mesh, failed.
     #[error(transparent)]
     Mesh(#[from] crate::mesh::MeshError),
+    /// Rendering a view failed.
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
+    /// Reading or writing a plain image (PNG, JPEG, EXR, HDR) failed.
     #[error(transparent)]
     Image(#[from] crate::image_io::ImageIoError),
+    /// A file system operation on `path` failed (code `IO_ERROR`).
     #[error("{path}: {source}")]
     Io {
+        /// The file or directory the operation was on.
         path: PathBuf,
+        /// The underlying I/O error.
         #[source]
         source: std::io::Error,
     },
@@ -53,4 +66,5 @@ impl Error {
     }
 }
 
+/// `std::result::Result` with pomc's [`Error`] as the default error type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

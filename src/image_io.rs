@@ -15,22 +15,53 @@ use crate::resample::Texel;
 /// Reading or writing a plain image failed.
 #[derive(Debug, thiserror::Error)]
 pub enum ImageIoError {
+    /// The file cannot be decoded (corrupt data, an EXR without parts or channels); `CONVERT_UNREADABLE`.
     #[error("{path}: {reason}")]
-    Unreadable { path: PathBuf, reason: String },
+    Unreadable {
+        /// The image file.
+        path: PathBuf,
+        /// What went wrong, from the decoder.
+        reason: String,
+    },
+    /// The image declares more pixels than [`ReadLimits`] allow; refused before decoding.
     #[error("{path}: {reason}")]
-    TooLarge { path: PathBuf, reason: String },
+    TooLarge {
+        /// The image file.
+        path: PathBuf,
+        /// The declared size and the limit it exceeds.
+        reason: String,
+    },
+    /// The decoder does not support the file's format or a feature of it; `CONVERT_UNSUPPORTED`.
     #[error("{path}: cannot decode ({reason}); supported inputs are PNG, JPEG, EXR and HDR")]
-    Unsupported { path: PathBuf, reason: String },
+    Unsupported {
+        /// The image file.
+        path: PathBuf,
+        /// What the decoder does not support.
+        reason: String,
+    },
+    /// Opening, reading or writing the file failed (or it is not a regular file); `CONVERT_IO`.
     #[error("{path}: {source}")]
     Io {
+        /// The file the operation was on.
         path: PathBuf,
+        /// The underlying I/O error.
         #[source]
         source: std::io::Error,
     },
+    /// The output path's extension is not `.png`, `.jpg`/`.jpeg`, `.exr` or `.hdr`; `CONVERT_USAGE`.
     #[error("{path}: unknown output format; use a .png, .jpg, .exr or .hdr extension")]
-    UnknownFormat { path: PathBuf },
+    UnknownFormat {
+        /// The output file.
+        path: PathBuf,
+    },
+    /// The encoder failed to produce the output bytes; `CONVERT_ENCODE`.
     #[error("{path}: cannot encode ({reason})")]
-    Encode { path: PathBuf, reason: String },
+    Encode {
+        /// The output file.
+        path: PathBuf,
+        /// What the encoder reported.
+        reason: String,
+    },
 }
 
 impl ImageIoError {

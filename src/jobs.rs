@@ -45,9 +45,11 @@ pub struct BuildSummary {
     pub manifest: Manifest,
     /// Per-layer figures of the build.
     pub report: BuildReport,
-    /// Seconds spent reading the inputs, building and writing.
+    /// Seconds spent reading the input images (colour, depth, normals).
     pub read_s: f64,
+    /// Seconds spent building the layers in memory.
     pub build_s: f64,
+    /// Seconds spent writing the layer files and the manifest.
     pub write_s: f64,
 }
 
@@ -97,8 +99,11 @@ pub fn build_panorama_with_progress(
 /// layers, in manifest order.
 #[derive(Clone, Debug)]
 pub struct BuiltPanorama {
+    /// The manifest, with no canvas sizes or packing filled in yet.
     pub manifest: Manifest,
+    /// Full-canvas layer images, in manifest order.
     pub layers: Vec<LayerImage>,
+    /// Per-layer figures of the build.
     pub report: BuildReport,
 }
 
@@ -183,12 +188,15 @@ pub enum RenderMethod {
 /// One rendered view and its figures.
 #[derive(Clone, Debug)]
 pub struct View {
+    /// The rendered colour, depth and coverage.
     pub frame: Frame,
     /// Output pixels no layer covers, and their share.
     pub holes: usize,
+    /// Fraction of output pixels that are holes, in [0, 1].
     pub hole_ratio: f64,
     /// The method's work counters.
     pub counts: serde_json::Value,
+    /// Wall-clock time of each stage of the render, in order.
     pub stages: Vec<Stage>,
 }
 
@@ -327,11 +335,13 @@ fn view<C: serde::Serialize, O>(r: render::Rendered<C, O>) -> View {
 pub struct SceneMesh {
     /// Index in the manifest, and the layer's name (`layerK` when it has none).
     pub index: usize,
+    /// The layer's name in the manifest, or `layerK` when it has none.
     pub name: String,
     /// The meshed pixels: the layer, or for the infinity layer its sky on the dome.
     pub image: LayerImage,
     /// The dome's radius when this is the sky.
     pub sky_radius: Option<f64>,
+    /// The layer's mesh and the quadtrees it came from.
     pub meshed: mesh::Meshed,
 }
 

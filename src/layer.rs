@@ -20,16 +20,22 @@ pub const OUTSIDE_DEPTH: f32 = -1.0;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SampleType {
+    /// IEEE half float (16-bit).
     F16,
+    /// IEEE single float (32-bit).
     F32,
+    /// 32-bit unsigned integer.
     U32,
 }
 
 /// One named planar channel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Channel {
+    /// Channel name, e.g. `R`, `A`, `Z`, `N.X`, or any attribute name.
     pub name: String,
+    /// How the samples are stored in the file.
     pub sample_type: SampleType,
+    /// `width × height` samples, row-major, top row first.
     pub data: Vec<f32>,
 }
 
@@ -68,8 +74,11 @@ pub fn classify(depth: f32, coverage: Option<f32>) -> Sample {
 /// A layer's pixels: planar channels of `width × height` samples.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LayerImage {
+    /// Width in pixels.
     pub width: usize,
+    /// Height in pixels.
     pub height: usize,
+    /// The channels, each `width × height` samples, names unique.
     pub channels: Vec<Channel>,
 }
 
@@ -90,10 +99,12 @@ impl LayerImage {
         }
     }
 
+    /// The channel called `name`, if present.
     pub fn channel(&self, name: &str) -> Option<&Channel> {
         self.channels.iter().find(|c| c.name == name)
     }
 
+    /// The channel called `name`, mutably, if present.
     pub fn channel_mut(&mut self, name: &str) -> Option<&mut Channel> {
         self.channels.iter_mut().find(|c| c.name == name)
     }

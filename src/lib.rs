@@ -21,6 +21,7 @@
 //! - [`jobs`] and [`prelude`]: the main jobs, one call each, with the command line's defaults.
 
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod build;
 pub mod codes;

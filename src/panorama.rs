@@ -26,20 +26,61 @@ pub const MAX_MANIFEST_BYTES: u64 = 16 << 20;
 #[derive(Debug, thiserror::Error)]
 pub enum PanoramaError {
     #[error("{path}: no panorama here; give a directory holding {MANIFEST_NAME} or the manifest's path")]
-    NotFound { path: PathBuf },
+    /// [`manifest_path`]: the path is neither a file nor a directory holding [`MANIFEST_NAME`].
+    NotFound {
+        /// The path given.
+        path: PathBuf,
+    },
     #[error("{manifest}: layer file `{file}` resolves outside the panorama directory {dir}; use a path relative to the directory without `..`")]
-    PathEscapes { manifest: PathBuf, file: String, dir: PathBuf },
+    /// A file name is empty, absolute or resolves outside the directory (`..`, symbolic links).
+    PathEscapes {
+        /// The manifest naming the file.
+        manifest: PathBuf,
+        /// The file name as written in the manifest.
+        file: String,
+        /// The panorama directory it must stay in.
+        dir: PathBuf,
+    },
     #[error("{manifest}: layer {index} does not exist (the manifest has {count} layers)")]
-    NoSuchLayer { manifest: PathBuf, index: usize, count: usize },
+    /// A layer index with no layer, or (writing) layer images and `<Layer>`s differ in number.
+    NoSuchLayer {
+        /// The manifest concerned (when writing, the one to be written).
+        manifest: PathBuf,
+        /// The missing layer's index, from 0.
+        index: usize,
+        /// How many layers there are.
+        count: usize,
+    },
     #[error("{file}: stored image is {found:?} but the manifest declares {declared:?} for layer {index}; fix the manifest's width/height (or <Packing atlas>) or re-export the file")]
-    SizeMismatch { file: PathBuf, index: usize, declared: (usize, usize), found: (usize, usize) },
+    /// The stored image's size differs from the declared canvas (unpacked) or atlas (packed) size.
+    SizeMismatch {
+        /// The stored file (the colour file for the thesis form).
+        file: PathBuf,
+        /// The layer's index, from 0.
+        index: usize,
+        /// `(width, height)` declared in the manifest, pixels.
+        declared: (usize, usize),
+        /// `(width, height)` of the stored image, pixels.
+        found: (usize, usize),
+    },
     #[error("{file}: layer {index} is packed but its canvas size is not declared; add width and height to the <Layer>")]
-    PackedWithoutCanvas { file: PathBuf, index: usize },
+    /// A layer has `<Packing>` but no `width`/`height` for its full canvas.
+    PackedWithoutCanvas {
+        /// The stored atlas file.
+        file: PathBuf,
+        /// The layer's index, from 0.
+        index: usize,
+    },
     #[error("{path}: the output exists and is not a directory; give a directory for the panorama")]
-    OutputNotDirectory { path: PathBuf },
+    /// Writing: the output path exists and is not a directory.
+    OutputNotDirectory {
+        /// The output path given.
+        path: PathBuf,
+    },
 }
 
 impl PanoramaError {
+    /// Stable code for reports, e.g. `PANORAMA_NOT_FOUND` or `LAYER_PATH_ESCAPES`.
     pub fn code(&self) -> &'static str {
         match self {
             PanoramaError::NotFound { .. } => "PANORAMA_NOT_FOUND",
@@ -59,6 +100,7 @@ pub struct Panorama {
     pub dir: PathBuf,
     /// The manifest file.
     pub manifest_path: PathBuf,
+    /// The parsed manifest.
     pub manifest: Manifest,
 }
 

@@ -15,10 +15,15 @@ pub struct Raster<T> {
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 #[error("raster buffer holds {got} samples but {width}×{height}×{channels} needs {expected}")]
 pub struct RasterSizeError {
+    /// Declared width, pixels.
     pub width: usize,
+    /// Declared height, pixels.
     pub height: usize,
+    /// Declared samples per pixel.
     pub channels: usize,
+    /// Samples the declared size needs (`usize::MAX` if the product overflows).
     pub expected: usize,
+    /// Samples the buffer holds.
     pub got: usize,
 }
 
@@ -42,21 +47,27 @@ impl<T: Copy> Raster<T> {
         Ok(Raster { width, height, channels, data })
     }
 
+    /// Width in pixels.
     pub fn width(&self) -> usize {
         self.width
     }
+    /// Height in pixels.
     pub fn height(&self) -> usize {
         self.height
     }
+    /// Samples per pixel.
     pub fn channels(&self) -> usize {
         self.channels
     }
+    /// All samples, interleaved, row-major, top row first.
     pub fn data(&self) -> &[T] {
         &self.data
     }
+    /// All samples, mutably, in the order of [`Raster::data`].
     pub fn data_mut(&mut self) -> &mut [T] {
         &mut self.data
     }
+    /// The sample buffer, in the order of [`Raster::data`].
     pub fn into_vec(self) -> Vec<T> {
         self.data
     }
@@ -68,6 +79,7 @@ impl<T: Copy> Raster<T> {
         &self.data[i..i + self.channels]
     }
 
+    /// Samples of pixel `(x, y)`, mutably. Panics if out of bounds.
     #[inline]
     pub fn pixel_mut(&mut self, x: usize, y: usize) -> &mut [T] {
         let i = (y * self.width + x) * self.channels;
@@ -81,6 +93,7 @@ impl<T: Copy> Raster<T> {
         &self.data[y * n..(y + 1) * n]
     }
 
+    /// Row `y` of samples, mutably (`width × channels` long). Panics if out of bounds.
     #[inline]
     pub fn row_mut(&mut self, y: usize) -> &mut [T] {
         let n = self.width * self.channels;

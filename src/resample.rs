@@ -31,27 +31,70 @@ use crate::raster::Raster;
 /// Errors of sampling and conversion.
 #[derive(Debug, thiserror::Error)]
 pub enum ResampleError {
+    /// Internal: a buffer whose length does not match its canvas (not expected from public calls).
     #[error("unsupported")]
     Unsupported,
+    /// A cube canvas's size does not fit its layout ([`LayoutError`]).
     #[error(transparent)]
     Layout(#[from] LayoutError),
     #[error("a {width}x{height} image is not an equirect canvas (width must be twice the height)")]
-    NotEquirect { width: usize, height: usize },
+    /// A source read as equirect is not `2H × H` with `H ≥ 1`.
+    NotEquirect {
+        /// Source width, pixels.
+        width: usize,
+        /// Source height, pixels.
+        height: usize,
+    },
     #[error("output size {0} is invalid: an equirect width must be even and positive, a face size positive")]
+    /// The target size (equirect width or cube face size, pixels) is 0, or odd for an equirect.
     BadTargetSize(usize),
     #[error("output of {width}x{height} pixels x {channels} channels is too large")]
-    TooLarge { width: usize, height: usize, channels: usize },
+    /// An image's `width · height · channels` samples are too many to allocate.
+    TooLarge {
+        /// Image width, pixels.
+        width: usize,
+        /// Image height, pixels.
+        height: usize,
+        /// Number of channels.
+        channels: usize,
+    },
     #[error("depth channel {channel} does not exist (the image has {channels} channels)")]
-    NoSuchChannel { channel: usize, channels: usize },
+    /// [`SampleOptions::depth_channel`] or `coverage_channel` is not below the channel count.
+    NoSuchChannel {
+        /// The channel index asked for.
+        channel: usize,
+        /// How many channels the image has.
+        channels: usize,
+    },
+    /// The source image has no channels.
     #[error("the image has no channels")]
     NoChannels,
     #[error("output buffer holds {got} samples but the image has {channels} channels")]
-    OutputLength { got: usize, channels: usize },
+    /// [`sample_dir`]: the output slice's length differs from the channel count.
+    OutputLength {
+        /// Length of the output slice given.
+        got: usize,
+        /// Channels of the image (the length required).
+        channels: usize,
+    },
     #[error("layer channel '{name}' holds {len} samples where its {width}x{height} canvas needs {expected}")]
-    ChannelSize { name: String, len: usize, width: usize, height: usize, expected: usize },
+    /// [`convert_layer`]: a channel's sample count is not `width · height`.
+    ChannelSize {
+        /// The channel's name.
+        name: String,
+        /// Samples the channel holds.
+        len: usize,
+        /// Layer width, pixels.
+        width: usize,
+        /// Layer height, pixels.
+        height: usize,
+        /// Samples required, `width · height`.
+        expected: usize,
+    },
 }
 
 impl ResampleError {
+    /// Stable code for reports: `RESAMPLE_*`, or the layout's code for [`ResampleError::Layout`].
     pub fn code(&self) -> &'static str {
         match self {
             ResampleError::Unsupported => "RESAMPLE_UNSUPPORTED",
@@ -70,7 +113,9 @@ impl ResampleError {
 /// Reconstruction filter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Filter {
+    /// The texel containing the sample point, 1 tap.
     Nearest,
+    /// Bilinear over the 2×2 nearest texel centres; the default.
     #[default]
     Bilinear,
     /// Keys cubic with `a = −0.5` (Catmull-Rom): interpolating, 4×4 taps.
@@ -78,6 +123,7 @@ pub enum Filter {
 }
 
 impl Filter {
+    /// Stable name for the command line: `nearest`, `bilinear` or `bicubic`.
     pub fn name(self) -> &'static str {
         match self {
             Filter::Nearest => "nearest",
@@ -117,6 +163,7 @@ pub enum Canvas {
 /// How to sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SampleOptions {
+    /// Reconstruction filter (default [`Filter::Bilinear`]).
     pub filter: Filter,
     /// Channel holding depth (distance along the ray; negative = outside, NaN = unknown). Enables the
     /// depth-aware rule.
@@ -139,6 +186,7 @@ impl Default for SampleOptions {
 }
 
 impl SampleOptions {
+    /// The default options with `filter` instead of bilinear.
     pub fn with_filter(filter: Filter) -> Self {
         SampleOptions { filter, ..Default::default() }
     }
@@ -146,6 +194,7 @@ impl SampleOptions {
 
 /// A sample type the samplers read and write; filtering happens in `f32`.
 pub trait Texel: Copy + Send + Sync + 'static {
+    /// The sample's value as `f32` (integers by value, not normalised).
     fn to_f32(self) -> f32;
     /// Rounded and saturated for integer types.
     fn from_f32(v: f32) -> Self;

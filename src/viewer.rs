@@ -67,6 +67,7 @@ impl Default for SiteOptions {
 /// A site ready to write or serve: `(path, bytes)`, `index.html` first.
 #[derive(Clone, Debug, Default)]
 pub struct Site {
+    /// `(path relative to the site root, contents)`, `index.html` first.
     pub files: Vec<(String, Vec<u8>)>,
     /// Triangles per meshed layer, in painter's order: `(layer name, triangles)`.
     pub triangles: Vec<(String, usize)>,

@@ -21,7 +21,9 @@ use crate::mapping::{opposite, Neighbours};
 /// One filled pixel.
 #[derive(Clone, Copy, Debug)]
 pub struct FillPixel {
+    /// Row-major index of the filled pixel on the canvas.
     pub pixel: usize,
+    /// Distance along its ray (m) on the continued surface; `+inf` in the infinity layer.
     pub depth: f32,
     /// Its linear RGB: the nearest visible pixel's, then as [`super::texture`] colours it.
     pub rgb: [f32; 3],
@@ -32,6 +34,7 @@ pub struct FillPixel {
 /// The fill of one layer: extra pixels, in breadth-first order from the occluders' borders.
 #[derive(Clone, Debug, Default)]
 pub struct Fill {
+    /// The filled pixels, each once, in breadth-first order.
     pub pixels: Vec<FillPixel>,
     /// Widest angle (radians) between a filled pixel and its source.
     pub max_angle: f64,
@@ -39,6 +42,7 @@ pub struct Fill {
 
 /// Inputs shared by the fills of all layers.
 pub struct FillContext<'a> {
+    /// 8-neighbours of every pixel on the canvas (across the seam, poles and cube-face edges).
     pub nb: &'a Neighbours,
     /// Pixel-centre unit directions.
     pub dirs: &'a [Vec3],
@@ -48,15 +52,18 @@ pub struct FillContext<'a> {
     pub normals: &'a [Vec3],
     /// Layer index per pixel (larger = nearer), `u32::MAX` for none.
     pub layer_of: &'a [u32],
+    /// Freedom radius (m): the fill covers what a camera within it can see.
     pub freedom_radius: f64,
     /// Extra band, radians (a couple of pixels: reconstruction filters reach that far).
     pub margin: f64,
+    /// Link (smooth, fold or jump) between each pixel and each of its 8 neighbours.
     pub links: &'a Links,
     /// Surface (segment) id per pixel: seeds on different surfaces compete behind an occluder.
     pub surface: &'a [u32],
     /// The continuity rule's relative step and plane tolerance ([`crate::continuity::continuous`]):
     /// a fill never leaves its layer discontinuous by it.
     pub jump: f64,
+    /// The continuity rule's plane tolerance (the build's [`super::edges::EdgeOptions::extrapolation`]).
     pub plane_tol: f64,
     /// Input linear RGB, planar.
     pub rgb: &'a [Vec<f32>; 3],
@@ -82,8 +89,8 @@ const RIVALS: usize = 5;
 ///
 /// Every hidden pixel within the parallax band takes the nearest seed (breadth-first). A second
 /// search, not limited to the band, finds for every hidden pixel the nearest seeds of up to
-/// [`RIVALS`] other surfaces around the same occluder: where a floor meets a wall, or two walls
-/// meet, behind a box, the pixel takes the plane the crease puts it on ([`pick_surface`]) even
+/// `RIVALS` other surfaces around the same occluder: where a floor meets a wall, or two walls
+/// meet, behind a box, the pixel takes the plane the crease puts it on (`pick_surface`) even
 /// when that plane shows only far away (above the box).
 pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     const NONE: u32 = u32::MAX;

@@ -33,7 +33,9 @@ impl Default for DepthEncoding {
 /// Ray distance or planar depth.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DepthKind {
+    /// Euclidean distance from the centre along the pixel's ray (the default).
     Ray,
+    /// Planar depth along a cube face's axis; converted to ray distance (cube maps only).
     Z,
 }
 
@@ -51,6 +53,7 @@ pub enum Preset {
 }
 
 impl Preset {
+    /// The preset's depth scale, invalid value and kind (all ray distance).
     pub fn encoding(self) -> DepthEncoding {
         let ray = DepthKind::Ray;
         match self {
@@ -85,6 +88,7 @@ pub enum Convention {
 }
 
 impl Convention {
+    /// The LocalToWorld operations, outermost first, to append to the manifest (none for `Thesis`).
     pub fn transforms(self) -> Vec<Transform> {
         match self {
             Convention::Thesis => vec![],
@@ -100,29 +104,82 @@ impl Convention {
 /// Errors reading RGB-D inputs; each names the file and the fix.
 #[derive(Debug, thiserror::Error)]
 pub enum InputError {
+    /// A PNG/JPEG/HDR input cannot be opened or decoded (or a JPEG is truncated); `INPUT_UNREADABLE`.
     #[error("{path}: cannot read the image ({reason})")]
-    Image { path: PathBuf, reason: String },
+    Image {
+        /// The image file.
+        path: PathBuf,
+        /// What went wrong, from the file system or the decoder.
+        reason: String,
+    },
+    /// Reading an EXR input (depth or normals) failed; the layer reader's code.
     #[error(transparent)]
     Layer(#[from] layer_io::LayerIoError),
+    /// A depth EXR has none of `Z`, `Y`, `R`, `depth`, `D` and more than one channel; `INPUT_NO_DEPTH`.
     #[error("{path}: no depth channel (looked for Z, Y, R, or a single channel); name the depth channel Z")]
-    NoDepthChannel { path: PathBuf },
+    NoDepthChannel {
+        /// The depth file.
+        path: PathBuf,
+    },
+    /// The canvas size is neither 2:1 (equirect) nor 3:2 with square faces (cube); `INPUT_NOT_PANORAMA`.
     #[error("{path}: {width}x{height} fits neither a 2:1 equirect nor a 3:2 cube map")]
-    NotAPanorama { path: PathBuf, width: usize, height: usize },
+    NotAPanorama {
+        /// The colour file (or `<array>` for in-memory input).
+        path: PathBuf,
+        /// Width, pixels.
+        width: usize,
+        /// Height, pixels.
+        height: usize,
+    },
+    /// The header declares a size beyond [`ReadLimits`]; refused before decoding; `INPUT_TOO_LARGE`.
     #[error("{path}: declares {width}x{height} pixels, beyond the reader limit ({limit}); refused before decoding (raise it with `pomc build --max-pixels N`)")]
-    TooLarge { path: PathBuf, width: u64, height: u64, limit: String },
+    TooLarge {
+        /// The input file (or `<array>`).
+        path: PathBuf,
+        /// Declared width, pixels.
+        width: u64,
+        /// Declared height, pixels.
+        height: u64,
+        /// The limit exceeded, e.g. `at most N pixels`.
+        limit: String,
+    },
+    /// Colour and depth (or a normals image) differ in size, or the normals image lacks a channel;
+    /// `INPUT_SIZE_MISMATCH`.
     #[error("{colour}: is {cw}x{ch} but the depth {depth} is {dw}x{dh}; resample one to the other's size")]
-    SizeMismatch { colour: PathBuf, cw: usize, ch: usize, depth: PathBuf, dw: usize, dh: usize },
+    SizeMismatch {
+        /// The colour file.
+        colour: PathBuf,
+        /// Colour width, pixels.
+        cw: usize,
+        /// Colour height, pixels.
+        ch: usize,
+        /// The depth (or normals) file.
+        depth: PathBuf,
+        /// Depth (or normals) width, pixels.
+        dw: usize,
+        /// Depth (or normals) height, pixels.
+        dh: usize,
+    },
+    /// [`DepthKind::Z`] was asked for an equirect input; `INPUT_Z_DEPTH_EQUIRECT`.
     #[error("{path}: z-depth needs a cube-map input (an equirect has no image plane); use --depth-kind ray")]
-    ZDepthOnEquirect { path: PathBuf },
+    ZDepthOnEquirect {
+        /// The depth file (or `<array>`).
+        path: PathBuf,
+    },
+    /// Integer (PNG) depth was given without [`DepthEncoding::scale`]; `INPUT_DEPTH_SCALE_NEEDED`.
     #[error(
         "{path}: integer depth has no unit; give --depth-scale (metres per stored unit, e.g. 0.001 for \
          millimetres) or a dataset --preset (matterport3d, stanford2d3ds, structured3d), or store float \
          metres in an OpenEXR"
     )]
-    DepthScaleNeeded { path: PathBuf },
+    DepthScaleNeeded {
+        /// The depth file.
+        path: PathBuf,
+    },
 }
 
 impl InputError {
+    /// Stable code, e.g. `INPUT_UNREADABLE`; a [`InputError::Layer`] error keeps the layer reader's.
     pub fn code(&self) -> &'static str {
         match self {
             InputError::Image { .. } => "INPUT_UNREADABLE",

@@ -29,6 +29,7 @@ pub use texture::FillColour;
 /// A plain RGB-D panorama: one surface per ray.
 #[derive(Clone, Debug)]
 pub struct RgbdInput {
+    /// The canvas's mapping (equirect or cube) and size; the planes below are row-major on it.
     pub mapping: AnyMapping,
     /// Linear (or display-referred, carried through untouched) RGB, planar.
     pub rgb: [Vec<f32>; 3],
@@ -43,6 +44,7 @@ pub struct RgbdInput {
 pub struct BuildOptions {
     /// Freedom radius (m): cameras within it must see no holes.
     pub freedom_radius: f64,
+    /// Discontinuity tests and segmentation (default [`SegmentOptions::default`]).
     pub segment: SegmentOptions,
     /// Split layers further by depth: boundaries in metres (thesis 6.2.4.1). Empty = no split.
     pub depth_bands: Vec<f64>,
@@ -57,6 +59,7 @@ pub struct BuildOptions {
     pub soft_edges: bool,
     /// Extra fill band in pixels beyond the parallax band (reconstruction filters reach ~1-2 px).
     pub margin_px: f64,
+    /// How layers are separated beyond the occlusion levels (default [`Classify::Depth`]).
     pub classify: Classify,
     /// How the fill is coloured.
     pub fill_colour: FillColour,
@@ -93,9 +96,13 @@ pub enum Classify {
 /// Surface class of a background segment under [`Classify::Geometry`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum SurfaceClass {
+    /// Faces up (within 25° of `+Z`) and lies below the centre.
     Floor,
+    /// Near-vertical: normal within 25° of horizontal.
     Wall,
+    /// Faces down (within 25° of `-Z`) and lies above the centre.
     Ceiling,
+    /// Anything else, and every segment under [`Classify::Depth`] or above level 0.
     Any,
 }
 
@@ -147,13 +154,21 @@ fn segment_classes(
 /// Errors of [`build`].
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
+    /// A colour plane or the depth does not hold one sample per canvas pixel; `BUILD_SIZE_MISMATCH`.
     #[error("colour is {colour} pixels but depth is {depth}; give colour and depth of the same size")]
-    SizeMismatch { colour: usize, depth: usize },
+    SizeMismatch {
+        /// Samples in the (first mismatching) colour plane.
+        colour: usize,
+        /// Samples in the depth plane.
+        depth: usize,
+    },
+    /// [`BuildOptions::freedom_radius`] (metres, given here) is not positive and finite; `BUILD_BAD_RADIUS`.
     #[error("freedom radius {0} m is not a positive finite number")]
     BadRadius(f64),
 }
 
 impl BuildError {
+    /// Stable code: `BUILD_SIZE_MISMATCH` or `BUILD_BAD_RADIUS`.
     pub fn code(&self) -> &'static str {
         match self {
             BuildError::SizeMismatch { .. } => "BUILD_SIZE_MISMATCH",
@@ -165,59 +180,82 @@ impl BuildError {
 /// One output layer.
 #[derive(Clone, Debug)]
 pub struct BuiltLayer {
+    /// Layer name: `infinity`, `background`, `floor`, `walls`, `ceiling` or `objects-N`, numbered
+    /// `-2`, `-3`… when depth bands give several of one kind.
     pub name: String,
+    /// The layer's role in the manifest.
     pub role: Role,
     /// Painter's order from the centre (0 = drawn first, farthest).
     pub order: u32,
+    /// Full-canvas layer image: `R`,`G`,`B`, `Z` (−1 outside), and `N.X`,`N.Y`,`N.Z` with
+    /// [`BuildOptions::normals_out`].
     pub image: LayerImage,
     /// Pixels seen from the centre on this layer.
     pub own_pixels: usize,
     /// Pixels filled behind nearer layers.
     pub filled_pixels: usize,
+    /// Smallest and largest finite depth in the layer image (metres); `None` if it has none.
     pub depth_range: Option<(f32, f32)>,
 }
 
 /// Per-layer figures of the report.
 #[derive(Clone, Debug, Serialize)]
 pub struct LayerStats {
+    /// Layer name, as [`BuiltLayer::name`].
     pub name: String,
+    /// The role's manifest name, e.g. `background` or `infinity`.
     pub role: &'static str,
+    /// Painter's order from the centre (0 = drawn first, farthest).
     pub order: u32,
+    /// Pixels seen from the centre on this layer.
     pub own_pixels: usize,
+    /// Pixels filled behind nearer layers.
     pub filled_pixels: usize,
+    /// Smallest and largest finite depth in the layer (metres); `None` if it has none.
     pub depth_range: Option<(f32, f32)>,
 }
 
 /// What [`build`] did, for `--json` / `--report`.
 #[derive(Clone, Debug, Serialize)]
 pub struct BuildReport {
+    /// Canvas width, pixels.
     pub width: usize,
+    /// Canvas height, pixels.
     pub height: usize,
     /// Seconds per stage, in order.
     pub stages: Vec<(&'static str, f64)>,
+    /// Figures of each output layer, in painter's order.
     pub layers: Vec<LayerStats>,
     /// Fraction of the sphere's pixels in at least one layer (1 for a valid result).
     pub coverage: f64,
+    /// Input pixels of unknown depth (`NaN`, 0 or negative), after mixed pixels were moved.
     pub unknown_pixels: usize,
     /// Mixed pixels moved to the farther side of their edge.
     pub mixed_pixels: usize,
+    /// Number of surface segments found.
     pub segments: usize,
     /// Distance beyond which content goes to the infinity layer (m).
     pub d_dirmin: f64,
     /// Widest fill band used, degrees.
     pub max_band_deg: f64,
+    /// Freedom radius used (m).
     pub freedom_radius: f64,
+    /// Relative depth jump used by the edge test ([`edges::EdgeOptions::jump`]).
     pub jump_threshold: f64,
+    /// Fold angle used (degrees); `None` = no fold test.
     pub fold_deg: Option<f64>,
+    /// Extra fill band used beyond the parallax band, pixels.
     pub margin_px: f64,
 }
 
 /// The result of [`build`].
 #[derive(Clone, Debug)]
 pub struct Built {
+    /// Output layers in painter's order (farthest first); empty layers are left out.
     pub layers: Vec<BuiltLayer>,
     /// Layer (index into `layers`) each pixel was seen on from the centre.
     pub layer_of: Vec<u32>,
+    /// Figures of the build.
     pub report: BuildReport,
 }
 

@@ -60,6 +60,7 @@ pub struct Segments {
 /// Tuning of the segmentation.
 #[derive(Clone, Copy, Debug)]
 pub struct SegmentOptions {
+    /// Tests that split neighbours into different surfaces (default [`EdgeOptions::default`]).
     pub edges: EdgeOptions,
     /// An occlusion relation needs at least this many jump links along the border: shorter
     /// ones are spurs (noise, a single mixed pixel) and are dropped.

@@ -83,16 +83,27 @@ impl Default for ReadLimits {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Compression {
+    /// Uncompressed (`none`); lossless.
     None,
+    /// Run-length encoding (`rle`); lossless.
     Rle,
+    /// ZIP, one scanline per block (`zips`); lossless.
     Zip1,
+    /// ZIP, 16 scanlines per block (`zip`); lossless, the default for writing.
     Zip16,
+    /// Wavelet + Huffman (`piz`); lossless.
     Piz,
+    /// PXR24 (`pxr24`): rounds 32-bit floats to 24 bits; lossy, read only.
     Pxr24,
+    /// B44 (`b44`): fixed-rate 4×4 blocks of half samples; lossy, read only.
     B44,
+    /// B44 with flat blocks stored smaller (`b44a`); lossy, read only.
     B44a,
+    /// DWAA (`dwaa`): DCT-based, 32 scanlines per block; lossy, read only.
     Dwaa,
+    /// DWAB (`dwab`): DCT-based, 256 scanlines per block; lossy, read only.
     Dwab,
+    /// Any other method the EXR reader reports; read only.
     Other,
 }
 
@@ -105,6 +116,8 @@ impl Compression {
         )
     }
 
+    /// Lower-case name, as in reports and messages (`zip` is [`Compression::Zip16`], `zips` is
+    /// [`Compression::Zip1`]).
     pub fn name(self) -> &'static str {
         match self {
             Compression::None => "none",
@@ -141,13 +154,17 @@ impl Default for WriteOptions {
 /// its origin and whatever the display window (spec §4.6).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ExrHeader {
+    /// Width of the data window, pixels.
     pub width: usize,
+    /// Height of the data window, pixels.
     pub height: usize,
     /// Origin of the data window (informative; pixel `(0,0)` of the layer is this corner).
     pub origin: (i32, i32),
     /// Channel names and sample types, in file order.
     pub channels: Vec<(String, SampleType)>,
+    /// The file's compression method.
     pub compression: Compression,
+    /// Stored in tiles rather than scanlines.
     pub tiled: bool,
     /// Tiled with MIP or RIP levels (only the full-resolution level is read).
     pub mip_levels: bool,
@@ -156,33 +173,94 @@ pub struct ExrHeader {
 /// Errors reading or writing layer files. Each names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum LayerIoError {
+    /// The file does not exist; [`crate::codes::LAYER_NOT_FOUND`].
     #[error("{path}: file not found; check the file name in the manifest")]
-    NotFound { path: PathBuf },
+    NotFound {
+        /// The missing file.
+        path: PathBuf,
+    },
+    /// Opening, reading or writing the file failed otherwise; [`crate::codes::LAYER_IO_ERROR`].
     #[error("{path}: {source}")]
     Io {
+        /// The file the operation was on.
         path: PathBuf,
+        /// The underlying I/O error.
         #[source]
         source: std::io::Error,
     },
+    /// Not a decodable image (bad magic number, corrupt header or data, empty data window);
+    /// [`crate::codes::LAYER_UNREADABLE`].
     #[error("{path}: not a readable image: {reason}")]
-    Unreadable { path: PathBuf, reason: String },
+    Unreadable {
+        /// The layer file.
+        path: PathBuf,
+        /// What is wrong, from the decoder.
+        reason: String,
+    },
+    /// The file ends before its header or pixel data does; [`crate::codes::LAYER_TRUNCATED`].
     #[error("{path}: the file ends before its data does ({reason}); re-export it")]
-    Truncated { path: PathBuf, reason: String },
+    Truncated {
+        /// The layer file.
+        path: PathBuf,
+        /// Where the data stops.
+        reason: String,
+    },
+    /// The header declares more than [`ReadLimits`] allow; refused before decoding;
+    /// [`crate::codes::LAYER_TOO_LARGE`].
     #[error("{path}: declares {width}x{height} pixels × {channels} channels, beyond the reader limit ({limit}); refused before decoding")]
-    TooLarge { path: PathBuf, width: u64, height: u64, channels: usize, limit: String },
+    TooLarge {
+        /// The layer file.
+        path: PathBuf,
+        /// Declared width, pixels.
+        width: u64,
+        /// Declared height, pixels.
+        height: u64,
+        /// Declared channel count.
+        channels: usize,
+        /// The limit exceeded, from [`ReadLimits::check`].
+        limit: String,
+    },
+    /// The EXR has more than one part; [`crate::codes::LAYER_MULTIPART`].
     #[error(
         "{path}: has {parts} parts; a POMC 1 layer is a single-part EXR, split it into one file per layer"
     )]
-    MultiPart { path: PathBuf, parts: usize },
+    MultiPart {
+        /// The layer file.
+        path: PathBuf,
+        /// Number of parts in the file.
+        parts: usize,
+    },
+    /// The EXR holds deep data; [`crate::codes::LAYER_DEEP`].
     #[error("{path}: holds deep data; POMC 1 layers are flat images")]
-    Deep { path: PathBuf },
+    Deep {
+        /// The layer file.
+        path: PathBuf,
+    },
+    /// A feature this reader or writer does not handle (subsampled channels, lossy or empty
+    /// writes, a thesis-form file without the expected channels); [`crate::codes::LAYER_UNSUPPORTED`].
     #[error("{path}: {what} is not supported")]
-    Unsupported { path: PathBuf, what: String },
+    Unsupported {
+        /// The layer file.
+        path: PathBuf,
+        /// The unsupported feature.
+        what: String,
+    },
+    /// Two files of one thesis-form layer differ in size; [`crate::codes::LAYER_SIZE_MISMATCH`].
     #[error("{path}: size {found:?} differs from {expected:?} of {other}; the files of one layer must have the same size")]
-    SizeMismatch { path: PathBuf, found: (usize, usize), expected: (usize, usize), other: PathBuf },
+    SizeMismatch {
+        /// The file whose size differs.
+        path: PathBuf,
+        /// Its `(width, height)`, pixels.
+        found: (usize, usize),
+        /// `(width, height)` of `other`, pixels.
+        expected: (usize, usize),
+        /// The layer's reference file.
+        other: PathBuf,
+    },
 }
 
 impl LayerIoError {
+    /// Stable code, one of the `LAYER_*` constants of [`crate::codes`].
     pub fn code(&self) -> &'static str {
         match self {
             LayerIoError::NotFound { .. } => crate::codes::LAYER_NOT_FOUND,

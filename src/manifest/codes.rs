@@ -4,35 +4,65 @@
 
 use super::Severity;
 
+/// Error: the manifest is not well-formed XML.
 pub const XML_MALFORMED: &str = "XML_MALFORMED";
+/// Error: the manifest has a DOCTYPE; DTDs and entity declarations are refused.
 pub const XML_DTD_FORBIDDEN: &str = "XML_DTD_FORBIDDEN";
+/// Error: the manifest declares or uses an encoding other than UTF-8 or ISO-8859-1.
 pub const XML_ENCODING_UNSUPPORTED: &str = "XML_ENCODING_UNSUPPORTED";
+/// Error: the manifest's bytes are not valid in its encoding.
 pub const XML_ENCODING_INVALID: &str = "XML_ENCODING_INVALID";
+/// Error: the manifest file is larger than 16 MiB; refused before parsing.
 pub const XML_TOO_LARGE: &str = "XML_TOO_LARGE";
+/// Error: an element has more than 256 attributes; refused before parsing.
 pub const XML_LIMIT_EXCEEDED: &str = "XML_LIMIT_EXCEEDED";
+/// Error: the root element is not `<Panorama>` without namespace.
 pub const ROOT_NOT_PANORAMA: &str = "MANIFEST_ROOT_NOT_PANORAMA";
+/// Error: `<Panorama version>` is not `1` or `1.x`.
 pub const VERSION_UNSUPPORTED: &str = "MANIFEST_VERSION_UNSUPPORTED";
+/// Warning: an element POMC 1 does not define here; it is ignored.
 pub const UNKNOWN_ELEMENT: &str = "MANIFEST_UNKNOWN_ELEMENT";
+/// Warning: an attribute POMC 1 does not define on its element; it is ignored.
 pub const UNKNOWN_ATTRIBUTE: &str = "MANIFEST_UNKNOWN_ATTRIBUTE";
+/// Error: a required attribute is absent, or only one of a pair such as width/height is given.
 pub const MISSING_ATTRIBUTE: &str = "MANIFEST_MISSING_ATTRIBUTE";
+/// Error: a numeric attribute is unparsable, non-finite, out of range or has the wrong number of parts.
 pub const NUMBER_INVALID: &str = "MANIFEST_NUMBER_INVALID";
+/// Error: there is no `<Mapping>` element.
 pub const MAPPING_MISSING: &str = "MANIFEST_MAPPING_MISSING";
+/// Error: `<Mapping type>` names no known parametrisation.
 pub const MAPPING_UNKNOWN: &str = "MANIFEST_MAPPING_UNKNOWN";
+/// Error: an element allowed once (TransformGroup, Mapping, Freedom, Packing, Mesh) repeats.
 pub const DUPLICATE_ELEMENT: &str = "MANIFEST_DUPLICATE_ELEMENT";
+/// Error: a `<Rotate>` axis has zero length.
 pub const ROTATE_AXIS_ZERO: &str = "MANIFEST_ROTATE_AXIS_ZERO";
+/// Error: a `<Scale>` component is zero, so LocalToWorld would not be invertible.
 pub const SCALE_ZERO: &str = "MANIFEST_SCALE_ZERO";
+/// Error: the composed LocalToWorld has an entry beyond ±1e150 or is not invertible.
 pub const TRANSFORM_INVALID: &str = "MANIFEST_TRANSFORM_INVALID";
+/// Error: `<Freedom radius>` is not a finite number of metres greater than 0.
 pub const FREEDOM_INVALID: &str = "MANIFEST_FREEDOM_INVALID";
+/// Warning: there is no `<Freedom>` element; the radius is taken as 0.
 pub const FREEDOM_MISSING: &str = "MANIFEST_FREEDOM_MISSING";
+/// Error: the panorama has no `<Layer>`.
 pub const NO_LAYERS: &str = "MANIFEST_NO_LAYERS";
+/// Error: more than 1024 `<Layer>` elements; the rest are not read.
 pub const TOO_MANY_LAYERS: &str = "MANIFEST_TOO_MANY_LAYERS";
+/// Error: a `<Layer>` has neither `<Image>` nor `<Textures>`.
 pub const LAYER_NO_SOURCE: &str = "MANIFEST_LAYER_NO_SOURCE";
+/// Error: a `<Layer>` has more than one `<Image>`/`<Textures>`.
 pub const LAYER_MULTIPLE_SOURCES: &str = "MANIFEST_LAYER_MULTIPLE_SOURCES";
+/// Error: a file name is empty, absolute, leaves the directory via `..`, or uses `\`, `:` or control chars.
 pub const FILE_NAME_UNSAFE: &str = "MANIFEST_FILE_NAME_UNSAFE";
+/// Warning: a layer `role` POMC 1 does not define; the layer is read without a role.
 pub const ROLE_UNKNOWN: &str = "MANIFEST_ROLE_UNKNOWN";
+/// Error: a `depthrange` does not satisfy 0 < min <= max.
 pub const DEPTH_RANGE_INVALID: &str = "MANIFEST_DEPTH_RANGE_INVALID";
+/// Warning: two layers declare the same `order`; their painter's order is undefined.
 pub const ORDER_DUPLICATE: &str = "MANIFEST_ORDER_DUPLICATE";
+/// Error: a `<Packing>` lacks `atlaswidth`/`atlasheight` or gives 0.
 pub const PACKING_INVALID: &str = "MANIFEST_PACKING_INVALID";
+/// Info: more findings than the reporting limit; the rest are not listed.
 pub const DIAGNOSTICS_TRUNCATED: &str = "MANIFEST_DIAGNOSTICS_TRUNCATED";
 
 /// The manifest's validation codes: code, severity, meaning (spec/02-manifest.md lists them).

@@ -28,20 +28,25 @@ pub use crate::codes::Severity;
 /// A position in the manifest source: 1-based line and column.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Pos {
+    /// Line number, from 1; lines end at LF.
     pub line: u32,
+    /// Column in characters (not bytes), from 1.
     pub col: u32,
 }
 
 /// Where an element came from: its position and element path such as `/Panorama/Layer[2]/Textures`.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Origin {
+    /// Where the element's start tag begins.
     pub pos: Pos,
+    /// Element path, with `[k]` (1-based) only where a name repeats among siblings.
     pub path: String,
 }
 
 /// Source origins of a layer's parts (for diagnostics that come after parsing).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LayerOrigin {
+    /// The `<Layer>` element itself.
     pub layer: Origin,
     /// One per patch of the packing table, in order.
     pub patches: Vec<Origin>,
@@ -69,34 +74,47 @@ impl MappingKind {
 /// `<Mapping>`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MappingDecl {
+    /// The parametrisation named by the `type` attribute.
     pub kind: MappingKind,
 }
 
 /// One operation of `<TransformGroup>`, in document order.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Transform {
+    /// `<Translate vector>`: translation by (x, y, z), metres.
     Translate([f64; 3]),
     /// Axis (need not be unit) and angle in degrees, right-handed.
     Rotate {
+        /// `axis` attribute: the rotation axis, not all zero.
         axis: [f64; 3],
+        /// `angle` attribute, degrees.
         angle_deg: f64,
     },
+    /// `<Scale vector>`: per-axis factors, none zero; negative factors mirror.
     Scale([f64; 3]),
 }
 
 /// What a layer holds (spec §2, `role` attribute).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Role {
+    /// `background`: the scene's enclosing background.
     Background,
+    /// `object`: a foreground object.
     Object,
+    /// `floor`: a floor surface.
     Floor,
+    /// `ceiling`: a ceiling surface.
     Ceiling,
+    /// `wall`: a wall surface.
     Wall,
+    /// `infinity`: direction-only content beyond d_dirmin (sky, far scenery).
     Infinity,
+    /// `light`: a light source.
     Light,
 }
 
 impl Role {
+    /// The `role` attribute value, e.g. `"background"`.
     pub fn as_str(self) -> &'static str {
         match self {
             Role::Background => "background",
@@ -114,16 +132,29 @@ impl Role {
 #[derive(Clone, Debug, PartialEq)]
 pub enum LayerSource {
     /// POMC 1 native: one EXR (`<Image file=…>`).
-    Native { file: String },
+    Native {
+        /// `file` attribute: the EXR's path relative to the panorama directory.
+        file: String,
+    },
     /// The thesis form: `<Textures mapname depthname normals>`; `normals=""` means none.
-    Thesis { mapname: String, depthname: String, normals: Option<String> },
+    Thesis {
+        /// `mapname` attribute: the colour image (PNG, JPEG, …), relative path.
+        mapname: String,
+        /// `depthname` attribute: the floating-point depth image, relative path.
+        depthname: String,
+        /// `normals` attribute: the normals image; `None` when absent or empty.
+        normals: Option<String>,
+    },
 }
 
 /// `<Packing>`: the atlas size and the patch table (spec §5).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Packing {
+    /// `atlaswidth`: the stored atlas image's width, pixels (≥ 1; 0 only after an error).
     pub atlas_width: u32,
+    /// `atlasheight`: the stored atlas image's height, pixels (≥ 1; 0 only after an error).
     pub atlas_height: u32,
+    /// The `<Patch>` rows, in document order.
     pub patches: Vec<Patch>,
 }
 
@@ -131,8 +162,11 @@ pub struct Packing {
 /// readers use it only when [`MeshDecl::is_quadtree_v1`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct MeshDecl {
+    /// `file` attribute: the mesh file, relative to the panorama directory.
     pub file: String,
+    /// `encoding` attribute, e.g. [`MeshDecl::QUADTREE_ENCODING`]; unknown ones are kept.
     pub encoding: String,
+    /// `version` attribute of the encoding, as written (e.g. `"1"`).
     pub version: String,
 }
 
@@ -158,23 +192,30 @@ impl MeshDecl {
 /// One `<Layer>`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LayerDecl {
+    /// `name` attribute: a label for people and tools; `None` when absent.
     pub name: Option<String>,
+    /// `role` attribute; `None` when absent or not a POMC 1 role.
     pub role: Option<Role>,
     /// Painter's order from the centre: smaller is drawn first (farther).
     pub order: Option<u32>,
+    /// The `<Image>` or `<Textures>` child holding the pixels.
     pub source: LayerSource,
-    /// Full canvas size (required when packed).
+    /// `width`: full canvas width, pixels (required when packed); `None` when absent.
     pub width: Option<u32>,
+    /// `height`: full canvas height, pixels; given together with `width`.
     pub height: Option<u32>,
     /// Declared `[min, max]` of finite depths, metres.
     pub depth_range: Option<(f32, f32)>,
+    /// `miplevels` (≥ 1): MIP levels a renderer may build or the file holds; advisory.
     pub mip_levels: Option<u32>,
+    /// `<Packing>`: the stored image is an atlas of patches; `None` when stored whole.
     pub packing: Option<Packing>,
     /// `<Mesh>`: a stored mesh of the layer (spec §8.1).
     pub mesh: Option<MeshDecl>,
     /// Child elements this reader does not know, kept verbatim (their source text, entities
     /// unexpanded) and written back by [`Manifest::to_xml`]; each must be well-formed element text.
     pub extra: Vec<String>,
+    /// Source positions of the layer and its patches (default when built in code).
     pub origin: LayerOrigin,
 }
 
@@ -208,10 +249,13 @@ impl LayerDecl {
 pub struct Manifest {
     /// `version` attribute of `<Panorama>`; "1" when absent (the thesis form).
     pub version: String,
+    /// `<TransformGroup>` operations in document order; empty means identity.
     pub transforms: Vec<Transform>,
+    /// `<Mapping>`: the parametrisation shared by all layers.
     pub mapping: MappingDecl,
     /// Freedom radius, metres.
     pub freedom_radius: f64,
+    /// The `<Layer>` elements in document order (index = layer number).
     pub layers: Vec<LayerDecl>,
 }
 
@@ -246,10 +290,15 @@ impl Manifest {
 /// One finding of [`diagnose`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Diagnostic {
+    /// Stable code from [`CODES`], e.g. `MANIFEST_NUMBER_INVALID`.
     pub code: &'static str,
+    /// The code's severity.
     pub severity: Severity,
+    /// What is wrong and how to fix it, for people.
     pub message: String,
+    /// Source line, from 1.
     pub line: u32,
+    /// Source column in characters, from 1.
     pub col: u32,
     /// Element path, e.g. `/Panorama/Layer[2]/Textures`.
     pub path: String,
@@ -258,7 +307,9 @@ pub struct Diagnostic {
 /// Every diagnostic, plus the manifest when it has no error.
 #[derive(Clone, Debug, Default)]
 pub struct Diagnosed {
+    /// Findings in the order found: at most [`MAX_DIAGNOSTICS`], then a `DIAGNOSTICS_TRUNCATED` note.
     pub diagnostics: Vec<Diagnostic>,
+    /// The parsed manifest; `None` when any diagnostic is an error.
     pub manifest: Option<Manifest>,
 }
 
@@ -266,15 +317,22 @@ pub struct Diagnosed {
 #[derive(Debug, thiserror::Error)]
 #[error("{file}:{line}:{col} {path}: {message}")]
 pub struct ManifestError {
+    /// Stable code from [`CODES`] (`XML_MALFORMED` when no error diagnostic was produced).
     pub code: &'static str,
+    /// The file name given to [`parse`], for the message.
     pub file: String,
+    /// Source line, from 1.
     pub line: u32,
+    /// Source column in characters, from 1.
     pub col: u32,
+    /// Element path, e.g. `/Panorama/Layer[2]/Textures`.
     pub path: String,
+    /// What is wrong and how to fix it.
     pub message: String,
 }
 
 impl ManifestError {
+    /// The stable code of the error, as in [`CODES`].
     pub fn code(&self) -> &'static str {
         self.code
     }

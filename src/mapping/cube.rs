@@ -11,15 +11,22 @@ use super::{below, sanitize_dir, Mapping, MappingError, MappingKind};
 /// One face of the cube, numbered by its slot in the canonical 3×2 canvas.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum CubeFace {
+    /// `+X`, top row left.
     PosX = 0,
+    /// `+Y`, top row middle.
     PosY = 1,
+    /// `+Z` (up), top row right.
     PosZ = 2,
+    /// `−X`, bottom row left.
     NegX = 3,
+    /// `−Y`, bottom row middle.
     NegY = 4,
+    /// `−Z` (down), bottom row right.
     NegZ = 5,
 }
 
 impl CubeFace {
+    /// All six faces in index order.
     pub const ALL: [CubeFace; 6] =
         [CubeFace::PosX, CubeFace::PosY, CubeFace::PosZ, CubeFace::NegX, CubeFace::NegY, CubeFace::NegZ];
 
@@ -64,8 +71,11 @@ impl CubeFace {
 /// A direction expressed on the cube: a face and coordinates `s, t ∈ [−1, 1]` on it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FacePoint {
+    /// The face the direction lies on.
     pub face: CubeFace,
+    /// Face coordinate in `[−1, 1]`, growing rightwards along the face's right axis.
     pub s: f64,
+    /// Face coordinate in `[−1, 1]`, growing downwards along the face's down axis.
     pub t: f64,
 }
 
@@ -113,6 +123,7 @@ pub struct Cube3x2 {
 }
 
 impl Cube3x2 {
+    /// A `width × height` canvas (pixels); errs unless it is `3N × 2N` with `N ≥ 1`.
     pub fn new(width: usize, height: usize) -> Result<Self, MappingError> {
         let fits = matches!((width.checked_mul(2), height.checked_mul(3)), (Some(a), Some(b)) if a == b);
         if height == 0 || height % 2 != 0 || !fits {

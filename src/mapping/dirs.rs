@@ -7,11 +7,19 @@ use super::{AnyMapping, Mapping};
 /// Pixel-centre directions of a canvas ([`Mapping::pixel_dir`], bit for bit), with a separable
 /// table for the equirect canvas: no trigonometry per pixel in the loops that visit every pixel.
 pub enum DirTable {
-    Equirect { rows: Vec<(f64, f64)>, cols: Vec<(f64, f64)> },
+    /// Separable equirect table: direction = `(sinθ·cosφ, sinθ·sinφ, cosθ)`.
+    Equirect {
+        /// Per row j: `(sin θ, cos θ)` of the polar angle of the row centre.
+        rows: Vec<(f64, f64)>,
+        /// Per column i: `(cos φ, sin φ)` of the azimuth of the column centre.
+        cols: Vec<(f64, f64)>,
+    },
+    /// No table: directions computed by [`Mapping::pixel_dir`] (cube maps).
     Generic(AnyMapping),
 }
 
 impl DirTable {
+    /// The table of mapping `m`: tabulated for an equirect canvas, generic otherwise.
     pub fn new(m: AnyMapping) -> DirTable {
         match m {
             AnyMapping::Equirect(_) => {
@@ -27,6 +35,7 @@ impl DirTable {
         }
     }
 
+    /// Unit direction through the centre of pixel `(i, j)`, as [`Mapping::pixel_dir`] gives it.
     #[inline]
     pub fn get(&self, i: usize, j: usize) -> DVec3 {
         match self {

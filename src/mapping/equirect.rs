@@ -18,6 +18,7 @@ pub struct Equirect {
 }
 
 impl Equirect {
+    /// A `width × height` canvas (pixels); errs unless `width = 2·height > 0`.
     pub fn new(width: usize, height: usize) -> Result<Self, MappingError> {
         if width == 0 || Some(width) != height.checked_mul(2) {
             return Err(MappingError { kind: MappingKind::Equirect, width, height });

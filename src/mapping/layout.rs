@@ -86,15 +86,29 @@ pub enum CubeLayout {
 /// A canvas that cannot hold a given layout, or a malformed layout name.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum LayoutError {
+    /// The image is not `cols·N × rows·N` for the layout's slot grid (code `LAYOUT_BAD_SIZE`).
     #[error(
         "a {width}x{height} image is not a {layout} cube map (expected {cols}N x {rows}N with square faces)"
     )]
-    BadSize { layout: CubeLayout, width: usize, height: usize, cols: usize, rows: usize },
+    BadSize {
+        /// The layout asked for.
+        layout: CubeLayout,
+        /// The image width, pixels.
+        width: usize,
+        /// The image height, pixels.
+        height: usize,
+        /// Slot columns of the layout.
+        cols: usize,
+        /// Slot rows of the layout.
+        rows: usize,
+    },
     #[error("unknown cube layout '{0}'; expected canonical, ffmpeg-c3x2, openexr-vstrip or py360-horizon")]
+    /// A layout name other than those of [`CubeLayout::name`] (code `LAYOUT_UNKNOWN`).
     UnknownName(String),
 }
 
 impl LayoutError {
+    /// Stable code for reports: `LAYOUT_BAD_SIZE` or `LAYOUT_UNKNOWN`.
     pub fn code(&self) -> &'static str {
         match self {
             LayoutError::BadSize { .. } => "LAYOUT_BAD_SIZE",
@@ -104,6 +118,7 @@ impl LayoutError {
 }
 
 impl CubeLayout {
+    /// Every layout, canonical first.
     pub const ALL: [CubeLayout; 4] =
         [CubeLayout::Canonical, CubeLayout::FfmpegC3x2, CubeLayout::OpenExrVStrip, CubeLayout::Py360Horizon];
 
@@ -183,8 +198,11 @@ fn dot(a: Axis, b: Axis) -> i32 {
 /// `a = pa·a' + qa·b'`, `b = pb·a' + qb·b'` (one non-zero coefficient per row, each ±1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SlotMap {
+    /// Index of the source slot (row-major) showing the same face.
     pub src_slot: usize,
+    /// `(pa, qa)`: source `a` from destination `(a', b')`.
     pub a: (i32, i32),
+    /// `(pb, qb)`: source `b` from destination `(a', b')`.
     pub b: (i32, i32),
 }
 

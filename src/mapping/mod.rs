@@ -25,7 +25,9 @@ pub use neighbours::{opposite, Neighbours, OFFSETS};
 /// A parametrisation of the sphere by a `width × height` canvas.
 /// Continuous pixel coordinates: pixel `(i, j)` covers `[i, i+1) × [j, j+1)`, centre `(i+0.5, j+0.5)`.
 pub trait Mapping: Send + Sync {
+    /// Canvas width W, pixels.
     fn width(&self) -> usize;
+    /// Canvas height H, pixels.
     fn height(&self) -> usize;
     /// Unit direction (panorama-local frame) of continuous pixel coordinates `(x, y)`.
     fn pixel_to_dir(&self, x: f64, y: f64) -> DVec3;
@@ -52,7 +54,9 @@ pub trait Mapping: Send + Sync {
 /// Which parametrisation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum MappingKind {
+    /// Equirect (lat-long) 2:1 canvas, [`Equirect`].
     Equirect,
+    /// The thesis's 3×2 cube map, [`Cube3x2`].
     Cube3x2,
 }
 
@@ -60,25 +64,32 @@ pub enum MappingKind {
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 #[error("a {width}x{height} canvas is not a valid {kind:?} canvas")]
 pub struct MappingError {
+    /// The mapping the canvas was meant for.
     pub kind: MappingKind,
+    /// The refused canvas width, pixels.
     pub width: usize,
+    /// The refused canvas height, pixels.
     pub height: usize,
 }
 
 /// Either mapping, chosen at run time.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum AnyMapping {
+    /// An equirect canvas.
     Equirect(Equirect),
+    /// A 3×2 cube-map canvas.
     Cube(Cube3x2),
 }
 
 impl AnyMapping {
+    /// The `kind` mapping of a `width × height` canvas (pixels); errs when the size does not fit it.
     pub fn new(kind: MappingKind, width: usize, height: usize) -> Result<Self, MappingError> {
         Ok(match kind {
             MappingKind::Equirect => AnyMapping::Equirect(Equirect::new(width, height)?),
             MappingKind::Cube3x2 => AnyMapping::Cube(Cube3x2::new(width, height)?),
         })
     }
+    /// Which parametrisation this is.
     pub fn kind(&self) -> MappingKind {
         match self {
             AnyMapping::Equirect(_) => MappingKind::Equirect,

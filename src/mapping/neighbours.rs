@@ -27,6 +27,7 @@ pub struct Neighbours {
 }
 
 impl Neighbours {
+    /// The neighbour lookup of `mapping`'s canvas.
     pub fn new(mapping: AnyMapping) -> Self {
         let (width, height) = (mapping.width(), mapping.height());
         let tile = match mapping {
@@ -38,22 +39,27 @@ impl Neighbours {
         Neighbours { mapping, width, height, interior_col: interior(width), interior_row: interior(height) }
     }
 
+    /// Canvas width, pixels.
     pub fn width(&self) -> usize {
         self.width
     }
 
+    /// Canvas height, pixels.
     pub fn height(&self) -> usize {
         self.height
     }
 
+    /// Number of pixels, `width · height`.
     pub fn len(&self) -> usize {
         self.width * self.height
     }
 
+    /// Whether the canvas has no pixels.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
 
+    /// The canvas's mapping.
     pub fn mapping(&self) -> &AnyMapping {
         &self.mapping
     }

@@ -9,13 +9,15 @@
 //! 3×2), canvas width and height (`u32` LE), tree count (`u8`), for each tree its bit count (`u32` LE),
 //! then each tree's bits packed most-significant first, padded to a byte.
 
-use super::criterion::Criterion;
 use super::quadtree::Tree;
+use super::subdivide::Criterion;
 use super::{lattices, mesh_from_trees, LayerMesh, MeshError, MeshParams};
 use crate::layer::LayerImage;
 use crate::mapping::{AnyMapping, Mapping};
 
+/// First eight bytes of every `.pomcmesh` file.
 pub const MAGIC: &[u8; 8] = b"POMCMESH";
+/// Encoding version byte written after [`MAGIC`]; decoding rejects any other.
 pub const VERSION: u8 = 1;
 /// Conventional file extension.
 pub const EXTENSION: &str = "pomcmesh";

@@ -28,16 +28,32 @@ pub fn is_jump(a: f64, b: f64) -> bool {
 #[derive(Clone, Debug)]
 pub enum Rays {
     /// A cube face: `r = c + s·R + t·D`, `s = 2(x+½)/N − 1`, `t = 2(y+½)/N − 1`.
-    Face { face: CubeFace, n: usize },
+    Face {
+        /// The cube face.
+        face: CubeFace,
+        /// Face size `N`, pixels a side.
+        n: usize,
+    },
     /// The equirect canvas: unit rays from per-column and per-row tables.
-    Equirect { cos_phi: Vec<f64>, sin_phi: Vec<f64>, cos_theta: Vec<f64>, sin_theta: Vec<f64> },
+    Equirect {
+        /// `cos φ` per column, azimuth `φ = 2π(x+½)/W` radians.
+        cos_phi: Vec<f64>,
+        /// `sin φ` per column.
+        sin_phi: Vec<f64>,
+        /// `cos θ` per row, polar angle `θ = π(y+½)/H` radians from the zenith (+Z).
+        cos_theta: Vec<f64>,
+        /// `sin θ` per row.
+        sin_theta: Vec<f64>,
+    },
 }
 
 impl Rays {
+    /// Rays of cube face `face` of `n × n` pixels.
     pub fn face(face: CubeFace, n: usize) -> Rays {
         Rays::Face { face, n }
     }
 
+    /// Ray tables of the whole canvas of equirect mapping `m`.
     pub fn equirect(m: &Equirect) -> Rays {
         let (w, h) = (m.width(), m.height());
         let phi: Vec<f64> = (0..w).map(|i| std::f64::consts::TAU * (i as f64 + 0.5) / w as f64).collect();
@@ -88,22 +104,32 @@ impl Rays {
 
 /// `n·r` over the lattice, see [`Rays::plane_dot`].
 pub enum PlaneDot<'a> {
+    /// A cube face: `n·r(x, y) = a + bx·x + by·y`.
     Affine {
+        /// Value at vertex `(0, 0)`.
         a: f64,
+        /// Change per lattice column.
         bx: f64,
+        /// Change per lattice row.
         by: f64,
     },
     /// The equirect's ray tables (unit rays `(sinθ cosφ, sinθ sinφ, cosθ)`).
     Rays {
+        /// `cos φ` per column.
         cos_phi: &'a [f64],
+        /// `sin φ` per column.
         sin_phi: &'a [f64],
+        /// `cos θ` per row.
         cos_theta: &'a [f64],
+        /// `sin θ` per row.
         sin_theta: &'a [f64],
+        /// The vector dotted with the rays (a plane normal).
         n: DVec3,
     },
 }
 
 impl PlaneDot<'_> {
+    /// `n·r` at lattice vertex `(x, y)`.
     #[inline]
     pub fn at(&self, x: usize, y: usize) -> f64 {
         self.row(y).at(x)
@@ -128,11 +154,32 @@ impl PlaneDot<'_> {
 
 /// `n·r` along one lattice row, see [`PlaneDot::row`].
 pub enum RowDot<'a> {
-    Affine { base: f64, bx: f64 },
-    Equirect { cos_phi: &'a [f64], sin_phi: &'a [f64], st: f64, z: f64, nx: f64, ny: f64 },
+    /// A cube face: `n·r(x) = base + bx·x`.
+    Affine {
+        /// Value at column 0 of the row.
+        base: f64,
+        /// Change per lattice column.
+        bx: f64,
+    },
+    /// The equirect: `n·r(x) = nx·st·cos φ + ny·st·sin φ + z`.
+    Equirect {
+        /// `cos φ` per column.
+        cos_phi: &'a [f64],
+        /// `sin φ` per column.
+        sin_phi: &'a [f64],
+        /// `sin θ` of the row.
+        st: f64,
+        /// `n.z · cos θ` of the row.
+        z: f64,
+        /// `n.x`.
+        nx: f64,
+        /// `n.y`.
+        ny: f64,
+    },
 }
 
 impl RowDot<'_> {
+    /// `n·r` at column `x` of the row.
     #[inline]
     pub fn at(&self, x: usize) -> f64 {
         match self {
@@ -149,12 +196,15 @@ impl RowDot<'_> {
 pub struct Grid {
     /// Canvas origin of vertex `(0, 0)`.
     pub ox: usize,
+    /// Canvas row of vertex `(0, 0)`.
     pub oy: usize,
     /// Lattice size in vertices.
     pub w: usize,
+    /// Lattice height in vertices.
     pub h: usize,
     /// Canvas width (for canvas pixel indices).
     pub canvas_w: usize,
+    /// How the ray through each vertex is computed.
     pub rays: Rays,
     /// `λ` per vertex, `NaN` when the pixel cannot be meshed.
     pub lambda: Vec<f32>,
@@ -210,11 +260,13 @@ impl Grid {
         ((self.oy + y) * self.canvas_w + self.ox + x) as u32
     }
 
+    /// Whether vertex `(x, y)` has a positive finite depth and can be meshed.
     #[inline]
     pub fn valid(&self, x: usize, y: usize) -> bool {
         !self.lambda[y * self.w + x].is_nan()
     }
 
+    /// Depth of vertex `(x, y)`: distance from the panorama centre, metres; `NaN` when invalid.
     #[inline]
     pub fn depth_at(&self, x: usize, y: usize) -> f64 {
         self.depth[y * self.w + x] as f64

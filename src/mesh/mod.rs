@@ -2,16 +2,15 @@
 //!
 //! Pipeline for one layer: sample one vertex lattice per cube face (or the whole equirect canvas,
 //! [`grid`]), build the summed-area tables and the discrete quadtree with the subdivision function `S`
-//! ([`sat`], [`normals`], [`criterion`], [`quadtree`]), balance it 2:1 ([`balance`]), triangulate the
-//! leaves without cracks ([`triangulate`]), close the gaps between lattices ([`stitch`]). [`error`]
+//! ([`sat`], [`normals`], [`subdivide`], [`quadtree`]), balance it 2:1 ([`balance`]), triangulate the
+//! leaves without cracks ([`triangulate`]), close the gaps between lattices ([`stitch`]). [`accuracy`]
 //! measures a mesh against the layer by casting every pixel's ray; [`encode`] stores the quadtrees as a
 //! bit string; [`export`] writes PLY, OBJ and glTF binary, one layer or a whole scene, with the
 //! infinitely far samples (the sky) on a dome ([`sky_at`]).
 
+pub mod accuracy;
 pub mod balance;
-pub mod criterion;
 pub mod encode;
-pub mod error;
 pub mod export;
 pub mod greedy;
 pub mod grid;
@@ -21,6 +20,7 @@ pub mod sat;
 pub mod simplify;
 pub mod stitch;
 pub mod stored;
+pub mod subdivide;
 pub mod triangulate;
 
 use std::time::Instant;
@@ -36,19 +36,37 @@ use quadtree::Tree;
 /// Errors of meshing, encoding and export. Codes are stable.
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
+    /// The layer has no depth channel `Z` to mesh.
     #[error("the layer has no depth channel Z")]
     NoDepth,
+    /// The layer's size (pixels) differs from the mapping's canvas size.
     #[error("the layer is {got_w}x{got_h} but the mapping canvas is {want_w}x{want_h}")]
-    CanvasMismatch { got_w: usize, got_h: usize, want_w: usize, want_h: usize },
+    CanvasMismatch {
+        /// Layer width, pixels.
+        got_w: usize,
+        /// Layer height, pixels.
+        got_h: usize,
+        /// Canvas width of the mapping, pixels.
+        want_w: usize,
+        /// Canvas height of the mapping, pixels.
+        want_h: usize,
+    },
+    /// A mesh parameter or the sky radius is non-finite or out of range; the message says which.
     #[error("invalid mesh parameter: {0}")]
     Params(String),
+    /// A `.pomcmesh` file has a bad magic, version or payload, was made for another canvas or
+    /// layer, or zstd compression failed.
     #[error("invalid mesh encoding: {0}")]
     Encoding(String),
+    /// Writing PLY, OBJ or glTF failed: no triangles, unknown extension, too large, or PNG/JSON encoding.
     #[error("export failed: {0}")]
     Export(String),
+    /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {
+        /// The file concerned.
         path: std::path::PathBuf,
+        /// The underlying I/O error.
         #[source]
         source: std::io::Error,
     },
@@ -309,7 +327,9 @@ pub fn is_pole(id: u32, width: usize, height: usize) -> bool {
 /// A triangle mesh of one layer, in the panorama's local frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LayerMesh {
+    /// Width of the layer's canvas, pixels (to decode [`LayerMesh::sources`]).
     pub width: usize,
+    /// Height of the layer's canvas, pixels.
     pub height: usize,
     /// Canvas pixel index of each vertex (`≥ W·H` for the equirect poles, see [`stitch::pole_ids`]).
     pub sources: Vec<u32>,
@@ -322,10 +342,15 @@ pub struct LayerMesh {
 /// Wall-clock times of the stages, in milliseconds.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct StageTimes {
+    /// Checking the layer and sampling the vertex lattices ([`lattices`]).
     pub sample_ms: f64,
+    /// Building and 2:1-balancing the quadtrees.
     pub quadtree_ms: f64,
+    /// Triangulating the leaves and stitching the lattices together.
     pub triangulate_ms: f64,
+    /// Compacting vertices, computing positions and orienting the triangles.
     pub assemble_ms: f64,
+    /// Error-bounded edge collapses (0 when [`MeshParams::simplify`] is `None`).
     pub simplify_ms: f64,
     /// Greedy insertion of the clean cube faces (when [`simplify::SimplifyParams::greedy`]).
     pub greedy_ms: f64,
@@ -345,6 +370,7 @@ pub struct Meshed {
     pub trees: Vec<Option<Tree>>,
     /// Counters of each lattice meshed by greedy insertion (`None`: meshed by the quadtree).
     pub greedy: Vec<Option<greedy::GreedyStats>>,
+    /// Wall-clock time of each stage.
     pub times: StageTimes,
 }
 
@@ -466,7 +492,7 @@ fn build_trees(grids: &[Grid], image: &LayerImage, params: &MeshParams, skip: &[
             if skip.get(k).copied().unwrap_or(false) {
                 return None;
             }
-            let c = criterion::Criterion::new(g, image, params);
+            let c = subdivide::Criterion::new(g, image, params);
             let mut tree = Tree::build(g.w, g.h, &c)?;
             balance::balance(&mut tree, &c);
             Some(tree)

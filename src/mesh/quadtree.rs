@@ -10,13 +10,18 @@
 /// A lattice rectangle with inclusive vertex bounds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Rect {
+    /// Left vertex column.
     pub x0: u32,
+    /// Top vertex row.
     pub y0: u32,
+    /// Right vertex column (inclusive).
     pub x1: u32,
+    /// Bottom vertex row (inclusive).
     pub y1: u32,
 }
 
 impl Rect {
+    /// The rectangle `[x0, x1] × [y0, y1]`.
     pub fn new(x0: u32, y0: u32, x1: u32, y1: u32) -> Rect {
         Rect { x0, y0, x1, y1 }
     }
@@ -32,6 +37,7 @@ impl Rect {
     pub fn cells(&self) -> u64 {
         self.cw() as u64 * self.ch() as u64
     }
+    /// Whether the node may split: at least one side spans 2 cells or more.
     pub fn splittable(&self) -> bool {
         self.cw() >= 2 || self.ch() >= 2
     }
@@ -69,17 +75,23 @@ pub enum NodeKind {
     Full,
 }
 
+/// A quadtree node.
 #[derive(Clone, Copy, Debug)]
 pub struct Node {
+    /// The lattice rectangle it covers.
     pub rect: Rect,
+    /// Depth in the tree (0 for the root).
     pub depth: u8,
+    /// What it holds.
     pub kind: NodeKind,
     /// Index of the first child (children are contiguous); 0 for a leaf.
     pub first_child: u32,
+    /// Number of children: 4, 2 (split along one axis) or 0 for a leaf.
     pub n_children: u8,
 }
 
 impl Node {
+    /// Whether the node has no children.
     pub fn is_leaf(&self) -> bool {
         self.n_children == 0
     }
@@ -88,11 +100,13 @@ impl Node {
 /// A quadtree; node 0 is the root.
 #[derive(Clone, Debug, Default)]
 pub struct Tree {
+    /// All nodes, the root first, in the order they were created; each node's children are contiguous.
     pub nodes: Vec<Node>,
 }
 
 /// Decides, per node, its kind and whether to split it.
 pub trait Subdivide {
+    /// What node `r` holds (empty, broken or full).
     fn kind(&self, r: &Rect) -> NodeKind;
     /// Thesis `S(v)` for a splittable node: `true` to split.
     fn split(&self, r: &Rect, kind: NodeKind) -> bool;

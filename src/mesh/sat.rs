@@ -22,7 +22,9 @@ pub fn to_fixed(v: f64) -> u64 {
 /// of a rectangle) use `u32` while the lattice has fewer than 2³² cells, halving the table's memory;
 /// fixed-point maps use `u64`.
 pub trait SatValue: Copy + Default + Send + Sync + PartialEq {
+    /// `self + o`, wrapping around at the type's bounds.
     fn wrapping_add(self, o: Self) -> Self;
+    /// `self − o`, wrapping around at the type's bounds.
     fn wrapping_sub(self, o: Self) -> Self;
 }
 
@@ -100,7 +102,9 @@ impl<T: SatValue> Sat<T> {
 /// A table of counts (0/1 flags): `u32` cells when every rectangle sum fits, else `u64`.
 #[derive(Clone, Debug)]
 pub enum CountSat {
+    /// `u32` cells: the lattice has fewer than `u32::MAX` cells.
     Narrow(Sat<u32>),
+    /// `u64` cells, for larger lattices.
     Wide(Sat<u64>),
 }
 

@@ -14,7 +14,7 @@
 //!      unit rays: no flip, no fold, no ill-conditioned hit),
 //!   2. joins no two vertices across a depth jump, and respects the `max_angle` extent cap,
 //!   3. leaves every valid pixel whose ray it hits within relative distance `max_error` of its sample
-//!      along that ray — the error of [`super::error::measure`], checked exactly: on a cube face a
+//!      along that ray — the error of [`super::accuracy::measure`], checked exactly: on a cube face a
 //!      triangle of one lattice covers exactly the lattice points of its lattice triangle (central
 //!      projection keeps lines straight) and the hit is the ray/plane intersection; every other triangle
 //!      (equirect, stitching strips) is ray-cast over its canvas candidates;
@@ -46,7 +46,7 @@ use std::collections::BinaryHeap;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::error::{candidates, ray_hit};
+use super::accuracy::{candidates, ray_hit};
 use super::grid::{is_jump, Grid, PlaneDot};
 use super::{is_pole, LayerMesh};
 use crate::mapping::{AnyMapping, DirTable};
@@ -66,6 +66,7 @@ pub struct SimplifyParams {
 /// Counters of one run.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct SimplifyStats {
+    /// Half-edge collapses performed (one vertex removed each).
     pub collapses: usize,
     /// Collapses that reached the pixel test.
     pub tested: usize,
@@ -73,6 +74,7 @@ pub struct SimplifyStats {
     pub planar: usize,
     /// Wall-clock milliseconds of the per-lattice phase and of the whole-mesh phase.
     pub lattice_ms: f64,
+    /// Milliseconds of the whole-mesh phase (vertices whose stars span lattices or stitching).
     pub stitch_ms: f64,
 }
 

@@ -17,8 +17,11 @@ use crate::mapping::CubeFace;
 /// A vertex on a side to zip: position along the side, canvas id, depth (`NaN` when invalid).
 #[derive(Clone, Copy, Debug)]
 pub struct ZipVertex {
+    /// Index along the side, in lattice vertices (reversed sides count from the far end).
     pub pos: u32,
+    /// Canvas pixel index (`≥ W·H` for an equirect pole, see [`pole_ids`]).
     pub id: u32,
+    /// Depth, metres; `NaN` when the vertex is invalid.
     pub depth: f64,
 }
 

@@ -10,9 +10,11 @@ use crate::panorama::Panorama;
 #[derive(Debug, thiserror::Error)]
 #[error("stored mesh `{file}`: {reason}; it is ignored and rebuilt from the layer (store it again with `pomc mesh --store`)")]
 pub struct StoredMeshError {
+    /// The mesh file as the manifest declares it.
     pub file: String,
     /// `MESH_NOT_FOUND` or `MESH_UNREADABLE`.
     pub code: &'static str,
+    /// Human-readable cause: the file is missing, unreadable, too large or fails to decode.
     pub reason: String,
 }
 

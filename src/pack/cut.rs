@@ -16,13 +16,18 @@
 /// A rectangle of the canvas: origin `(x, y)`, size `w × h` (all non-empty).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Rect {
+    /// Left column, pixels.
     pub x: u32,
+    /// Top row, pixels.
     pub y: u32,
+    /// Width, pixels.
     pub w: u32,
+    /// Height, pixels.
     pub h: u32,
 }
 
 impl Rect {
+    /// Area `w · h`, pixels (u64: never overflows).
     pub fn area(&self) -> u64 {
         u64::from(self.w) * u64::from(self.h)
     }

@@ -15,8 +15,11 @@ pub const MAXRECTS_LIMIT: usize = 3000;
 /// Placements (top-left corners, in item order) and the atlas size they need.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Packing {
+    /// Atlas width, pixels (0 when there are no items).
     pub width: u32,
+    /// Atlas height, pixels: where the lowest item ends (0 when there are no items).
     pub height: u32,
+    /// Top-left corner `(x, y)` of each item, pixels, in the order of the input sizes.
     pub positions: Vec<(u32, u32)>,
 }
 

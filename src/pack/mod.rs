@@ -24,11 +24,17 @@ pub const MAX_PADDING: u32 = 64;
 /// size `w × h`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct Patch {
+    /// Left column of the patch in the full canvas, pixels (`<Patch u>`).
     pub u: u32,
+    /// Top row of the patch in the full canvas, pixels (`<Patch v>`).
     pub v: u32,
+    /// Left column of the patch in the atlas, pixels (`<Patch x>`).
     pub x: u32,
+    /// Top row of the patch in the atlas, pixels (`<Patch y>`).
     pub y: u32,
+    /// Width in pixels, the same in canvas and atlas (`<Patch w>`); guard bands not included.
     pub w: u32,
+    /// Height in pixels, the same in canvas and atlas (`<Patch h>`); guard bands not included.
     pub h: u32,
 }
 
@@ -42,9 +48,13 @@ pub struct PackOptions {
 /// A packed layer: atlas image plus patch table, and the full canvas size.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PackedLayer {
+    /// Width of the full (unpacked) canvas, pixels.
     pub canvas_width: u32,
+    /// Height of the full (unpacked) canvas, pixels.
     pub canvas_height: u32,
+    /// The atlas image, with the layer's channels; pixels in no patch or guard band are outside.
     pub atlas: LayerImage,
+    /// The patch table mapping canvas rectangles to atlas rectangles.
     pub patches: Vec<Patch>,
 }
 
@@ -58,15 +68,32 @@ impl PackedLayer {
 /// Errors of packing and unpacking.
 #[derive(Debug, thiserror::Error)]
 pub enum PackError {
+    /// [`unpack`]: the patch table fails [`check_table`] (its first problem).
     #[error("patch table is invalid: {0}")]
     BadTable(TableProblem),
+    /// An image side exceeds `u32`, or the atlas (packing) or canvas (unpacking) exceeds the read limits.
     #[error("canvas {width}x{height} is too large to unpack (limit {limit} pixels)")]
-    TooLarge { width: u32, height: u32, limit: u64 },
+    TooLarge {
+        /// Width of the refused image, pixels (saturated at `u32::MAX`).
+        width: u32,
+        /// Height of the refused image, pixels (saturated at `u32::MAX`).
+        height: u32,
+        /// The pixel limit in force ([`ReadLimits::max_pixels`]).
+        limit: u64,
+    },
     #[error("padding of {padding} pixels is more than the {max} allowed; use a guard band of a few pixels")]
-    PaddingTooLarge { padding: u32, max: u32 },
+    /// [`PackOptions::padding`] is above [`MAX_PADDING`].
+    PaddingTooLarge {
+        /// The requested guard band, pixels.
+        padding: u32,
+        /// The largest accepted, [`MAX_PADDING`].
+        max: u32,
+    },
 }
 
 impl PackError {
+    /// Stable code for reports: the table problem's `PATCH_*` code, `LAYER_TOO_LARGE` or
+    /// `PACK_PADDING_TOO_LARGE`.
     pub fn code(&self) -> &'static str {
         match self {
             PackError::BadTable(p) => p.code(),
@@ -79,27 +106,41 @@ impl PackError {
 /// What is wrong with one patch of a table.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum TableProblemKind {
+    /// `w` or `h` is 0 (`PATCH_EMPTY`).
     #[error("has zero width or height")]
     Empty,
+    /// `u + w` or `v + h` exceeds the canvas size (`PATCH_OUT_OF_CANVAS`).
     #[error("extends past the layer's full canvas")]
     OutOfCanvas,
+    /// `x + w` or `y + h` exceeds the atlas size (`PATCH_OUT_OF_ATLAS`).
     #[error("extends past the atlas")]
     OutOfAtlas,
+    /// The patch's atlas rectangle overlaps another's (`PATCH_OVERLAP_ATLAS`).
     #[error("overlaps patch {other} in the atlas")]
-    OverlapAtlas { other: usize },
+    OverlapAtlas {
+        /// Index of one patch it overlaps.
+        other: usize,
+    },
+    /// The patch's canvas rectangle overlaps another's (`PATCH_OVERLAP_CANVAS`).
     #[error("overlaps patch {other} in the canvas")]
-    OverlapCanvas { other: usize },
+    OverlapCanvas {
+        /// Index of one patch it overlaps.
+        other: usize,
+    },
 }
 
 /// A problem with patch number `patch` of a table.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 #[error("patch {patch} {kind}")]
 pub struct TableProblem {
+    /// Index of the patch in the table, from 0.
     pub patch: usize,
+    /// What is wrong with it.
     pub kind: TableProblemKind,
 }
 
 impl TableProblem {
+    /// Stable validator code of the problem (`PATCH_EMPTY`, `PATCH_OUT_OF_CANVAS`, …).
     pub fn code(&self) -> &'static str {
         match self.kind {
             TableProblemKind::Empty => crate::codes::PATCH_EMPTY,

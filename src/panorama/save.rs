@@ -29,7 +29,9 @@ pub struct SaveOptions {
     pub pack: bool,
     /// Pack only when the atlas is at most this fraction of the canvas (default 0.5).
     pub pack_threshold: f64,
+    /// Tuning of the packer, e.g. the guard band (default: no padding).
     pub pack_options: PackOptions,
+    /// How the layer EXRs are written (default: lossless ZIP compression).
     pub exr: WriteOptions,
 }
 

@@ -31,8 +31,11 @@ const EMPTY: Cell = Cell { z: f32::INFINITY, w: 0.0, wz: 0.0, rgb: [0.0; 3], lay
 /// An accumulation buffer over the output image.
 #[derive(Clone, Debug)]
 pub struct Accum {
+    /// Output width, pixels.
     pub width: usize,
+    /// Output height, pixels.
     pub height: usize,
+    /// One cell per output pixel, row-major, top row first.
     pub cells: Vec<Cell>,
     /// Relative depth tolerance of a surface group.
     tolerance: f32,
@@ -63,6 +66,8 @@ fn rank(s: &Cell, group: &Cell, tol: f32) -> Rank {
 }
 
 impl Accum {
+    /// An empty buffer of `width × height` pixels; `tolerance` is the relative depth range (e.g.
+    /// 0.01 = 1 %) within which samples of one layer join a surface group.
     pub fn new(width: usize, height: usize, tolerance: f64) -> Self {
         Accum { width, height, cells: vec![EMPTY; width * height], tolerance: tolerance as f32 }
     }

@@ -24,12 +24,17 @@ const MIN_FORWARD_COS: f64 = 1e-6;
 /// forward (the viewing direction).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Perspective {
+    /// Camera centre in world coordinates, metres.
     pub eye: DVec3,
     /// Unit right, up and forward vectors in the world (orthonormal, right-handed view frame).
     pub right: DVec3,
+    /// Unit up vector of the image, orthogonal to `right` and `forward`.
     pub up: DVec3,
+    /// Unit viewing direction (from the eye towards the look-at point).
     pub forward: DVec3,
+    /// Image width, pixels.
     pub width: usize,
+    /// Image height, pixels.
     pub height: usize,
     /// Focal length in pixels: `(width / 2) / tan(hfov / 2)`.
     pub focal: f64,
@@ -39,15 +44,20 @@ pub struct Perspective {
 /// POMC pixel-centre convention, centred at `eye`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EquirectCamera {
+    /// Centre of the output panorama in world coordinates, metres.
     pub eye: DVec3,
+    /// Image width, pixels (twice the height).
     pub width: usize,
+    /// Image height, pixels.
     pub height: usize,
 }
 
 /// Any output camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Camera {
+    /// A pinhole perspective view.
     Perspective(Perspective),
+    /// A full equirect panorama from another centre.
     Equirect(EquirectCamera),
 }
 
@@ -136,6 +146,7 @@ impl EquirectCamera {
 }
 
 impl Camera {
+    /// Output width, pixels.
     pub fn width(&self) -> usize {
         match self {
             Camera::Perspective(c) => c.width,
@@ -143,6 +154,7 @@ impl Camera {
         }
     }
 
+    /// Output height, pixels.
     pub fn height(&self) -> usize {
         match self {
             Camera::Perspective(c) => c.height,
@@ -150,6 +162,7 @@ impl Camera {
         }
     }
 
+    /// Camera centre in world coordinates, metres.
     pub fn eye(&self) -> DVec3 {
         match self {
             Camera::Perspective(c) => c.eye,

@@ -4,7 +4,7 @@
 //! Colour is compared in linear RGB clamped to `[0, 1]` (peak 1); holes count as black, so a
 //! renderer cannot gain by leaving pixels empty.
 
-use super::image::Frame;
+use super::frame::Frame;
 
 /// PSNR reported for identical images (keeps JSON finite).
 pub const PSNR_CAP: f64 = 100.0;
@@ -42,6 +42,10 @@ pub fn psnr_of(mse: f64) -> f64 {
     }
 }
 
+/// Unweighted colour PSNR (dB, peak 1, capped at [`PSNR_CAP`]) of `frame` against `truth`.
+///
+/// # Panics
+/// When the frames differ in size.
 pub fn psnr(frame: &Frame, truth: &Frame) -> f64 {
     psnr_of(mse(frame, truth, None))
 }

@@ -16,7 +16,7 @@
 
 pub mod accum;
 pub mod camera;
-pub mod image;
+pub mod frame;
 pub mod metrics;
 pub mod rasterize;
 pub mod splat;
@@ -29,7 +29,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 pub use camera::{Camera, EquirectCamera, Perspective};
-pub use image::Frame;
+pub use frame::Frame;
 pub use rasterize::{MeshOptions, MeshRenderStats, MeshRendered, RasterCounts};
 pub use splat::{SplatCounts, SplatOptions};
 
@@ -42,22 +42,62 @@ use crate::panorama::Panorama;
 /// Errors of the renderer.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
+    /// A camera input is non-finite, the field of view is outside (0, 180) degrees, the look-at
+    /// point is the eye, or LocalToWorld is not an invertible finite transform.
     #[error("bad camera: {0}")]
     BadCamera(String),
+    /// The output size is zero, over [`camera::MAX_SIDE`] or [`camera::MAX_PIXELS`], or an equirect
+    /// output is not 2:1.
     #[error("bad output size {width}x{height}: sides 1..={max}, equirect outputs 2:1", max = camera::MAX_SIDE)]
-    BadSize { width: usize, height: usize },
+    BadSize {
+        /// Requested width, pixels.
+        width: usize,
+        /// Requested height, pixels.
+        height: usize,
+    },
+    /// A splat or mesh render option or mesh parameter is out of range, or meshes and layers differ
+    /// in number.
     #[error("bad render options: {0}")]
     BadOptions(String),
+    /// The panorama declares no layer.
     #[error("nothing to render: the panorama has no layers")]
     NoLayers,
+    /// A layer lacks one of the channels rendering needs (R, G, B, Z).
     #[error("layer {index} has no `{channel}` channel; rendering needs R, G, B and Z")]
-    LayerChannel { index: usize, channel: &'static str },
+    LayerChannel {
+        /// The layer's position in the list rendered (manifest order from [`read_layers`]).
+        index: usize,
+        /// Name of the missing channel.
+        channel: &'static str,
+    },
+    /// A layer's size is not a valid canvas of the panorama's mapping.
     #[error("layer {index} is {width}x{height}, not a valid {kind:?} canvas")]
-    LayerSize { index: usize, width: usize, height: usize, kind: MappingKind },
+    LayerSize {
+        /// The layer's position in the list rendered.
+        index: usize,
+        /// Layer width, pixels.
+        width: usize,
+        /// Layer height, pixels.
+        height: usize,
+        /// The mapping the canvas should fit.
+        kind: MappingKind,
+    },
+    /// A layer could not be meshed, or a given mesh does not belong to its layer.
     #[error("mesh of layer {index}: {message}")]
-    Mesh { index: usize, message: String },
+    Mesh {
+        /// The layer's position in the list rendered.
+        index: usize,
+        /// What went wrong.
+        message: String,
+    },
+    /// The output file's extension is not one the writer supports.
     #[error("{path}: unsupported output file type; use {expected}")]
-    OutputFormat { path: PathBuf, expected: &'static str },
+    OutputFormat {
+        /// The output path given.
+        path: PathBuf,
+        /// The extensions accepted, for the message (e.g. `"png or exr"`).
+        expected: &'static str,
+    },
 }
 
 impl RenderError {
@@ -79,14 +119,18 @@ impl RenderError {
 /// One layer to render: its full-canvas image and parametrisation.
 #[derive(Clone, Copy, Debug)]
 pub struct RenderLayer<'a> {
+    /// The layer's pixels: R, G, B and Z are required, A (coverage) is optional.
     pub image: &'a LayerImage,
+    /// The layer's canvas mapping; its size must equal the image's.
     pub mapping: AnyMapping,
 }
 
 /// Wall-clock time of one stage.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Stage {
+    /// Stage name, e.g. `"splat"` or `"resolve"`.
     pub name: &'static str,
+    /// Wall-clock duration, seconds.
     pub seconds: f64,
 }
 
@@ -94,21 +138,30 @@ pub struct Stage {
 /// default; the mesh method's are [`MeshRenderStats`]).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RenderStats<C = SplatCounts, O = SplatOptions> {
+    /// Output width, pixels.
     pub width: usize,
+    /// Output height, pixels.
     pub height: usize,
+    /// Number of layers rendered.
     pub layers: usize,
     /// Output pixels no layer covers.
     pub holes: usize,
+    /// `holes` over the output pixel count, in [0, 1].
     pub hole_ratio: f64,
+    /// The method's work counters.
     pub counts: C,
+    /// The options the method ran with.
     pub options: O,
+    /// Wall-clock time of each stage, in order.
     pub stages: Vec<Stage>,
 }
 
 /// A rendered view.
 #[derive(Clone, Debug)]
 pub struct Rendered<C = SplatCounts, O = SplatOptions> {
+    /// The output image: colour, camera distance and coverage.
     pub frame: Frame,
+    /// Figures of the run.
     pub stats: RenderStats<C, O>,
 }
 

@@ -55,7 +55,9 @@ const TILE: usize = 32;
 /// Work counters of one render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct SplatCounts {
+    /// Tiles of layer pixels visited, culled or not.
     pub tiles: usize,
+    /// Tiles skipped: no surface or infinitely far sample in them, or outside the camera's view cone.
     pub tiles_culled: usize,
     /// Layer pixels reprojected (inside a layer's domain, in a tile not culled).
     pub pixels: u64,
@@ -76,9 +78,13 @@ impl SplatCounts {
 /// One layer's planes, borrowed for splatting.
 #[derive(Clone, Copy, Debug)]
 pub struct LayerPlanes<'a> {
+    /// The layer's canvas mapping.
     pub mapping: AnyMapping,
+    /// Depth channel `Z`, row-major over the canvas.
     pub z: &'a [f32],
+    /// Coverage channel `A`; `None` when the layer has none.
     pub coverage: Option<&'a [f32]>,
+    /// Linear colour channels `R`, `G`, `B`.
     pub rgb: [&'a [f32]; 3],
 }
 

@@ -8,18 +8,26 @@ pub use crate::codes::Severity;
 /// `file layer[k] channel (x,y)` for pixels.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Issue {
+    /// Stable code, e.g. `LAYER_NOT_FOUND` (see [`crate::validate::codes::all`]).
     pub code: &'static str,
+    /// Error, warning or info.
     pub severity: Severity,
+    /// Human-readable explanation, usually with the fix.
     pub message: String,
+    /// Where the finding is, in one of the two forms above.
     pub location: String,
 }
 
 /// All findings for one panorama.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Report {
+    /// `true` when there is no error (warnings and infos allowed).
     pub valid: bool,
+    /// Number of issues of severity error.
     pub errors: usize,
+    /// Number of issues of severity warning.
     pub warnings: usize,
+    /// Every finding, errors first, then warnings, then infos, each in order of appearance.
     pub issues: Vec<Issue>,
 }
 

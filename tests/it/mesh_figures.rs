@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use pomc::mapping::{AnyMapping, Cube3x2};
 use pomc::mesh::simplify::SimplifyParams;
-use pomc::mesh::{self, error, MeshParams};
+use pomc::mesh::{self, accuracy, MeshParams};
 use pomc_fixtures::layers::{render_on, to_layer};
 use pomc_fixtures::Scene;
 
@@ -45,7 +45,7 @@ fn thesis_reproduction_cube_1024() {
         let t = Instant::now();
         let a = mesh::mesh_layer(&bg, &m, &p).unwrap();
         let secs = t.elapsed().as_secs_f64();
-        let s = error::measure(&a.mesh.positions, &a.mesh.triangles, &bg, &m);
+        let s = accuracy::measure(&a.mesh.positions, &a.mesh.triangles, &bg, &m);
         let na = a.mesh.triangles.len();
         // Greedy faces build no quadtree; the stored encoding is the quadtrees' (built here).
         let trees = mesh::quadtrees(&bg, &m, &p).unwrap();
@@ -116,7 +116,7 @@ fn sweep_max_error() {
                 a = Some(out);
             }
             let a = a.unwrap();
-            let s = error::measure(&a.mesh.positions, &a.mesh.triangles, &bg, &m);
+            let s = accuracy::measure(&a.mesh.positions, &a.mesh.triangles, &bg, &m);
             let face = |v: u32| {
                 let id = a.mesh.sources[v as usize] as usize;
                 (id % (3 * n) / n, id / (3 * n) / n)

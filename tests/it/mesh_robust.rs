@@ -3,7 +3,7 @@
 use pomc::layer::{LayerImage, SampleType};
 use pomc::mapping::{AnyMapping, Cube3x2, Equirect};
 use pomc::mesh::simplify::SimplifyParams;
-use pomc::mesh::{self, encode, error, export, MeshParams};
+use pomc::mesh::{self, accuracy, encode, export, MeshParams};
 use proptest::prelude::*;
 
 fn image(w: usize, h: usize, z: Vec<f32>) -> LayerImage {
@@ -17,7 +17,7 @@ fn check(m: AnyMapping, z: Vec<f32>, p: &MeshParams) {
     simplified_is_sound(&m, &img, p);
     let out = mesh::mesh_layer(&img, &m, p).unwrap();
     assert!(out.mesh.positions.iter().all(|v| v.is_finite()));
-    let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &img, &m);
+    let s = accuracy::measure(&out.mesh.positions, &out.mesh.triangles, &img, &m);
     assert!(s.max_rel.is_finite());
     let bytes = encode::encode(&out.trees, &m).unwrap();
     assert!(encode::decode(&bytes, &img, &m).unwrap() == out.mesh);
@@ -45,14 +45,14 @@ fn simplified_is_sound(m: &AnyMapping, img: &LayerImage, p: &MeshParams) {
     }
     assert!(edges.values().all(|&c| c <= 2), "non-manifold edge");
     let covered = |mm: &mesh::LayerMesh| {
-        error::hit_distances(&mm.positions, &mm.triangles, m)
+        accuracy::hit_distances(&mm.positions, &mm.triangles, m)
             .iter()
             .map(|t| t.is_finite())
             .collect::<Vec<_>>()
     };
     assert!(covered(&out) == covered(&raw.mesh));
-    let before = error::measure(&raw.mesh.positions, &raw.mesh.triangles, img, m);
-    let after = error::measure(&out.positions, &out.triangles, img, m);
+    let before = accuracy::measure(&raw.mesh.positions, &raw.mesh.triangles, img, m);
+    let after = accuracy::measure(&out.positions, &out.triangles, img, m);
     assert!(after.max_rel <= before.max_rel.max(e) * (1.0 + 1e-6), "{before:?} -> {after:?}");
 }
 

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 use pomc::layer::LayerImage;
 use pomc::mapping::{AnyMapping, Cube3x2, Equirect};
 use pomc::mesh::simplify::SimplifyParams;
-use pomc::mesh::{self, balance, encode, error, LayerMesh, MeshParams};
+use pomc::mesh::{self, accuracy, balance, encode, LayerMesh, MeshParams};
 use pomc_fixtures::layers::{render_on, to_layer};
 use pomc_fixtures::Scene;
 
@@ -59,7 +59,7 @@ fn cube_background_is_watertight_and_within_bound() {
     for t in out.trees.iter().flatten() {
         assert!(balance::is_balanced(t));
     }
-    let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+    let s = accuracy::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
     assert_eq!(s.unhit, 0, "{s:?}");
     assert!(s.max_rel <= 0.005 + 1e-6, "{s:?}");
     let uniform = 6 * 47 * 47 * 2;
@@ -73,7 +73,7 @@ fn equirect_background_is_watertight_across_seam_and_poles() {
     let out = mesh::mesh_layer(&bg, &m, &MeshParams::quadtree()).unwrap();
     assert_closed(&out.mesh);
     assert!(out.mesh.positions.iter().all(|p| p.is_finite()));
-    let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+    let s = accuracy::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
     assert_eq!(s.unhit, 0, "{s:?}");
     assert!(s.p99_rel <= 0.005, "{s:?}");
 }
@@ -110,7 +110,7 @@ fn objects_layer_follows_the_mask_and_never_bridges_jumps() {
                 assert!((a - b).abs() <= 0.5 * a.min(b) + 1e-9, "edge across a depth jump");
             }
         }
-        let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &obj, &m);
+        let s = accuracy::measure(&out.mesh.positions, &out.mesh.triangles, &obj, &m);
         assert!(s.p99_rel <= 0.005, "{s:?}");
     }
 }
@@ -142,7 +142,7 @@ fn thesis_normal_test_alone_meshes_planar_walls_coarsely() {
     };
     let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
     assert_closed(&out.mesh);
-    let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+    let s = accuracy::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
     assert!(s.p99_rel < 0.01, "{s:?}");
 }
 
@@ -162,7 +162,7 @@ fn estimated_normals_find_the_same_creases_either_way() {
         };
         let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
         assert_closed(&out.mesh);
-        let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+        let s = accuracy::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
         assert!(s.p99_rel < 0.01, "{w:?}: {s:?}");
     }
 }
@@ -212,7 +212,7 @@ fn assert_no_flips(m: &LayerMesh) {
 /// caster, in f64 — not the layer's f32 samples): (p99, max, unhit pixels).
 fn error_against_room(m: &LayerMesh, map: &AnyMapping) -> (f64, f64, usize) {
     use pomc::mapping::Mapping;
-    let hits = error::hit_distances(&m.positions, &m.triangles, map);
+    let hits = accuracy::hit_distances(&m.positions, &m.triangles, map);
     let scene = Scene::room();
     let (w, h) = (map.width(), map.height());
     let mut rel = Vec::with_capacity(w * h);
@@ -256,7 +256,7 @@ fn simplified_cube_background_is_closed_unflipped_and_within_bound() {
         for (&id, p) in out.mesh.sources.iter().zip(&out.mesh.positions) {
             assert!((p.length() - z[id as usize] as f64).abs() <= 1e-5 * p.length());
         }
-        let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+        let s = accuracy::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
         assert_eq!(s.unhit, 0, "{s:?}");
         assert!(s.max_rel <= e * (1.0 + 1e-6), "{s:?}");
         let (p99, max, unhit) = error_against_room(&out.mesh, &m);
@@ -284,7 +284,7 @@ fn simplified_equirect_background_is_closed_across_seam_and_poles() {
     assert_closed(&out.mesh);
     assert_no_flips(&out.mesh);
     assert!(out.mesh.positions.iter().all(|p| p.is_finite()));
-    let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
+    let s = accuracy::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
     assert_eq!(s.unhit, 0, "{s:?}");
     assert!(s.max_rel <= e * (1.0 + 1e-6), "{s:?}");
     let (p99, _, unhit) = error_against_room(&out.mesh, &m);
@@ -314,7 +314,7 @@ fn simplified_objects_keep_their_border_and_never_bridge_jumps() {
         let border = |m: &LayerMesh| edge_counts(m).values().filter(|&&c| c == 1).count();
         assert!(border(&out.mesh) <= border(&raw.mesh));
         let covered = |mm: &LayerMesh| {
-            error::hit_distances(&mm.positions, &mm.triangles, &m)
+            accuracy::hit_distances(&mm.positions, &mm.triangles, &m)
                 .iter()
                 .map(|t| t.is_finite())
                 .collect::<Vec<_>>()
@@ -328,7 +328,7 @@ fn simplified_objects_keep_their_border_and_never_bridge_jumps() {
                 assert!((a - b).abs() <= 0.5 * a.min(b) + 1e-9, "edge across a depth jump");
             }
         }
-        let s = error::measure(&out.mesh.positions, &out.mesh.triangles, &obj, &m);
+        let s = accuracy::measure(&out.mesh.positions, &out.mesh.triangles, &obj, &m);
         assert!(s.max_rel <= 0.005 * (1.0 + 1e-6), "{s:?}");
     }
 }

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use pomc::layer::LayerImage;
 use pomc::layer_io::ReadLimits;
 use pomc::mapping::{AnyMapping, MappingKind};
-use pomc::mesh::{self, encode, error, export, MeshParams};
+use pomc::mesh::{self, accuracy, encode, export, MeshParams};
 use pomc::panorama::Panorama;
 
 use crate::args::Range;
@@ -115,7 +115,7 @@ struct Layer {
     sky: bool,
     meshed: mesh::Meshed,
     encoded: Option<Vec<u8>>,
-    stats: Option<(error::ErrorStats, f64)>,
+    stats: Option<(accuracy::ErrorStats, f64)>,
     /// Read and encode times (ms).
     times: [f64; 2],
 }
@@ -267,7 +267,7 @@ fn mesh_one(
     let m = &meshed.mesh;
     let stats = (!args.no_metric).then(|| {
         let t = Instant::now();
-        (error::measure(&m.positions, &m.triangles, &image, &mapping), ms(t))
+        (accuracy::measure(&m.positions, &m.triangles, &image, &mapping), ms(t))
     });
     Ok(Layer {
         index: 0,

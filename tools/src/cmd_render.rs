@@ -6,7 +6,7 @@ use std::time::Instant;
 use glam::DVec3;
 use pomc::jobs::{RenderMethod, Renderer, View};
 use pomc::panorama::Panorama;
-use pomc::render::{self, image, Camera, EquirectCamera, Perspective};
+use pomc::render::{self, frame, Camera, EquirectCamera, Perspective};
 
 use crate::args::{parse_vec3, Range};
 use crate::output::Output;
@@ -143,12 +143,12 @@ fn write_frame(args: &Args, r: &View, index: Option<usize>) -> Result<PathBuf, F
         }
     };
     let colour = name(&args.output)?;
-    image::save_colour(&r.frame, &colour)?;
+    frame::save_colour(&r.frame, &colour)?;
     if let Some(p) = &args.depth {
-        image::save_depth(&r.frame, &name(p)?)?;
+        frame::save_depth(&r.frame, &name(p)?)?;
     }
     if let Some(p) = &args.mask {
-        image::save_mask(&r.frame, &name(p)?)?;
+        frame::save_mask(&r.frame, &name(p)?)?;
     }
     Ok(colour)
 }

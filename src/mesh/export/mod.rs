@@ -30,6 +30,7 @@ pub struct SceneLayer<'a> {
     pub name: String,
     /// The layer's index in the manifest (glTF node `extras.layer`, PLY `layer` property).
     pub index: usize,
+    /// The layer's mesh, panorama-local; a mesh without triangles leaves the layer out.
     pub mesh: &'a LayerMesh,
     /// The layer's pixels, for the colour.
     pub image: &'a LayerImage,
@@ -40,10 +41,14 @@ pub struct SceneLayer<'a> {
 /// A mesh ready to write: per-corner attributes deduplicated into vertices.
 #[derive(Clone, Debug, Default)]
 pub struct ExportMesh {
+    /// Vertex positions after the export transform (world and/or Y-up as asked), metres.
     pub positions: Vec<[f32; 3]>,
+    /// Texture coordinates, `v` downwards: canvas coordinates ([`canvas_uv`], `u` past 1 for seam
+    /// copies), moved into the packed texture by [`texture::crop`].
     pub uvs: Vec<[f32; 2]>,
     /// Linear RGB of the vertex's pixel (0..1), for formats with vertex colours.
     pub colours: Vec<[f32; 3]>,
+    /// Vertex indices of each triangle, counter-clockwise as seen from the panorama centre.
     pub triangles: Vec<[u32; 3]>,
     /// Canvas coordinates of each vertex before [`texture::crop`] moves `uvs` into the packed
     /// texture (seam and pole copies as in `uvs`); written as glTF `TEXCOORD_1` when asked for.
@@ -140,8 +145,11 @@ pub use crate::colour::srgb8;
 /// Output formats, chosen by file extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
+    /// Binary little-endian PLY with vertex colours (`.ply`), Z-up.
     Ply,
+    /// Wavefront OBJ with an MTL material library and PNG textures (`.obj`), Y-up.
     Obj,
+    /// glTF 2.0 binary with embedded PNG textures (`.glb`), Y-up.
     Glb,
 }
 

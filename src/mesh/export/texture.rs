@@ -17,8 +17,11 @@ const MARGIN: i64 = 1;
 /// An 8-bit sRGB texture ready to encode.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {
+    /// Width, pixels.
     pub width: u32,
+    /// Height, pixels.
     pub height: u32,
+    /// Row-major sRGB bytes, 3 per pixel (`R, G, B`), top row first.
     pub rgb: Vec<u8>,
     /// Whether texture coordinates rely on wrapping across `u = 1` (the sampler must repeat).
     pub wraps: bool,

@@ -2,7 +2,7 @@
 //! an outdoor panorama (infinity layer 0): every layer in one scene, the sky on a dome.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use pomc::manifest::Role;
 use pomc::mapping::{AnyMapping, MappingKind};

@@ -1,7 +1,6 @@
 //! `pomc render` end to end on the room fixture: outputs written, JSON figures, typed failures.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use pomc::mapping::{AnyMapping, MappingKind};
 use pomc::panorama::{self, SaveOptions};

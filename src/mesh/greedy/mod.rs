@@ -12,15 +12,21 @@
 //! triangle, and a planar triangle covers exactly the lattice points of its lattice triangle (central
 //! projection keeps lines straight). A pixel's relative error along its ray is then
 //! `|λ_mesh − λ|/λ = |w − w_mesh| / w_mesh`: the scan below measures exactly what
-//! [`super::error::measure`] reports, pixel by pixel. Predicates (orientation, in-circle) are exact
+//! [`super::accuracy::measure`] reports, pixel by pixel. Predicates (orientation, in-circle) are exact
 //! integer arithmetic.
 //!
 //! `max_angle` (texture distortion, thesis 7.4.3): a triangle whose vertex rays span more than the cap
 //! is split at the lattice point nearest the middle of its longest edge, so the output never has such
 //! a triangle unless it holds no lattice point to split at.
 
-use super::criterion::row_span;
+mod delaunay;
+mod queue;
+
 use super::grid::{Grid, Rays};
+use super::subdivide::row_span;
+use delaunay::edge;
+#[cfg(test)]
+use delaunay::in_circle;
 
 /// A lattice point.
 type P = (i64, i64);
@@ -60,24 +66,6 @@ fn gcd(mut a: u64, mut b: u64) -> u64 {
         (a, b) = (b, a % b);
     }
     a
-}
-
-/// Edge function; positive for every triangle of the triangulation (its vertices `a, b, c` in order).
-#[inline]
-fn edge(a: P, b: P, c: P) -> i64 {
-    (b.0 - c.0) * (a.1 - c.1) - (b.1 - c.1) * (a.0 - c.0)
-}
-
-/// `p` strictly inside the circumcircle of `a, b, c` (orientation of [`edge`]); exact.
-#[inline]
-fn in_circle(a: P, b: P, c: P, p: P) -> bool {
-    let (dx, dy) = ((a.0 - p.0) as i128, (a.1 - p.1) as i128);
-    let (ex, ey) = ((b.0 - p.0) as i128, (b.1 - p.1) as i128);
-    let (fx, fy) = ((c.0 - p.0) as i128, (c.1 - p.1) as i128);
-    let ap = dx * dx + dy * dy;
-    let bp = ex * ex + ey * ey;
-    let cp = fx * fx + fy * fy;
-    dx * (ey * cp - bp * fy) - dy * (ex * cp - bp * fx) + ap * (ex * fy - ey * fx) < 0
 }
 
 /// Largest relative error `|w − w_m| / w_m` along a row (`w = 1/λ`, `w_m = base + gx·k`) when it
@@ -134,6 +122,7 @@ struct Scan {
 /// Counters of one face.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct GreedyStats {
+    /// Lattice points inserted as vertices (besides the lattice's four starting corners).
     pub insertions: usize,
     /// Triangles left wider than the angle cap (slivers no split or flip could narrow); a lattice
     /// with any is meshed by the quadtree instead ([`super::mesh_layer`]).
@@ -196,32 +185,6 @@ impl<'a> Mesher<'a> {
     fn add_point(&mut self, p: P) -> u32 {
         self.pts.push(p);
         self.pts.len() as u32 - 1
-    }
-
-    /// Add (or overwrite slot `at`, a half-edge index) a triangle, with its scan when known;
-    /// returns its first half-edge.
-    fn add_triangle(&mut self, v: [u32; 3], h: [i32; 3], at: Option<usize>, scan: Option<Scan>) -> usize {
-        let e = at.unwrap_or(self.tri.len());
-        let t = e / 3;
-        if e == self.tri.len() {
-            self.tri.extend_from_slice(&v);
-            self.half.extend_from_slice(&h);
-            self.scans.push(scan.unwrap_or_default());
-            self.fresh.push(scan.is_some());
-            self.qpos.push(-1);
-        } else {
-            self.tri[e..e + 3].copy_from_slice(&v);
-            self.half[e..e + 3].copy_from_slice(&h);
-            self.scans[t] = scan.unwrap_or_default();
-            self.fresh[t] = scan.is_some();
-        }
-        for (k, &o) in h.iter().enumerate() {
-            if o >= 0 {
-                self.half[o as usize] = (e + k) as i32;
-            }
-        }
-        self.pending.push(t as u32);
-        e
     }
 
     fn run(&mut self) {
@@ -412,239 +375,17 @@ impl<'a> Mesher<'a> {
             }
         }
     }
-
-    /// Flip half-edge `a` (with the new triangles' scans when known) when it has a twin and its quad
-    /// is strictly convex; returns the new triangles' first half-edges. The new diagonal is half-edge
-    /// 0 of the first, whose outer edges are 1 and 2 (likewise the second's).
-    fn flip(&mut self, a: usize, scans: Option<(Scan, Scan)>) -> Option<(usize, usize)> {
-        let b = self.half[a];
-        if b < 0 {
-            return None;
-        }
-        let b = b as usize;
-        let (a0, b0) = (a - a % 3, b - b % 3);
-        let (al, ar) = (a0 + (a + 1) % 3, a0 + (a + 2) % 3);
-        let (bl, br) = (b0 + (b + 2) % 3, b0 + (b + 1) % 3);
-        let (p0, pr, pl, p1) = (self.tri[ar], self.tri[a], self.tri[al], self.tri[bl]);
-        let q = |v: u32| self.pts[v as usize];
-        if edge(q(p0), q(p1), q(pl)) <= 0 || edge(q(p1), q(p0), q(pr)) <= 0 {
-            return None;
-        }
-        let (hal, har, hbl, hbr) = (self.half[al], self.half[ar], self.half[bl], self.half[br]);
-        self.queue_remove(a0 / 3);
-        self.queue_remove(b0 / 3);
-        let (s0, s1) = (scans.map(|s| s.0), scans.map(|s| s.1));
-        let t0 = self.add_triangle([p0, p1, pl], [-1, hbl, hal], Some(a0), s0);
-        let t1 = self.add_triangle([p1, p0, pr], [t0 as i32, har, hbr], Some(b0), s1);
-        Some((t0, t1))
-    }
-
-    /// The new point `pn` lies on half-edge `a` of the (popped) triangle: split it and its twin.
-    fn split_edge(&mut self, pn: u32, a: usize) {
-        let a0 = a - a % 3;
-        let (al, ar) = (a0 + (a + 1) % 3, a0 + (a + 2) % 3);
-        let (p0, pr, pl) = (self.tri[ar], self.tri[a], self.tri[al]);
-        let (hal, har) = (self.half[al], self.half[ar]);
-        let b = self.half[a];
-        if b < 0 {
-            let t0 = self.add_triangle([pn, p0, pr], [-1, har, -1], Some(a0), None);
-            let t1 = self.add_triangle([p0, pn, pl], [t0 as i32, -1, hal], None, None);
-            self.legalize(t0 + 1);
-            self.legalize(t1 + 2);
-            return;
-        }
-        let b = b as usize;
-        let b0 = b - b % 3;
-        let (bl, br) = (b0 + (b + 2) % 3, b0 + (b + 1) % 3);
-        let p1 = self.tri[bl];
-        let (hbl, hbr) = (self.half[bl], self.half[br]);
-        self.queue_remove(b0 / 3);
-        let t0 = self.add_triangle([p0, pr, pn], [har, -1, -1], Some(a0), None);
-        let t1 = self.add_triangle([pr, p1, pn], [hbr, -1, t0 as i32 + 1], Some(b0), None);
-        let t2 = self.add_triangle([p1, pl, pn], [hbl, -1, t1 as i32 + 1], None, None);
-        let t3 = self.add_triangle([pl, p0, pn], [hal, t0 as i32 + 2, t2 as i32 + 1], None, None);
-        self.legalize(t0);
-        self.legalize(t1);
-        self.legalize(t2);
-        self.legalize(t3);
-    }
-
-    /// Flip half-edge `a` when the other diagonal of its quad fits the data better, recursively.
-    ///
-    /// *Data-dependent* (Garland–Heckbert's variant, with the maximum error): flip when the flipped
-    /// pair's larger error is smaller. Where both diagonals are well within the tolerance the Delaunay
-    /// criterion decides, so flat regions keep well-shaped triangles. A quad that is not strictly
-    /// convex is never flipped.
-    fn legalize(&mut self, a: usize) {
-        // Depth-first like the recursive formulation, with an explicit stack (cascades can be long).
-        let mut stack = vec![a];
-        // Each flip improves its pair (error, then width), so cascades end; the budget is a backstop.
-        let mut budget = 64 + 4 * self.tri.len();
-        while let Some(a) = stack.pop() {
-            if budget == 0 {
-                break;
-            }
-            budget -= 1;
-            self.legalize_one(a, &mut stack);
-        }
-    }
-
-    /// One edge of [`Self::legalize`]; pushes the edges a flip exposes.
-    fn legalize_one(&mut self, a: usize, stack: &mut Vec<usize>) {
-        let b = self.half[a];
-        if b < 0 {
-            return;
-        }
-        let b = b as usize;
-        let (a0, b0) = (a - a % 3, b - b % 3);
-        let (al, ar) = (a0 + (a + 1) % 3, a0 + (a + 2) % 3);
-        let bl = b0 + (b + 2) % 3;
-        let (p0, pr, pl, p1) = (self.tri[ar], self.tri[a], self.tri[al], self.tri[bl]);
-        let q = |v: u32| self.pts[v as usize];
-        let (n0, n1) = ([q(p0), q(p1), q(pl)], [q(p1), q(p0), q(pr)]);
-        if edge(n0[0], n0[1], n0[2]) <= 0 || edge(n1[0], n1[1], n1[2]) <= 0 {
-            return;
-        }
-        let delaunay = in_circle(q(p0), q(pr), q(pl), q(p1));
-        let (qa, qb) = ([q(p0), q(pr), q(pl)], [q(p1), q(pl), q(pr)]);
-        let old = self.ensure_scanned(a0 / 3).err.max(self.ensure_scanned(b0 / 3).err);
-        let (e, floor) = (self.e, FLAT * self.e);
-        // With an angle cap: the error rule may not flip into a pair wider than the cap unless it is
-        // narrower than the current pair and splittable; a pair over the cap flips to a narrower one
-        // whenever both new triangles stay within the tolerance; and a triangle over the cap that
-        // holds no lattice point to split at (a sliver along a long edge) is flipped away whatever
-        // the error — so no output triangle exceeds the cap while a flip can narrow it.
-        let (mut err_rule, mut cap_rule) = (old > floor || delaunay, false);
-        if let Some(cap) = self.cap {
-            let wide = |t: [P; 3]| self.extent(t[0], t[1], t[2]);
-            let was = wide(qa).max(wide(qb));
-            let now = wide(n0).max(wide(n1));
-            // A triangle over the cap with no lattice point to split at can only go by a flip.
-            let stuck = |t: [P; 3]| wide(t) > cap && self.split_point(t[0], t[1], t[2]).is_none();
-            if now < was && (stuck(qa) || stuck(qb)) {
-                // Flipped regardless of the error: the new triangles are refined like any other.
-                if let Some((t0, t1)) = self.flip(a, None) {
-                    stack.push(t1 + 2);
-                    stack.push(t0 + 1);
-                }
-                return;
-            }
-            err_rule &= now <= cap || (now <= was && !stuck(n0) && !stuck(n1));
-            cap_rule = was > cap && now < was;
-        }
-        if !err_rule && !cap_rule {
-            return;
-        }
-        // Scans stop as soon as they exceed what any applicable rule accepts.
-        let err_limit = if old <= floor { floor } else { old };
-        let limit = match (err_rule, cap_rule) {
-            (true, true) => err_limit.max(e),
-            (true, false) => err_limit,
-            _ => e,
-        };
-        let by_err = |x: f64| err_rule && (x < err_limit || (old <= floor && x <= floor));
-        let by_cap = |x: f64| cap_rule && x <= e;
-        let s0 = self.scan(n0, limit);
-        if !(by_err(s0.err) || by_cap(s0.err)) {
-            return;
-        }
-        let s1 = self.scan(n1, limit);
-        let both_err = by_err(s0.err) && by_err(s1.err);
-        let both_cap = by_cap(s0.err) && by_cap(s1.err);
-        if !(both_err || both_cap) {
-            return;
-        }
-        let (t0, t1) = self.flip(a, Some((s0, s1))).expect("a convex quad with a twin");
-        stack.push(t1 + 2);
-        stack.push(t0 + 1);
-    }
-
-    // Indexed binary max-heap of triangles by key.
-
-    fn less(&self, i: usize, j: usize) -> bool {
-        self.scans[self.queue[i] as usize].key > self.scans[self.queue[j] as usize].key
-    }
-
-    fn swap(&mut self, i: usize, j: usize) {
-        self.queue.swap(i, j);
-        self.qpos[self.queue[i] as usize] = i as i32;
-        self.qpos[self.queue[j] as usize] = j as i32;
-    }
-
-    fn up(&mut self, mut j: usize) {
-        while j > 0 {
-            let i = (j - 1) / 2;
-            if !self.less(j, i) {
-                break;
-            }
-            self.swap(i, j);
-            j = i;
-        }
-    }
-
-    /// Sift down within `..n`; `true` when the element moved.
-    fn down(&mut self, i0: usize, n: usize) -> bool {
-        let mut i = i0;
-        loop {
-            let j1 = 2 * i + 1;
-            if j1 >= n {
-                break;
-            }
-            let j = if j1 + 1 < n && self.less(j1 + 1, j1) { j1 + 1 } else { j1 };
-            if !self.less(j, i) {
-                break;
-            }
-            self.swap(i, j);
-            i = j;
-        }
-        i > i0
-    }
-
-    fn queue_push(&mut self, t: u32) {
-        let i = self.queue.len();
-        self.qpos[t as usize] = i as i32;
-        self.queue.push(t);
-        self.up(i);
-    }
-
-    fn queue_pop(&mut self) -> u32 {
-        let n = self.queue.len() - 1;
-        self.swap(0, n);
-        self.down(0, n);
-        let t = self.queue.pop().expect("non-empty queue");
-        self.qpos[t as usize] = -1;
-        t
-    }
-
-    fn queue_remove(&mut self, t: usize) {
-        let i = self.qpos[t];
-        if i < 0 {
-            // Not scanned yet: drop it from the pending list.
-            if let Some(k) = self.pending.iter().position(|&p| p as usize == t) {
-                self.pending.swap_remove(k);
-            }
-            return;
-        }
-        let (i, n) = (i as usize, self.queue.len() - 1);
-        if i != n {
-            self.swap(i, n);
-            if !self.down(i, n) {
-                self.up(i);
-            }
-        }
-        let t = self.queue.pop().expect("non-empty queue");
-        self.qpos[t as usize] = -1;
-    }
 }
 
 /// A meshed face.
 pub struct FaceMesh {
-    /// Canvas pixel ids, in the orientation of [`edge`] on the lattice.
+    /// Canvas pixel ids, in the orientation of `edge` on the lattice.
     pub triangles: Vec<[u32; 3]>,
     /// Largest relative error of each triangle along the rays it covers.
     pub errors: Vec<f64>,
     /// Used-vertex flags of the lattice.
     pub used: Vec<bool>,
+    /// Counters of the insertion run.
     pub stats: GreedyStats,
 }
 

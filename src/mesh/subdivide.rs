@@ -19,6 +19,7 @@ use super::MeshParams;
 
 /// Everything `S` needs about one lattice.
 pub struct Criterion<'a> {
+    /// The lattice whose quadtree this criterion subdivides.
     pub grid: &'a Grid,
     params: &'a MeshParams,
     valid: CountSat,
@@ -29,6 +30,8 @@ pub struct Criterion<'a> {
 }
 
 impl<'a> Criterion<'a> {
+    /// Precompute the validity, bad-cell and (with a feature angle) normal-variation tables of
+    /// `grid`; `image` supplies the normals (`N.*` channels or estimated from depth).
     pub fn new(grid: &'a Grid, image: &crate::layer::LayerImage, params: &'a MeshParams) -> Criterion<'a> {
         let (w, h) = (grid.w, grid.h);
         let valid = CountSat::from_fn(w, h, |x, y| grid.valid(x, y));

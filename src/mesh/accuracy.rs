@@ -19,11 +19,17 @@ pub struct ErrorStats {
     pub pixels: usize,
     /// Valid pixels whose ray misses the mesh.
     pub unhit: usize,
+    /// Largest distance along the ray between hit and sample, metres (0 when nothing is hit).
     pub max_abs: f64,
+    /// 99th percentile of the absolute distance, metres.
     pub p99_abs: f64,
+    /// Root mean square of the absolute distance, metres.
     pub rms_abs: f64,
+    /// Largest absolute distance divided by the sample's depth (0.01 = 1 %).
     pub max_rel: f64,
+    /// 99th percentile of the relative distance.
     pub p99_rel: f64,
+    /// Root mean square of the relative distance.
     pub rms_rel: f64,
 }
 

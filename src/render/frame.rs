@@ -16,7 +16,9 @@ use crate::layer::{LayerImage, SampleType, OUTSIDE_DEPTH};
 /// A rendered image.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
+    /// Width, pixels.
     pub width: usize,
+    /// Height, pixels; planes are row-major, top row first.
     pub height: usize,
     /// Linear RGB, planar.
     pub rgb: [Vec<f32>; 3],
@@ -57,6 +59,7 @@ impl Frame {
         self.covered.iter().filter(|&&c| !c).count()
     }
 
+    /// Fraction of pixels that are holes, in [0, 1] (0 for an empty frame).
     pub fn hole_ratio(&self) -> f64 {
         self.holes() as f64 / self.covered.len().max(1) as f64
     }

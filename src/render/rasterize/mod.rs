@@ -1,0 +1,342 @@
+//! Mesh rasterisation: the `--method mesh` renderer (spec §9.4b).
+//!
+//! Each layer's adaptive quadtree mesh ([`crate::mesh`], thesis 7.4) is drawn with a software
+//! z-buffer. Triangles are set up in camera space and tested against each output pixel's **ray**
+//! (homogeneous rasterisation): a pixel is inside when its ray crosses the three planes through the
+//! eye and the triangle's edges on the inner side, and its distance is the exact ray/plane
+//! intersection. The same test serves the perspective and the equirect cameras — on the equirect,
+//! triangles crossing the output seam or containing a pole need no special geometry, only a larger
+//! candidate region — and it is watertight: the edge planes are computed once per edge from the
+//! same two vertices (in a canonical order) for both triangles sharing it, and a pixel exactly on
+//! an edge belongs to exactly one of them. For perspective cameras the candidate region is the
+//! bounding box of the triangle **clipped against the near plane** `z = near`; pixels whose
+//! intersection is nearer than `near` are rejected, so a triangle reaching behind the eye is cut
+//! there, never dropped wholesale nor projected through infinity.
+//!
+//! Visibility is the splat method's rule without its blending: per output pixel the nearest
+//! surface wins whatever the painter's order, ties to the later layer. The colour is
+//! *deferred*: once the nearest triangle of each pixel is known, its exact surface point is mapped
+//! back to the layer's canvas through the panorama centre (where the layer's colour was captured)
+//! and the layer colour is sampled bilinearly there, over the taps of the same surface. Content at
+//! infinity (`Z = +inf`, which has no mesh) is looked up by direction in every layer for pixels no
+//! triangle covers, behind everything.
+//!
+//! Work is split in bands of output rows (rayon); triangles are binned to the bands they reach, and
+//! each band owns its rows of the z-buffer, so the result does not depend on the thread count.
+
+use std::time::Instant;
+
+use glam::{DMat4, DVec3};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::camera::Camera;
+use super::frame::Frame;
+use super::{RenderError, RenderLayer, Stage};
+use crate::layer::OUTSIDE_DEPTH;
+use crate::mapping::Mapping;
+use crate::mesh::{self, MeshParams};
+use crate::panorama::Panorama;
+
+mod geometry;
+mod setup;
+mod shade;
+
+pub use geometry::{mesh_layers, panorama_meshes, LayerGeometry, MeshSource, PanoramaMeshes};
+use setup::{raster_band, Cam, Prep, Setup, NO_FRAG};
+use shade::{nearest_vertex_colour, Planes};
+
+/// Tuning of the mesh renderer.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct MeshOptions {
+    /// Relative depth jump between two lattice-adjacent vertices above which a triangle edge crosses
+    /// a discontinuity and the triangle is not drawn (the splat method's continuity test; the mesh
+    /// itself only cuts at 0.5, spec §8.2). Longer edges of `k` pixels allow `(1 + jump)^k`.
+    pub jump: f64,
+    /// Near plane of perspective cameras, camera-space units (world units): nearer content is cut.
+    pub near: f64,
+}
+
+impl Default for MeshOptions {
+    fn default() -> Self {
+        MeshOptions { jump: 0.1, near: 1e-6 }
+    }
+}
+
+/// Rows of output per band (the unit of parallel work).
+const BAND: usize = 8;
+
+/// Work counters of one mesh render.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RasterCounts {
+    /// Triangles considered for drawing (kept mesh triangles and footprint quads' triangles).
+    pub triangles: u64,
+    /// Mesh triangles not drawn: an edge crosses a depth discontinuity (see [`MeshOptions::jump`]).
+    pub triangles_jump: u64,
+    /// Not drawn: outside the view (perspective frustum), behind the near plane, edge-on or
+    /// non-finite.
+    pub triangles_culled: u64,
+    /// Drawn after clipping at the near plane.
+    pub triangles_clipped: u64,
+    /// Triangles set up for drawing.
+    pub triangles_drawn: u64,
+    /// Pixel/triangle tests.
+    pub tests: u64,
+    /// Tests that found the pixel inside the triangle.
+    pub fragments: u64,
+    /// Output pixels coloured from an infinity sample.
+    pub infinity_pixels: u64,
+}
+
+impl RasterCounts {
+    fn add(mut self, o: RasterCounts) -> RasterCounts {
+        self.triangles += o.triangles;
+        self.triangles_jump += o.triangles_jump;
+        self.triangles_culled += o.triangles_culled;
+        self.triangles_clipped += o.triangles_clipped;
+        self.triangles_drawn += o.triangles_drawn;
+        self.tests += o.tests;
+        self.fragments += o.fragments;
+        self.infinity_pixels += o.infinity_pixels;
+        self
+    }
+}
+
+/// Figures of one mesh render: stages `raster` (set-up, binning, z-buffer) and `compose` (colour,
+/// infinity, frame).
+pub type MeshRenderStats = super::RenderStats<RasterCounts, MeshOptions>;
+
+/// A view rendered from meshes.
+pub type MeshRendered = super::Rendered<RasterCounts, MeshOptions>;
+
+fn check_options(o: &MeshOptions) -> Result<(), RenderError> {
+    if !(o.jump > 0.0 && o.jump.is_finite()) {
+        return Err(RenderError::BadOptions("jump must be a positive relative depth".into()));
+    }
+    if !(o.near > 0.0 && o.near.is_finite()) {
+        return Err(RenderError::BadOptions("near must be a positive distance".into()));
+    }
+    Ok(())
+}
+
+fn check_layers(layers: &[RenderLayer]) -> Result<(), RenderError> {
+    for (index, l) in layers.iter().enumerate() {
+        if (l.image.width, l.image.height) != (l.mapping.width(), l.mapping.height()) {
+            return Err(RenderError::LayerSize {
+                index,
+                width: l.image.width,
+                height: l.image.height,
+                kind: l.mapping.kind(),
+            });
+        }
+        for channel in ["R", "G", "B", "Z"] {
+            if l.image.channel(channel).is_none() {
+                return Err(RenderError::LayerChannel { index, channel });
+            }
+        }
+    }
+    Ok(())
+}
+
+fn mesh_error(index: usize, e: mesh::MeshError) -> RenderError {
+    match e {
+        mesh::MeshError::Params(m) => RenderError::BadOptions(format!("mesh parameters: {m}")),
+        e => RenderError::Mesh { index, message: e.to_string() },
+    }
+}
+
+/// Render `layers` (placed in the world by `local_to_world`) into `camera` by rasterising their
+/// geometry (`meshes[k]` is layer `k`'s, in its local frame, e.g. from [`mesh_layers`]).
+pub fn render_mesh(
+    layers: &[RenderLayer],
+    meshes: &[LayerGeometry],
+    local_to_world: DMat4,
+    camera: &Camera,
+    o: &MeshOptions,
+) -> Result<MeshRendered, RenderError> {
+    check_options(o)?;
+    if !local_to_world.is_finite() || local_to_world.determinant() == 0.0 {
+        return Err(RenderError::BadCamera("LocalToWorld is not an invertible finite transform".into()));
+    }
+    check_layers(layers)?;
+    if meshes.len() != layers.len() {
+        return Err(RenderError::BadOptions(format!(
+            "{} meshes given for {} layers",
+            meshes.len(),
+            layers.len()
+        )));
+    }
+    for (index, (m, l)) in meshes.iter().zip(layers).enumerate() {
+        let (w, h) = (l.mapping.width(), l.mapping.height());
+        let bad_vertex = m.triangles.iter().flatten().any(|&v| v as usize >= m.positions.len());
+        if (m.width, m.height) != (w, h) || m.sources.len() != m.positions.len() || bad_vertex {
+            return Err(RenderError::Mesh {
+                index,
+                message: "the mesh does not belong to this layer".into(),
+            });
+        }
+    }
+    let t_raster = Instant::now();
+    let cam = Cam::new(camera);
+    let (w, h) = cam.size();
+    let to_cam = camera.to_camera() * local_to_world;
+    let frustum = match &cam {
+        Cam::Persp { f, cx, cy, .. } => Some([
+            DVec3::new(*f, 0.0, *cx),
+            DVec3::new(-*f, 0.0, *cx),
+            DVec3::new(0.0, *f, *cy),
+            DVec3::new(0.0, -*f, *cy),
+        ]),
+        Cam::Equi { .. } => None,
+    };
+    let setup = Setup { cam: &cam, o: *o, frustum };
+    let mut counts = RasterCounts::default();
+    let mut preps: Vec<Prep> = Vec::new();
+    for (k, m) in meshes.iter().enumerate() {
+        counts.triangles_jump += m.jump_triangles as u64;
+        let lv: Vec<DVec3> = m.positions.par_iter().map(|&p| to_cam.transform_point3(p)).collect();
+        let lv = &lv;
+        let parts: Vec<(Vec<Prep>, RasterCounts)> = m
+            .triangles
+            .par_chunks(4096)
+            .enumerate()
+            .map(|(chunk, tris)| {
+                let mut n = RasterCounts::default();
+                let out = tris
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, &v)| setup.prep(k as u32, (chunk * 4096 + i) as u32, v, lv, &mut n))
+                    .collect();
+                (out, n)
+            })
+            .collect();
+        for (p, n) in parts {
+            preps.extend(p);
+            counts = counts.add(n);
+        }
+    }
+    let bands = h.div_ceil(BAND);
+    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); bands];
+    for (i, p) in preps.iter().enumerate() {
+        for bin in &mut bins[p.y0 as usize / BAND..=p.y1 as usize / BAND] {
+            bin.push(i as u32);
+        }
+    }
+    let mut zbuf = vec![NO_FRAG; w * h];
+    let work: Vec<(u64, u64)> = zbuf
+        .par_chunks_mut(BAND * w)
+        .enumerate()
+        .map(|(b, buf)| raster_band(&cam, &preps, &bins[b], b, o.near, buf))
+        .collect();
+    for (t, f) in work {
+        counts.tests += t;
+        counts.fragments += f;
+    }
+    drop(preps);
+    drop(bins);
+    let raster_s = t_raster.elapsed().as_secs_f64();
+
+    let t_compose = Instant::now();
+    let planes: Vec<Planes> =
+        layers.iter().zip(meshes).map(|(l, g)| Planes::new(l.image, l.mapping, g.has_infinity)).collect();
+    let cam_to_local = to_cam.inverse();
+    let n = w * h;
+    let mut frame = Frame {
+        width: w,
+        height: h,
+        rgb: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+        depth: vec![OUTSIDE_DEPTH; n],
+        covered: vec![false; n],
+    };
+    type Row = (Vec<[f32; 3]>, Vec<f32>, Vec<bool>, u64);
+    let rows: Vec<Row> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut rgb = vec![[0.0f32; 3]; w];
+            let mut depth = vec![OUTSIDE_DEPTH; w];
+            let mut covered = vec![false; w];
+            let mut inf = 0u64;
+            for x in 0..w {
+                let r = cam.ray(x, y);
+                let f = zbuf[y * w + x];
+                if f.tri != u32::MAX {
+                    let k = f.layer as usize;
+                    let dist = match &cam {
+                        Cam::Persp { f: focal, .. } => f.z as f64 * r.length() / focal,
+                        Cam::Equi { .. } => f.z as f64,
+                    };
+                    let pc = r.normalize() * dist;
+                    let local = cam_to_local.transform_point3(pc);
+                    let ld = local.length();
+                    let c = planes[k]
+                        .surface_colour(local, ld, o.jump)
+                        .unwrap_or_else(|| nearest_vertex_colour(&planes[k], &meshes[k], f.tri, local));
+                    rgb[x] = c.map(|v| if v.is_finite() { v } else { 0.0 });
+                    // The world distance: camera space is rigid.
+                    depth[x] = dist as f32;
+                    covered[x] = true;
+                    continue;
+                }
+                // Nothing finite: infinity content by direction, frontmost layer first.
+                let local = cam_to_local.transform_vector3(r);
+                for p in planes.iter().rev().filter(|p| p.has_infinity) {
+                    if let Some(c) = p.infinity_colour(local) {
+                        rgb[x] = c.map(|v| if v.is_finite() { v } else { 0.0 });
+                        depth[x] = f32::INFINITY;
+                        covered[x] = true;
+                        inf += 1;
+                        break;
+                    }
+                }
+            }
+            (rgb, depth, covered, inf)
+        })
+        .collect();
+    for (y, (rgb, depth, covered, inf)) in rows.into_iter().enumerate() {
+        for (x, c) in rgb.iter().enumerate() {
+            for (plane, v) in frame.rgb.iter_mut().zip(c) {
+                plane[y * w + x] = *v;
+            }
+        }
+        frame.depth[y * w..(y + 1) * w].copy_from_slice(&depth);
+        frame.covered[y * w..(y + 1) * w].copy_from_slice(&covered);
+        counts.infinity_pixels += inf;
+    }
+    let compose_s = t_compose.elapsed().as_secs_f64();
+    let stats = MeshRenderStats {
+        width: w,
+        height: h,
+        layers: layers.len(),
+        holes: frame.holes(),
+        hole_ratio: frame.hole_ratio(),
+        counts,
+        options: *o,
+        stages: vec![
+            Stage { name: "raster", seconds: raster_s },
+            Stage { name: "compose", seconds: compose_s },
+        ],
+    };
+    Ok(MeshRendered { frame, stats })
+}
+
+/// Mesh then rasterise: [`mesh_layers`] with `params`, timed as the stage `mesh`, then
+/// [`render_mesh`].
+pub fn render_mesh_auto(
+    layers: &[RenderLayer],
+    params: &MeshParams,
+    local_to_world: DMat4,
+    camera: &Camera,
+    o: &MeshOptions,
+) -> Result<MeshRendered, RenderError> {
+    let t = Instant::now();
+    let meshes = mesh_layers(layers, params, o)?;
+    let mesh_s = t.elapsed().as_secs_f64();
+    let mut r = render_mesh(layers, &meshes, local_to_world, camera, o)?;
+    r.stats.stages.insert(0, Stage { name: "mesh", seconds: mesh_s });
+    Ok(r)
+}
+
+/// Whether a path names a panorama with at least one stored mesh (for reports).
+pub fn has_stored_meshes(pano: &Panorama) -> bool {
+    pano.manifest.layers.iter().any(|l| l.mesh.as_ref().is_some_and(|m| m.is_quadtree_v1()))
+}
