@@ -22,11 +22,12 @@
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+#![warn(unnameable_types)]
 
 pub mod build;
 pub mod codes;
 pub mod colour;
-pub mod continuity;
+pub(crate) mod continuity;
 pub mod error;
 pub mod fsutil;
 pub mod image_io;

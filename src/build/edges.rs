@@ -22,7 +22,7 @@ pub struct EdgeOptions {
 
 impl Default for EdgeOptions {
     fn default() -> Self {
-        EdgeOptions { jump: 0.08, extrapolation: 0.05, fold_deg: Some(35.0) }
+        EdgeOptions { jump: crate::continuity::JUMP, extrapolation: 0.05, fold_deg: Some(35.0) }
     }
 }
 

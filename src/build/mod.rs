@@ -6,11 +6,11 @@
 //! for content whose parallax stays under a pixel, (6) fill each layer behind its occluders in the
 //! parallax band of the freedom radius, (7) painter's order (farthest first) and layer images.
 
-pub mod edges;
-pub mod fill;
+pub(crate) mod edges;
+pub(crate) mod fill;
 pub mod input;
-pub mod segment;
-pub mod texture;
+pub(crate) mod segment;
+pub(crate) mod texture;
 
 use std::time::Instant;
 
@@ -22,8 +22,10 @@ use crate::layer::{LayerImage, SampleType, OUTSIDE_DEPTH};
 use crate::manifest::{LayerDecl, Manifest, MappingDecl, MappingKind as DeclKind, Role, Transform};
 use crate::mapping::Neighbours;
 use crate::mapping::{AnyMapping, Mapping, MappingKind};
+pub use edges::EdgeOptions;
 use fill::{fill_layer, FillContext};
-use segment::{segment, SegmentOptions, NO_SEGMENT};
+pub use segment::SegmentOptions;
+use segment::{segment, NO_SEGMENT};
 pub use texture::FillColour;
 
 /// A plain RGB-D panorama: one surface per ray.
@@ -55,7 +57,7 @@ pub struct BuildOptions {
     /// Move mixed pixels (between a nearer and a farther surface, across jumps to both) to the farther.
     pub drop_mixed: bool,
     /// Also treat depth edges spread over a few pixels (resized or estimated depth) as mixed pixels
-    /// ([`edges::ramp_pixels`]). Off by default: the limb of a near curved object looks the same.
+    /// (`edges::ramp_pixels`). Off by default: the limb of a near curved object looks the same.
     pub soft_edges: bool,
     /// Extra fill band in pixels beyond the parallax band (reconstruction filters reach ~1-2 px).
     pub margin_px: f64,

@@ -53,8 +53,6 @@ pub struct Segments {
     pub level: Vec<u32>,
     /// Pixels per segment.
     pub size: Vec<u32>,
-    /// Occlusion relations kept (near, far, border length).
-    pub occludes: Vec<(u32, u32, u32)>,
 }
 
 /// Tuning of the segmentation.
@@ -197,7 +195,7 @@ pub fn segment(
         .collect();
     occludes.sort_unstable();
     let level = levels(count, &mean, &size, &occludes, &folds);
-    Segments { id, level, size, occludes }
+    Segments { id, level, size }
 }
 
 /// Segment id per finite pixel from a union-find over the continuous links (ids in pixel order).

@@ -5,7 +5,7 @@
 //! that pixel's depth. A quadtree node `[x0, x1] × [y0, y1]` is a rectangle of the lattice (inclusive
 //! vertex bounds, `x1 − x0` cells wide); a *cell* is the square between four neighbouring pixel centres.
 //! Meshing pixel centres keeps every vertex an exact sample (no invented depth); the half-pixel gaps
-//! between cube faces, across the equirect seam and around the poles are closed by [`super::stitch`].
+//! between cube faces, across the equirect seam and around the poles are closed by `super::stitch`.
 //!
 //! Each vertex stores `λ = depth / |r|`, where `r` is the lattice ray (unnormalised on a cube face), so
 //! that the 3D point is `λ·r`. Invalid vertices (outside, infinite or unknown depth) hold `NaN`.

@@ -2,8 +2,8 @@
 //!
 //! Pipeline for one layer: sample one vertex lattice per cube face (or the whole equirect canvas,
 //! [`grid`]), build the summed-area tables and the discrete quadtree with the subdivision function `S`
-//! ([`sat`], [`normals`], [`subdivide`], [`quadtree`]), balance it 2:1 ([`balance`]), triangulate the
-//! leaves without cracks ([`triangulate`]), close the gaps between lattices ([`stitch`]). [`accuracy`]
+//! (`sat`, [`normals`], `subdivide`, [`quadtree`]), balance it 2:1 ([`balance`]), triangulate the
+//! leaves without cracks (`triangulate`), close the gaps between lattices (`stitch`). [`accuracy`]
 //! measures a mesh against the layer by casting every pixel's ray; [`encode`] stores the quadtrees as a
 //! bit string; [`export`] writes PLY, OBJ and glTF binary, one layer or a whole scene, with the
 //! infinitely far samples (the sky) on a dome ([`sky_at`]).
@@ -12,16 +12,18 @@ pub mod accuracy;
 pub mod balance;
 pub mod encode;
 pub mod export;
-pub mod greedy;
+pub(crate) mod greedy;
 pub mod grid;
 pub mod normals;
 pub mod quadtree;
-pub mod sat;
+pub(crate) mod sat;
 pub mod simplify;
-pub mod stitch;
+pub(crate) mod stitch;
 pub mod stored;
-pub mod subdivide;
-pub mod triangulate;
+pub(crate) mod subdivide;
+pub(crate) mod triangulate;
+
+pub use greedy::GreedyStats;
 
 use std::time::Instant;
 
@@ -331,7 +333,7 @@ pub struct LayerMesh {
     pub width: usize,
     /// Height of the layer's canvas, pixels.
     pub height: usize,
-    /// Canvas pixel index of each vertex (`≥ W·H` for the equirect poles, see [`stitch::pole_ids`]).
+    /// Canvas pixel index of each vertex (`≥ W·H` for the equirect poles, see `stitch::pole_ids`).
     pub sources: Vec<u32>,
     /// Panorama-local positions.
     pub positions: Vec<DVec3>,

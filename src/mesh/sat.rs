@@ -75,16 +75,6 @@ impl<T: SatValue> Sat<T> {
         Sat { w, h, data }
     }
 
-    /// Map width.
-    pub fn width(&self) -> usize {
-        self.w
-    }
-
-    /// Map height.
-    pub fn height(&self) -> usize {
-        self.h
-    }
-
     /// Sum over the half-open rectangle `[x0, x1) × [y0, y1)` (clamped to the map).
     #[inline]
     pub fn sum(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> T {

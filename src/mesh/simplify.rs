@@ -59,7 +59,7 @@ pub struct SimplifyParams {
     /// Cap on the angle between the rays of two vertices of a triangle (texture distortion), degrees.
     pub max_angle_deg: Option<f64>,
     /// Mesh clean cube faces (every pixel valid, no depth jump) by greedy insertion
-    /// ([`super::greedy`]) instead of quadtree + collapses: faster and fewer triangles there.
+    /// (`super::greedy`) instead of quadtree + collapses: faster and fewer triangles there.
     pub greedy: bool,
 }
 
@@ -880,7 +880,7 @@ fn phase_parts(mesh: &LayerMesh, shared: &Shared, grids: &[Grid]) -> Vec<PhasePa
 
 /// Simplify a mesh made by [`super::mesh_layer`] from `grids` (its lattices) on `mapping`. `done[g]`,
 /// when set, holds the exact error of each of lattice `g`'s own triangles, in mesh order (a lattice
-/// meshed by [`super::greedy`]), which spares their first scans.
+/// meshed by `super::greedy`), which spares their first scans.
 pub fn simplify(
     mesh: &LayerMesh,
     grids: &[Grid],

@@ -3,13 +3,13 @@
 //! A sparse layer's occupied pixels are cut into rectangles, packed into a compact atlas, and
 //! recorded in a patch table: `canvas(u+s, v+t) = atlas(x+s, y+t)` for `(s,t) ∈ [0,w)×[0,h)`.
 //!
-//! - [`cut`]: domain → disjoint rectangles wasting at most a third of their area;
-//! - [`maxrects`]: rectangles → atlas positions;
+//! - `cut`: domain → disjoint rectangles wasting at most a third of their area;
+//! - `maxrects`: rectangles → atlas positions;
 //! - `table`: validation ([`check_table`]) of a (possibly hostile) patch table;
 //! - this module: copying pixels between canvas and atlas.
 
-pub mod cut;
-pub mod maxrects;
+pub(crate) mod cut;
+pub(crate) mod maxrects;
 mod table;
 
 use crate::layer::{Channel, LayerImage, OUTSIDE_DEPTH};

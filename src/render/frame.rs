@@ -30,7 +30,7 @@ pub struct Frame {
 
 impl Frame {
     /// Normalise the filter sums (the division of Alg. 9), guarding every value against NaN.
-    pub fn from_accum(acc: &Accum) -> Frame {
+    pub(crate) fn from_accum(acc: &Accum) -> Frame {
         let n = acc.cells.len();
         let mut f = Frame {
             width: acc.width,

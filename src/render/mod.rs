@@ -1,25 +1,25 @@
 //! Views of a POMC from a displaced camera (thesis 7.3; spec §9, informative).
 //!
 //! [`render`] reprojects every layer into a [`Camera`] by adaptive point splatting
-//! ([`splat`], thesis Alg. 10 with the Alg. 9 filter), resolves visibility per output pixel with a
-//! depth test ([`accum`]) — so the result does not depend on the layers' painter's order, which is
+//! (`splat`, thesis Alg. 10 with the Alg. 9 filter), resolves visibility per output pixel with a
+//! depth test (`accum`) — so the result does not depend on the layers' painter's order, which is
 //! only valid from the centre — and returns a [`Frame`] (colour, camera distance, coverage) and
 //! the figures of the run. [`rasterize::render_mesh`] is the other method: z-buffered rasterisation
 //! of each layer's quadtree mesh. [`metrics`] compares frames for the evaluation harness.
 //!
 //! - [`camera`]: perspective and equirect output cameras;
-//! - [`splat`]: reprojection, adaptive sub-sampling, tiling and threads;
-//! - [`accum`]: per-pixel visibility and filter sums;
+//! - `splat`: reprojection, adaptive sub-sampling, tiling and threads;
+//! - `accum`: per-pixel visibility and filter sums;
 //! - [`rasterize`]: the mesh method (meshes, footprints, rasterisation, deferred colour);
 //! - [`image`]: the frame and its files (EXR, tone-mapped PNG, mask);
 //! - [`metrics`]: PSNR, WS-PSNR, depth error.
 
-pub mod accum;
+pub(crate) mod accum;
 pub mod camera;
 pub mod frame;
 pub mod metrics;
 pub mod rasterize;
-pub mod splat;
+pub(crate) mod splat;
 
 use std::path::PathBuf;
 use std::time::Instant;

@@ -32,7 +32,7 @@ pub struct ValidateOptions {
     /// Size limits for layer files (checked from headers before decoding).
     pub limits: ReadLimits,
     /// Relative depth step between 4-neighbours of one layer above which they are reported as a
-    /// discontinuity, unless a plane continues across them ([`continuity::continuous`]).
+    /// discontinuity, unless a plane continues across them (`continuity::continuous`).
     pub jump_threshold: f64,
     /// Tolerance on `|N| = 1` for normals (half precision stores ~1e-3).
     pub normal_tolerance: f32,

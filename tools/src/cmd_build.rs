@@ -111,7 +111,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0.5, value_parser = Range::POSITIVE.parser())]
     freedom_radius: f64,
     /// Relative depth jump between neighbours that separates surfaces.
-    #[arg(long, default_value_t = 0.08, value_parser = Range::POSITIVE.parser())]
+    #[arg(long, default_value_t = pomc::build::EdgeOptions::default().jump, value_parser = Range::POSITIVE.parser())]
     jump: f64,
     /// Normal angle (degrees) that closes regions where depth is continuous but the surface folds.
     #[arg(long, default_value_t = 35.0, value_parser = Range::ANGLE.parser())]

@@ -11,9 +11,9 @@
 //! (the glTF sampler repeats), and each pole gets one copy per triangle at the mean `u` of the other two,
 //! so no triangle smears the whole texture. The half-pixel strips joining cube faces are not remapped.
 
-pub mod gltf;
-pub mod obj;
-pub mod ply;
+pub(crate) mod gltf;
+pub(crate) mod obj;
+pub(crate) mod ply;
 pub mod texture;
 
 use std::path::{Path, PathBuf};
