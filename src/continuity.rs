@@ -8,6 +8,18 @@ pub const PLANAR: f64 = 0.05;
 /// Relative depth step between neighbours above which build separates surfaces (`--jump`).
 pub const JUMP: f64 = 0.08;
 
+/// Relative depth step above which the mesher leaves two neighbouring vertices unconnected: looser
+/// than [`JUMP`], since a layer built with it is already one surface and only its remaining
+/// discontinuities (object silhouettes inside a sparse layer, layers from elsewhere) must stay open.
+pub const MESH_JUMP: f64 = 0.5;
+
+/// Whether depths `a` and `b` differ by more than `jump` relative to the nearer: `|a − b| > jump ·
+/// min(a, b)` (false when either is NaN).
+#[inline]
+pub fn steps_apart(a: f64, b: f64, jump: f64) -> bool {
+    (a - b).abs() > jump * a.min(b)
+}
+
 /// Whether three depths along a line of pixels — `back`, `mid`, `next` — lie on one plane: inverse
 /// depth is linear along a plane (`1/d = n·dir / h`), so `1/next` is extrapolated from `1/back` and
 /// `1/mid` and compared relative to the nearer of `mid`, `next` (the scale at which a plane's `1/d`

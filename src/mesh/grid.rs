@@ -15,13 +15,14 @@ use glam::DVec3;
 use crate::layer::{classify, LayerImage, Sample};
 use crate::mapping::{CubeFace, Equirect, Mapping};
 
-/// Relative depth jump above which two neighbouring samples are not connected (as the validator).
-pub const JUMP_THRESHOLD: f64 = 0.5;
+/// Relative depth jump above which two neighbouring samples are not connected.
+pub const JUMP_THRESHOLD: f64 = crate::continuity::MESH_JUMP;
 
-/// `true` when two depths are too far apart to be one continuous surface.
+/// `true` when two depths are too far apart to be one continuous surface (the continuity rule's
+/// `continuity::steps_apart` at [`JUMP_THRESHOLD`]).
 #[inline]
 pub fn is_jump(a: f64, b: f64) -> bool {
-    (a - b).abs() > JUMP_THRESHOLD * a.min(b)
+    crate::continuity::steps_apart(a, b, JUMP_THRESHOLD)
 }
 
 /// How lattice rays are computed.
