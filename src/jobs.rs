@@ -231,7 +231,7 @@ impl Renderer {
         let meshes = match method {
             RenderMethod::Splat => None,
             RenderMethod::Mesh => {
-                let refs = refs(&layers);
+                let refs = RenderLayer::all(&layers);
                 Some(rasterize::panorama_meshes(
                     pano,
                     &refs,
@@ -267,8 +267,11 @@ impl Renderer {
         let meshes = match method {
             RenderMethod::Splat => None,
             RenderMethod::Mesh => {
-                let geometry =
-                    rasterize::mesh_layers(&refs(&layers), &MeshParams::quadtree(), &MeshOptions::default())?;
+                let geometry = rasterize::mesh_layers(
+                    &RenderLayer::all(&layers),
+                    &MeshParams::quadtree(),
+                    &MeshOptions::default(),
+                )?;
                 let sources = vec![rasterize::MeshSource::Built; geometry.len()];
                 Some((geometry, sources, Vec::new()))
             }
@@ -304,7 +307,7 @@ impl Renderer {
 
     /// Render the view from `camera`.
     pub fn render(&self, camera: &Camera) -> crate::Result<View> {
-        let refs = refs(&self.layers);
+        let refs = RenderLayer::all(&self.layers);
         let to_world = self.local_to_world;
         Ok(match &self.meshes {
             None => view(render::render(&refs, to_world, camera, &SplatOptions::default())?),
@@ -313,10 +316,6 @@ impl Renderer {
             }
         })
     }
-}
-
-fn refs(layers: &[(LayerImage, AnyMapping)]) -> Vec<RenderLayer<'_>> {
-    layers.iter().map(|(image, mapping)| RenderLayer { image, mapping: *mapping }).collect()
 }
 
 fn view<C: serde::Serialize, O>(r: render::Rendered<C, O>) -> View {

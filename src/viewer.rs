@@ -122,8 +122,7 @@ pub fn mime_type(path: &str) -> &'static str {
 /// `pomc render --method mesh` meshes them (stored meshes decoded).
 pub fn site(pano: &Panorama, options: &SiteOptions) -> crate::Result<Site> {
     let layers = crate::render::read_layers(pano, &crate::layer_io::ReadLimits::default())?;
-    let refs: Vec<RenderLayer> =
-        layers.iter().map(|(image, mapping)| RenderLayer { image, mapping: *mapping }).collect();
+    let refs = RenderLayer::all(&layers);
     let (geometry, ..) = rasterize::panorama_meshes(pano, &refs, &options.mesh, &MeshOptions::default())?;
     let title = options.title.clone().unwrap_or_else(|| {
         pano.dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "panorama".into())

@@ -125,6 +125,13 @@ pub struct RenderLayer<'a> {
     pub mapping: AnyMapping,
 }
 
+impl<'a> RenderLayer<'a> {
+    /// The layers as [`read_layers`] gives them (image and mapping pairs), ready to render.
+    pub fn all(layers: &'a [(LayerImage, AnyMapping)]) -> Vec<RenderLayer<'a>> {
+        layers.iter().map(|(image, mapping)| RenderLayer { image, mapping: *mapping }).collect()
+    }
+}
+
 /// Wall-clock time of one stage.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Stage {
