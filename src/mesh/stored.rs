@@ -18,6 +18,27 @@ pub struct StoredMeshError {
     pub reason: String,
 }
 
+/// Store encoded quadtree meshes (`(layer index, encode::encode bytes)`) as `NAME.pomcmesh` beside the
+/// manifest and reference each from its layer (`<Mesh>`, replacing an older one), what `pomc mesh
+/// --store` does. File names are the layer names made file-safe and unique over the manifest; each
+/// file and then the manifest are written atomically, under the panorama's writer lock.
+pub fn store(pano: &Panorama, meshes: &[(usize, &[u8])]) -> crate::Result<()> {
+    let mut manifest = pano.manifest.clone();
+    let names: Vec<String> = (manifest.layers.iter().enumerate())
+        .map(|(k, d)| d.name.clone().unwrap_or_else(|| format!("layer{k}")))
+        .collect();
+    let stems = super::export::safe_names(&names);
+    // Not while another command rewrites the panorama (best effort: a read-only parent has no lock).
+    let _lock = crate::fsutil::lock_dir(&pano.dir).ok();
+    for &(index, bytes) in meshes {
+        let Some(decl) = manifest.layers.get_mut(index) else { continue };
+        let file = format!("{}.{}", stems[index], encode::EXTENSION);
+        crate::fsutil::write_bytes_atomic(&pano.dir.join(&file), bytes)?;
+        decl.mesh = Some(crate::manifest::MeshDecl::quadtree(&file));
+    }
+    crate::fsutil::write_bytes_atomic(&pano.manifest_path, manifest.to_xml().as_bytes())
+}
+
 /// The stored mesh of layer `index` when its declaration uses the encoding this reader knows
 /// (`None` without one, or with another encoding), decoded against the layer's `image`.
 pub fn read_stored(

@@ -188,7 +188,9 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         export_ms = ms(t);
     }
     if args.store {
-        store(&pano, &layers)?;
+        let encoded: Vec<(usize, &[u8])> =
+            layers.iter().filter_map(|l| Some((l.index, l.encoded.as_deref()?))).collect();
+        pomc::mesh::stored::store(&pano, &encoded)?;
     }
     spin.finish_and_clear();
     let sky = Some(sky_radius).filter(|_| layers.iter().any(|l| l.sky));
@@ -280,26 +282,6 @@ fn mesh_one(
         stats,
         times: [0.0, encode_ms],
     })
-}
-
-/// Write `NAME.pomcmesh` beside the manifest for each layer with an encoding and reference it from the
-/// layer (replacing an older one); names are made file-safe and unique over the manifest.
-fn store(pano: &Panorama, layers: &[Layer]) -> Result<(), Failure> {
-    let mut manifest = pano.manifest.clone();
-    let names: Vec<String> = (manifest.layers.iter().enumerate())
-        .map(|(k, d)| d.name.clone().unwrap_or_else(|| format!("layer{k}")))
-        .collect();
-    let stems = export::safe_names(&names);
-    // Not while another command rewrites the panorama (best effort: a read-only parent has no lock).
-    let _lock = pomc::fsutil::lock_dir(&pano.dir).ok();
-    for l in layers {
-        let (Some(bytes), Some(decl)) = (&l.encoded, manifest.layers.get_mut(l.index)) else { continue };
-        let file = format!("{}.{}", stems[l.index], encode::EXTENSION);
-        pomc::fsutil::write_bytes_atomic(&pano.dir.join(&file), bytes)?;
-        decl.mesh = Some(pomc::manifest::MeshDecl::quadtree(&file));
-    }
-    pomc::fsutil::write_bytes_atomic(&pano.manifest_path, manifest.to_xml().as_bytes())?;
-    Ok(())
 }
 
 /// Print one layer's lines and return its JSON (`sky`: the dome's radius, when the scene has one).
