@@ -30,13 +30,17 @@ pub fn srgb8(l: f32) -> u8 {
 
 /// How the values of an 8/16-bit input image are encoded.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ColourSpace {
     /// sRGB for 8/16-bit images (PNG, JPEG), linear for float ones (OpenEXR, Radiance HDR).
     #[default]
+    #[cfg_attr(feature = "clap", value(help = "sRGB for 8/16-bit images, linear for float ones"))]
     Auto,
     /// sRGB-encoded, whatever the format.
+    #[cfg_attr(feature = "clap", value(help = "sRGB-encoded values"))]
     Srgb,
     /// Already linear (e.g. a PNG written from linear values without encoding).
+    #[cfg_attr(feature = "clap", value(help = "Linear values"))]
     Linear,
 }
 

@@ -32,6 +32,7 @@ impl Default for DepthEncoding {
 
 /// Ray distance or planar depth.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum DepthKind {
     /// Euclidean distance from the centre along the pixel's ray (the default).
     Ray,
@@ -41,14 +42,19 @@ pub enum DepthKind {
 
 /// Dataset presets (each documented in spec/07-build.md with its source).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Preset {
     /// Matterport3D: uint16 PNG, metres = value / 4000, 0 invalid.
+    #[cfg_attr(feature = "clap", value(help = "uint16 PNG, metres = value / 4000, 0 invalid"))]
     Matterport3d,
     /// Stanford 2D-3D-S equirect panoramas: uint16 PNG, value / 512, 65535 invalid, Euclidean.
+    #[cfg_attr(feature = "clap", value(help = "uint16 PNG, value / 512, 65535 invalid, Euclidean"))]
     Stanford2d3ds,
     /// Structured3D: uint16 PNG in millimetres, 0 invalid.
+    #[cfg_attr(feature = "clap", value(help = "uint16 PNG in millimetres, 0 invalid"))]
     Structured3d,
     /// Pano3D / 3D60: float EXR in metres.
+    #[cfg_attr(feature = "clap", value(help = "float EXR in metres"))]
     Pano3d,
 }
 
@@ -74,16 +80,26 @@ impl Preset {
 /// Azimuth conventions of the tools panoramas come from, as the LocalToWorld operations that
 /// map our (the thesis's) local frame onto theirs. Pixels are never resampled.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Convention {
     /// The thesis and POMC: azimuth `φ = 2πu` from +X towards +Y, `+Z` up.
     #[default]
+    #[cfg_attr(feature = "clap", value(help = "POMC / thesis: azimuth 2πu from +X towards +Y, +Z up"))]
     Thesis,
     /// Blender's equirect camera: azimuth `π(1 − 2u)`, centre column along +X, `+Z` up:
     /// `world = Scale(−1, 1, 1) · local`.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "Blender equirect camera: azimuth π(1−2u), centre column along +X")
+    )]
     Blender,
     /// OpenEXR lat-long: longitude `π − 2πu`, latitude `π/2 − πv`, `+Y` up, direction
     /// `(sin lon cos lat, sin lat, cos lon cos lat)`: `world = Rotate((1,1,1), −120°) ·
     /// Scale(−1, 1, 1) · local`.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "OpenEXR lat-long: longitude decreasing, +Y up", name = "openexr")
+    )]
     OpenExr,
 }
 

@@ -86,12 +86,15 @@ impl Default for BuildOptions {
 
 /// How layers are separated beyond the minimal layering.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Classify {
     /// Occlusion levels (and depth bands) only.
     #[default]
+    #[cfg_attr(feature = "clap", value(help = "Occlusion levels (and depth bands) only"))]
     Depth,
     /// Also split the background into floor, ceiling and walls by the segments' mean normals
     /// (thesis 6.2.4.2; `+Z` is up in the panorama frame).
+    #[cfg_attr(feature = "clap", value(help = "Also split the background into floor, ceiling and walls"))]
     Geometry,
 }
 

@@ -14,17 +14,27 @@ use crate::mapping::{Mapping, Neighbours};
 
 /// How the fill is coloured.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum FillColour {
     /// Exemplar: the hidden surface copied from elsewhere on it by the offsets in its plane that
     /// best continue the texture around the hole.
     #[default]
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "Continue the hidden surface's texture: patches matched in its plane")
+    )]
     Exemplar,
     /// Each filled pixel takes the colour of the visible pixel nearest its seed: fast, but
     /// textured surfaces come out as streaks.
+    #[cfg_attr(
+        feature = "clap",
+        value(help = "Copy the nearest visible pixel (fast; textures come out as streaks)")
+    )]
     Nearest,
     /// Inwards from the border, each filled pixel takes the distance-weighted mean of the known
     /// pixels around it, then relaxation sweeps smooth it: the border's colours blend
     /// across the hole without streaks or texture.
+    #[cfg_attr(feature = "clap", value(help = "Blend the border's colours smoothly across the hole"))]
     Smooth,
 }
 

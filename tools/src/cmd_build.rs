@@ -15,62 +15,6 @@ use crate::args::{parse_vec3, Range};
 use crate::output::Output;
 use crate::Failure;
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-enum PresetArg {
-    /// uint16 PNG, metres = value / 4000, 0 invalid
-    Matterport3d,
-    /// uint16 PNG, value / 512, 65535 invalid, Euclidean
-    Stanford2d3ds,
-    /// uint16 PNG in millimetres, 0 invalid
-    Structured3d,
-    /// float EXR in metres
-    Pano3d,
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum KindArg {
-    Ray,
-    Z,
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-enum ConventionArg {
-    /// POMC / thesis: azimuth 2πu from +X towards +Y, +Z up
-    Thesis,
-    /// Blender equirect camera: azimuth π(1−2u), centre column along +X
-    Blender,
-    /// OpenEXR lat-long: longitude decreasing, +Y up
-    Openexr,
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum ClassifyArg {
-    /// Occlusion levels (and depth bands) only
-    Depth,
-    /// Also split the background into floor, ceiling and walls
-    Geometry,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-enum ColourSpaceArg {
-    /// sRGB for 8/16-bit images, linear for float ones
-    Auto,
-    /// sRGB-encoded values
-    Srgb,
-    /// Linear values
-    Linear,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-enum FillColourArg {
-    /// Continue the hidden surface's texture: patches matched in its plane
-    Exemplar,
-    /// Copy the nearest visible pixel (fast; textures come out as streaks)
-    Nearest,
-    /// Blend the border's colours smoothly across the hole
-    Smooth,
-}
-
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Colour panorama (PNG, JPEG, EXR, HDR), equirect 2:1 or 3×2 cube map.
@@ -79,7 +23,7 @@ pub struct Args {
     /// Encoding of an 8/16-bit colour image: auto (sRGB for PNG/JPEG, linear for EXR/HDR), srgb or
     /// linear. Layers are linear; sRGB is decoded on read.
     #[arg(long, value_enum, default_value = "auto")]
-    colour_space: ColourSpaceArg,
+    colour_space: ColourSpace,
     /// Depth panorama: float EXR (channel Z, or any single channel) or 16-bit PNG.
     #[arg(long)]
     depth: PathBuf,
@@ -91,7 +35,7 @@ pub struct Args {
     output: PathBuf,
     /// Dataset preset for the depth encoding.
     #[arg(long, value_enum)]
-    preset: Option<PresetArg>,
+    preset: Option<Preset>,
     /// Metres per stored depth unit (16-bit PNG); overrides the preset.
     #[arg(long, value_parser = Range::POSITIVE.parser())]
     depth_scale: Option<f64>,
@@ -100,10 +44,10 @@ pub struct Args {
     depth_invalid: Option<f64>,
     /// Depth is distance along the ray (ray) or planar depth per cube face (z).
     #[arg(long, value_enum, default_value = "ray")]
-    depth_kind: KindArg,
+    depth_kind: DepthKind,
     /// Azimuth convention of the input, recorded in the manifest's LocalToWorld.
     #[arg(long, value_enum, default_value = "thesis")]
-    convention: ConventionArg,
+    convention: Convention,
     /// Position of the panorama centre in the world, metres: x,y,z.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     center: Option<DVec3>,
@@ -121,7 +65,7 @@ pub struct Args {
     fill_margin: f64,
     /// How the fill behind occluders is coloured.
     #[arg(long, value_enum, default_value = "exemplar")]
-    fill_colour: FillColourArg,
+    fill_colour: FillColour,
     /// Do not split at folds (depth discontinuities only).
     #[arg(long)]
     no_fold: bool,
@@ -130,7 +74,7 @@ pub struct Args {
     depth_bands: Vec<f64>,
     /// Layer classification: by depth only, or also floor / ceiling / walls (thesis 6.2.4.2).
     #[arg(long, value_enum, default_value = "depth")]
-    classify: ClassifyArg,
+    classify: Classify,
     /// Write normals into the layers.
     #[arg(long)]
     normals: bool,
@@ -179,31 +123,26 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         check_report_path(p)?;
     }
     let start = Instant::now();
-    let mut enc = args.preset.map(preset).map(Preset::encoding).unwrap_or_default();
+    let mut enc = args.preset.map(Preset::encoding).unwrap_or_default();
     if let Some(s) = args.depth_scale {
         enc.scale = Some(s);
     }
     if let Some(i) = args.depth_invalid {
         enc.invalid = Some(i);
     }
-    enc.kind = if args.depth_kind == KindArg::Z { DepthKind::Z } else { DepthKind::Ray };
-    let space = match args.colour_space {
-        ColourSpaceArg::Auto => ColourSpace::Auto,
-        ColourSpaceArg::Srgb => ColourSpace::Srgb,
-        ColourSpaceArg::Linear => ColourSpace::Linear,
-    };
+    enc.kind = args.depth_kind;
     let settings = BuildSettings {
-        colour_space: space,
+        colour_space: args.colour_space,
         depth: enc,
         normals_in: args.normals_in.clone(),
-        convention: convention(args.convention),
+        convention: args.convention,
         center: args.center,
         options: build_options(&args),
         save: SaveOptions { pack: !args.no_pack, ..SaveOptions::default() },
         limits: args.max_pixels.map(ReadLimits::with_max_pixels).unwrap_or_default(),
     };
     // Reading, the build's stages (`fill colour` unless nearest), writing: a bar with an ETA.
-    let stages = 9 - (args.fill_colour == FillColourArg::Nearest) as u64;
+    let stages = 9 - (args.fill_colour == FillColour::Nearest) as u64;
     let bar = out.progress(stages, "reading");
     let progress = |stage: &str| {
         bar.set_message(stage.to_string());
@@ -255,35 +194,14 @@ fn build_options(args: &Args) -> BuildOptions {
         infinity: !args.no_infinity,
         drop_mixed: !args.keep_mixed,
         soft_edges: args.soft_edges,
-        classify: if args.classify == ClassifyArg::Geometry { Classify::Geometry } else { Classify::Depth },
+        classify: args.classify,
         margin_px: args.fill_margin,
-        fill_colour: match args.fill_colour {
-            FillColourArg::Exemplar => FillColour::Exemplar,
-            FillColourArg::Nearest => FillColour::Nearest,
-            FillColourArg::Smooth => FillColour::Smooth,
-        },
+        fill_colour: args.fill_colour,
         ..BuildOptions::default()
     };
     options.segment.edges.jump = args.jump;
     options.segment.edges.fold_deg = (!args.no_fold).then_some(args.fold_deg);
     options
-}
-
-fn preset(p: PresetArg) -> Preset {
-    match p {
-        PresetArg::Matterport3d => Preset::Matterport3d,
-        PresetArg::Stanford2d3ds => Preset::Stanford2d3ds,
-        PresetArg::Structured3d => Preset::Structured3d,
-        PresetArg::Pano3d => Preset::Pano3d,
-    }
-}
-
-fn convention(c: ConventionArg) -> Convention {
-    match c {
-        ConventionArg::Thesis => Convention::Thesis,
-        ConventionArg::Blender => Convention::Blender,
-        ConventionArg::Openexr => Convention::OpenExr,
-    }
 }
 
 #[cfg(test)]

@@ -20,15 +20,6 @@ enum CameraArg {
     Equirect,
 }
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum MethodArg {
-    /// Adaptive 8-neighbourhood point splatting (thesis Alg. 10)
-    Splat,
-    /// Z-buffered rasterisation of each layer's adaptive quadtree mesh (thesis 7.4); a mesh stored
-    /// with `pomc mesh --store` is decoded instead of rebuilt
-    Mesh,
-}
-
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Panorama directory or manifest.
@@ -54,7 +45,7 @@ pub struct Args {
     #[arg(long, value_parser = parse_size)]
     size: Option<(usize, usize)>,
     #[arg(long, value_enum, default_value = "splat")]
-    method: MethodArg,
+    method: RenderMethod,
     /// Also write the distance from the eye (EXR, channel Z; +inf for infinity content, -1 in holes).
     #[arg(long)]
     depth: Option<PathBuf>,
@@ -178,13 +169,10 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let shots: &[Shot] = shots.as_deref().unwrap_or(&single);
     // Every camera is checked before the layers are read.
     let cams: Vec<Camera> = shots.iter().map(|s| camera(&args, *s)).collect::<Result<_, _>>()?;
-    if args.method == MethodArg::Mesh {
+    if args.method == RenderMethod::Mesh {
         bar.set_message("reading and meshing");
     }
-    let method = match args.method {
-        MethodArg::Splat => RenderMethod::Splat,
-        MethodArg::Mesh => RenderMethod::Mesh,
-    };
+    let method = args.method;
     let renderer = Renderer::new(&pano, method)?;
     let (_, mesh_s) = renderer.setup_seconds();
     let read_s = start.elapsed().as_secs_f64() - mesh_s.unwrap_or(0.0);
