@@ -39,6 +39,21 @@ pub struct Channel {
     pub data: Vec<f32>,
 }
 
+/// Counts over a layer's pixels ([`LayerImage::stats`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct LayerStats {
+    /// Pixels inside the layer's domain (surface, infinite or unknown).
+    pub domain_pixels: usize,
+    /// Nearest finite depth, metres (`None` without one).
+    pub depth_min: Option<f32>,
+    /// Farthest finite depth, metres (`None` without one).
+    pub depth_max: Option<f32>,
+    /// Pixels of content infinitely far away.
+    pub infinite_pixels: usize,
+    /// Pixels in the domain whose depth is unknown.
+    pub unknown_pixels: usize,
+}
+
 /// What a layer says about one direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Sample {
@@ -119,6 +134,25 @@ impl LayerImage {
         self.channel("A").map(|c| c.data.as_slice())
     }
 
+    /// What the layer holds, pixel by pixel: its domain, the range of its finite depths, and its
+    /// infinitely far and unknown pixels (`pomc info --stats`).
+    pub fn stats(&self) -> LayerStats {
+        let mut s = LayerStats::default();
+        for i in 0..self.width * self.height {
+            match self.sample(i) {
+                Sample::Outside => continue,
+                Sample::Surface(d) => {
+                    s.depth_min = Some(s.depth_min.map_or(d, |m: f32| m.min(d)));
+                    s.depth_max = Some(s.depth_max.map_or(d, |m: f32| m.max(d)));
+                }
+                Sample::Infinite => s.infinite_pixels += 1,
+                Sample::Unknown => s.unknown_pixels += 1,
+            }
+            s.domain_pixels += 1;
+        }
+        s
+    }
+
     /// Classification of pixel index `i` (row-major). Without a `Z` channel every pixel is
     /// [`Sample::Unknown`] where covered.
     pub fn sample(&self, i: usize) -> Sample {
@@ -156,6 +190,17 @@ impl LayerImage {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn stats_count_each_kind_of_pixel() {
+        let mut img = LayerImage::new(3, 2);
+        img.set_channel("Z", SampleType::F32, vec![-1.0, f32::INFINITY, 2.5, f32::NAN, 0.75, -1.0]);
+        let s = img.stats();
+        assert_eq!((s.domain_pixels, s.infinite_pixels, s.unknown_pixels), (4, 1, 1));
+        assert_eq!((s.depth_min, s.depth_max), (Some(0.75), Some(2.5)));
+        img.set_channel("Z", SampleType::F32, vec![f32::INFINITY; 6]);
+        assert_eq!((img.stats().depth_min, img.stats().infinite_pixels), (None, 6));
+    }
 
     #[test]
     fn classify_encodings() {

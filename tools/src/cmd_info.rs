@@ -2,7 +2,6 @@
 
 use std::path::{Path, PathBuf};
 
-use pomc::layer::Sample;
 use pomc::layer_io::{self, ReadLimits};
 use pomc::manifest::{LayerSource, Transform};
 use pomc::panorama::Panorama;
@@ -101,35 +100,25 @@ fn panorama_info(path: &Path, stats: bool, out: Output) -> Result<u8, Failure> {
         }
         if stats {
             let img = pano.read_layer(k, &ReadLimits::default())?;
-            let (mut lo, mut hi, mut inf, mut unknown, mut inside) =
-                (f32::INFINITY, 0f32, 0usize, 0usize, 0usize);
-            for i in 0..img.width * img.height {
-                match img.sample(i) {
-                    Sample::Outside => continue,
-                    Sample::Surface(d) => {
-                        lo = lo.min(d);
-                        hi = hi.max(d);
-                    }
-                    Sample::Infinite => inf += 1,
-                    Sample::Unknown => unknown += 1,
-                }
-                inside += 1;
-            }
+            let st = img.stats();
             let channels: Vec<_> = img.channels.iter().map(|c| c.name.clone()).collect();
-            let depth =
-                if lo <= hi { format!("depth {lo:.3}–{hi:.3} m") } else { "no finite depth".to_string() };
+            let depth = match (st.depth_min, st.depth_max) {
+                (Some(lo), Some(hi)) => format!("depth {lo:.3}–{hi:.3} m"),
+                _ => "no finite depth".to_string(),
+            };
             let names = channels.join(",");
             line += &format!(
-                " {}x{} domain {:.2}%, {depth}, {inf} infinite, {unknown} unknown, channels {names}",
+                " {}x{} domain {:.2}%, {depth}, {} infinite, {} unknown, channels {names}",
                 img.width,
                 img.height,
-                100.0 * inside as f64 / (img.width * img.height).max(1) as f64
+                100.0 * st.domain_pixels as f64 / (img.width * img.height).max(1) as f64,
+                st.infinite_pixels,
+                st.unknown_pixels
             );
             row["stats"] = serde_json::json!({
-                "canvas": [img.width, img.height], "domain_pixels": inside,
-                "depth_min": if inside > inf + unknown { Some(lo) } else { None },
-                "depth_max": if inside > inf + unknown { Some(hi) } else { None },
-                "infinite_pixels": inf, "unknown_pixels": unknown, "channels": channels,
+                "canvas": [img.width, img.height], "domain_pixels": st.domain_pixels,
+                "depth_min": st.depth_min, "depth_max": st.depth_max,
+                "infinite_pixels": st.infinite_pixels, "unknown_pixels": st.unknown_pixels, "channels": channels,
             });
         }
         out.say(line);
