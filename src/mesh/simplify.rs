@@ -1,41 +1,8 @@
-//! Second stage (not part of the `.pomcmesh` encoding): greedy half-edge collapses of the stitched
-//! quadtree mesh, each accepted only when the true 3D error stays within the tolerance.
-//!
-//! A quadtree has to refine down to single cells along every crease that is not axis-aligned on the
-//! lattice; a free triangulation does not. This stage removes vertices of the quadtree mesh one at a
-//! time by collapsing an edge `v → u` onto the existing vertex `u` (*half-edge collapse*), so every
-//! surviving vertex is still a pixel centre with its own sample (texture coordinates stay exact).
-//!
-//! - **Order**: Garland–Heckbert quadrics of the planes around each vertex, in relative units (plane
-//!   offsets divided by the distance, weights the solid angle), plus a tiny term preferring short edges;
-//!   a min-heap with ties broken by `(v, u)`: the output depends only on the input mesh.
-//! - **Acceptance**: a collapse is applied only when every triangle it creates
-//!   1. keeps its orientation as seen from the centre and is not edge-on (`det[d0, d1, d2] < −1e-12` on
-//!      unit rays: no flip, no fold, no ill-conditioned hit),
-//!   2. joins no two vertices across a depth jump, and respects the `max_angle` extent cap,
-//!   3. leaves every valid pixel whose ray it hits within relative distance `max_error` of its sample
-//!      along that ray — the error of [`super::accuracy::measure`], checked exactly: on a cube face a
-//!      triangle of one lattice covers exactly the lattice points of its lattice triangle (central
-//!      projection keeps lines straight) and the hit is the ray/plane intersection; every other triangle
-//!      (equirect, stitching strips) is ray-cast over its canvas candidates;
-//!
-//!   and the edge passes the link condition (the mesh stays a 2-manifold, watertight where it was).
-//! - **Bounds instead of scans**: every triangle carries an upper bound of its error (exact after a
-//!   scan). A collapse whose star lies within relative δ of one plane only multiplies the star's bound
-//!   by `(1+δ)/(1−δ)` (along any ray a triangle covers, its inverse hit distance is a positive
-//!   combination of its vertices'); otherwise each pair (new triangle, old triangle) of one cube face
-//!   is bounded by the ratio of their hit distances at the corners of their intersection polygon (a
-//!   linear-fractional function of the lattice position), and only pairs whose planes differ by more
-//!   than `PAIR_SKIP · E` there are scanned, over their intersection only.
-//! - **Constraints**: poles, lattice corners and vertices whose star is not a single fan never move; a
-//!   vertex on a lattice side (cube face edge, equirect seam column or pole row) only collapses onto a
-//!   vertex of the same side, so stitching strips stay pixel-free strips; a vertex on the mesh boundary
-//!   (domain border, depth jump) only collapses along the boundary onto a neighbour in a straight lattice
-//!   line with it (a meridian on the equirect), so the covered region never changes.
-//!
-//! Cube faces — or four vertical bands of the equirect, cut at columns no triangle crosses — are
-//! simplified in parallel first (interior vertices only; a part's collapses never touch another part's
-//! triangles), then the whole mesh once more from the vertices left (sides, band boundaries).
+//! Second stage (not part of the `.pomcmesh` encoding): greedy half-edge collapses `v → u` of the
+//! stitched quadtree mesh, ordered by relative Garland–Heckbert quadrics, each accepted only when every
+//! pixel its new triangles cover stays within the tolerance along its ray, nothing flips or crosses a
+//! jump, and the mesh stays a watertight 2-manifold. Constraints, error bounds and parallel parts:
+//! `docs/mesh.md`, "Simplification".
 
 // `!(x <= limit)` is deliberate throughout: a NaN (an invalid pixel, a degenerate plane) must fail.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

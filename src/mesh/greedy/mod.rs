@@ -1,23 +1,9 @@
 //! Greedy insertion meshing of a *clean* cube-face lattice (every pixel valid, no depth jump): the
 //! Garland–Heckbert (1995) refinement that Delatin/hmm use on heightmaps, driven by pomc's exact 3D
-//! error instead of a height difference.
-//!
-//! Start from the lattice's two corner triangles; repeatedly take the triangle with the largest error,
-//! insert its worst lattice point as a vertex, restore the Delaunay property by edge flips, and rescan
-//! the triangles that changed; stop when no triangle's error exceeds the tolerance. Vertices are pixel
-//! centres (exact samples, exact texture coordinates), like the quadtree's.
-//!
-//! **Why it is exact.** On a cube face the lattice ray `r` is affine in the lattice position, so the
-//! inverse hit distance `w = 1/λ` (point `λ·r`) of a planar triangle is affine over its lattice
-//! triangle, and a planar triangle covers exactly the lattice points of its lattice triangle (central
-//! projection keeps lines straight). A pixel's relative error along its ray is then
-//! `|λ_mesh − λ|/λ = |w − w_mesh| / w_mesh`: the scan below measures exactly what
-//! [`super::accuracy::measure`] reports, pixel by pixel. Predicates (orientation, in-circle) are exact
-//! integer arithmetic.
-//!
-//! `max_angle` (texture distortion, thesis 7.4.3): a triangle whose vertex rays span more than the cap
-//! is split at the lattice point nearest the middle of its longest edge, so the output never has such
-//! a triangle unless it holds no lattice point to split at.
+//! error instead of a height difference. Start from two corner triangles, insert the worst pixel of the
+//! worst triangle, flip edges by error (Delaunay below `E/4`), rescan what changed; a triangle wider
+//! than `max_angle` is split at its widest edge. Why the scan is exact: `docs/mesh.md`, "Greedy
+//! insertion".
 
 mod delaunay;
 mod queue;
