@@ -50,41 +50,30 @@ fn scene(w: usize, h: usize) -> LayerImage {
     img
 }
 
-/// Worst case for the cutter: uniform noise, 5 % occupied (every pixel its own component).
-fn noise(w: usize, h: usize) -> LayerImage {
-    let mut state = 12345u64;
-    let z: Vec<f32> = (0..w * h)
-        .map(|_| {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            if (state >> 33) % 100 < 5 {
-                1.0
-            } else {
-                -1.0
-            }
-        })
-        .collect();
+/// A depth-only layer, inside where `inside(x, y)`.
+fn z_layer(w: usize, h: usize, mut inside: impl FnMut(usize, usize) -> bool) -> LayerImage {
+    let z = (0..w * h).map(|i| if inside(i % w, i / w) { 1.0 } else { -1.0 }).collect();
     let mut img = LayerImage::new(w, h);
     img.set_channel("Z", SampleType::F32, z);
     img
 }
 
+/// Worst case for the cutter: uniform noise, 5 % occupied (every pixel its own component).
+fn noise(w: usize, h: usize) -> LayerImage {
+    let mut state = 12345u64;
+    z_layer(w, h, |_, _| {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 33) % 100 < 5
+    })
+}
+
 /// A large disc and a large triangle: many cuts each saving a little.
 fn big_shapes(w: usize, h: usize) -> LayerImage {
-    let z: Vec<f32> = (0..w * h)
-        .map(|i| {
-            let (x, y) = ((i % w) as f64, (i / w) as f64);
-            let disc = (x - 1100.0).powi(2) + (y - 1024.0).powi(2) <= 1000.0f64.powi(2);
-            let triangle = x > 2200.0 && y > 100.0 && (x - 2200.0) < (y - 100.0);
-            if disc || triangle {
-                1.0
-            } else {
-                -1.0
-            }
-        })
-        .collect();
-    let mut img = LayerImage::new(w, h);
-    img.set_channel("Z", SampleType::F32, z);
-    img
+    z_layer(w, h, |x, y| {
+        let (x, y) = (x as f64, y as f64);
+        let disc = (x - 1100.0).powi(2) + (y - 1024.0).powi(2) <= 1000.0f64.powi(2);
+        disc || (x > 2200.0 && y > 100.0 && (x - 2200.0) < (y - 100.0))
+    })
 }
 
 fn packing(c: &mut Criterion) {

@@ -192,6 +192,34 @@ fn check_options(o: &SplatOptions) -> Result<(), RenderError> {
     Ok(())
 }
 
+/// Every layer's canvas matches its mapping and holds R, G, B and Z (both methods).
+pub(crate) fn check_layers(layers: &[RenderLayer]) -> Result<(), RenderError> {
+    for (index, l) in layers.iter().enumerate() {
+        if (l.image.width, l.image.height) != (l.mapping.width(), l.mapping.height()) {
+            return Err(RenderError::LayerSize {
+                index,
+                width: l.image.width,
+                height: l.image.height,
+                kind: l.mapping.kind(),
+            });
+        }
+        for channel in ["R", "G", "B", "Z"] {
+            if l.image.channel(channel).is_none() {
+                return Err(RenderError::LayerChannel { index, channel });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Both methods render through a LocalToWorld that must be finite and invertible.
+fn check_local_to_world(local_to_world: DMat4) -> Result<(), RenderError> {
+    if !local_to_world.is_finite() || local_to_world.determinant() == 0.0 {
+        return Err(RenderError::BadCamera("LocalToWorld is not an invertible finite transform".into()));
+    }
+    Ok(())
+}
+
 /// Render `layers` (placed in the world by `local_to_world`) into `camera`.
 pub fn render(
     layers: &[RenderLayer],
@@ -200,21 +228,12 @@ pub fn render(
     o: &SplatOptions,
 ) -> Result<Rendered, RenderError> {
     check_options(o)?;
-    if !local_to_world.is_finite() || local_to_world.determinant() == 0.0 {
-        return Err(RenderError::BadCamera("LocalToWorld is not an invertible finite transform".into()));
-    }
+    check_local_to_world(local_to_world)?;
+    check_layers(layers)?;
     let planes = layers
         .iter()
         .enumerate()
         .map(|(index, l)| {
-            if (l.image.width, l.image.height) != (l.mapping.width(), l.mapping.height()) {
-                return Err(RenderError::LayerSize {
-                    index,
-                    width: l.image.width,
-                    height: l.image.height,
-                    kind: l.mapping.kind(),
-                });
-            }
             splat::LayerPlanes::new(l.image, l.mapping)
                 .map_err(|channel| RenderError::LayerChannel { index, channel })
         })

@@ -16,7 +16,8 @@ use crate::panorama::Panorama;
 use crate::render::{RenderError, RenderLayer};
 
 use super::shade::Planes;
-use super::{check_layers, check_options, mesh_error, MeshOptions};
+use super::{check_options, mesh_error, MeshOptions};
+use crate::render::check_layers;
 
 /// Mesh every layer with `params` (layers in parallel; [`mesh::mesh_layer`]) and set up what the
 /// rasteriser draws of it ([`LayerGeometry`], with `o.jump`).

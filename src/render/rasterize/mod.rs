@@ -32,7 +32,7 @@ use serde::Serialize;
 
 use super::camera::Camera;
 use super::frame::Frame;
-use super::{RenderError, RenderLayer, Stage};
+use super::{check_layers, RenderError, RenderLayer, Stage};
 use crate::layer::OUTSIDE_DEPTH;
 use crate::mapping::Mapping;
 use crate::mesh::{self, MeshParams};
@@ -119,25 +119,6 @@ fn check_options(o: &MeshOptions) -> Result<(), RenderError> {
     Ok(())
 }
 
-fn check_layers(layers: &[RenderLayer]) -> Result<(), RenderError> {
-    for (index, l) in layers.iter().enumerate() {
-        if (l.image.width, l.image.height) != (l.mapping.width(), l.mapping.height()) {
-            return Err(RenderError::LayerSize {
-                index,
-                width: l.image.width,
-                height: l.image.height,
-                kind: l.mapping.kind(),
-            });
-        }
-        for channel in ["R", "G", "B", "Z"] {
-            if l.image.channel(channel).is_none() {
-                return Err(RenderError::LayerChannel { index, channel });
-            }
-        }
-    }
-    Ok(())
-}
-
 fn mesh_error(index: usize, e: mesh::MeshError) -> RenderError {
     match e {
         mesh::MeshError::Params(m) => RenderError::BadOptions(format!("mesh parameters: {m}")),
@@ -155,9 +136,7 @@ pub fn render_mesh(
     o: &MeshOptions,
 ) -> Result<MeshRendered, RenderError> {
     check_options(o)?;
-    if !local_to_world.is_finite() || local_to_world.determinant() == 0.0 {
-        return Err(RenderError::BadCamera("LocalToWorld is not an invertible finite transform".into()));
-    }
+    super::check_local_to_world(local_to_world)?;
     check_layers(layers)?;
     if meshes.len() != layers.len() {
         return Err(RenderError::BadOptions(format!(
