@@ -4,20 +4,22 @@
 //! directions, each a continuous piece of surface (colour, distance along the ray, optional normals…).
 //! This crate is the reference implementation of the POMC 1 format described in `spec/`.
 //!
-//! Module tree mirrors the format:
-//! - [`mapping`]: pixel ↔ direction for the equirect and 3×2 cube-map parametrisations;
+//! Module tree mirrors the format (`docs/api.md` has the table and what is public):
+//! - [`mapping`]: pixel ↔ direction for the equirect and 3×2 cube-map parametrisations, neighbours;
 //! - [`resample`]: sphere-aware sampling and equirect ↔ cube conversion;
 //! - [`manifest`]: the XML manifest (`panorama.xml`), with source positions for diagnostics;
 //! - [`layer`]: in-memory layer images and the depth/coverage encodings;
 //! - [`layer_io`]: reading and writing layer files (native EXR and the thesis PNG+EXR form);
 //! - [`pack`]: patch-packed compression (patch table + atlas);
-//! - [`panorama`]: a whole panorama directory (manifest + layers);
-//! - [`validate`]: the validator and its stable codes;
-//! - [`raster`]: the plain interleaved image container used everywhere;
-//! - [`render`]: views from a displaced camera by point splatting (spec §9);
+//! - [`panorama`]: a whole panorama directory (manifest + layers), written as a whole;
+//! - [`validate`] and [`codes`]: the validator and its stable codes;
 //! - [`build`]: layers from a plain RGB-D panorama (spec §7);
 //! - [`mesh`]: adaptive quadtree meshes and their export (spec §8);
-//! - [`fsutil`]: atomic writes and bounded reads;
+//! - [`render`]: views from a displaced camera, by point splatting or mesh rasterisation (spec §9);
+//! - [`viewer`]: the browser viewer's static site;
+//! - [`image_io`] and [`colour`]: plain images in and out, sRGB ↔ linear at the edges;
+//! - [`raster`]: the plain interleaved image container; [`fsutil`]: atomic writes and bounded reads;
+//! - [`error`]: the crate's error type, each with a stable code;
 //! - [`jobs`] and [`prelude`]: the main jobs, one call each, with the command line's defaults.
 
 #![forbid(unsafe_code)]
