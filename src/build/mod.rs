@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::layer::{LayerImage, SampleType, OUTSIDE_DEPTH};
-use crate::manifest::{LayerDecl, Manifest, MappingDecl, MappingKind as DeclKind, Role, Transform};
+use crate::manifest::{LayerDecl, Manifest, MappingDecl, Role, Transform};
 use crate::mapping::Neighbours;
 use crate::mapping::{AnyMapping, Mapping, MappingKind};
 pub use edges::EdgeOptions;
@@ -702,12 +702,7 @@ pub fn manifest(
     Manifest {
         version: "1".into(),
         transforms,
-        mapping: MappingDecl {
-            kind: match kind {
-                MappingKind::Equirect => DeclKind::LatLong,
-                MappingKind::Cube3x2 => DeclKind::Cube,
-            },
-        },
+        mapping: MappingDecl { kind: kind.into() },
         freedom_radius,
         layers,
     }

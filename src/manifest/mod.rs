@@ -61,6 +61,26 @@ pub enum MappingKind {
     Cube,
 }
 
+/// The canvas parametrisation a declared mapping names.
+impl From<MappingKind> for crate::mapping::MappingKind {
+    fn from(kind: MappingKind) -> Self {
+        match kind {
+            MappingKind::LatLong => crate::mapping::MappingKind::Equirect,
+            MappingKind::Cube => crate::mapping::MappingKind::Cube3x2,
+        }
+    }
+}
+
+/// How a manifest declares a canvas parametrisation.
+impl From<crate::mapping::MappingKind> for MappingKind {
+    fn from(kind: crate::mapping::MappingKind) -> Self {
+        match kind {
+            crate::mapping::MappingKind::Equirect => MappingKind::LatLong,
+            crate::mapping::MappingKind::Cube3x2 => MappingKind::Cube,
+        }
+    }
+}
+
 impl MappingKind {
     /// The name written by [`Manifest::to_xml`].
     pub fn primary_name(self) -> &'static str {

@@ -53,10 +53,13 @@ pub trait Mapping: Send + Sync {
 
 /// Which parametrisation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum MappingKind {
     /// Equirect (lat-long) 2:1 canvas, [`Equirect`].
+    #[cfg_attr(feature = "clap", value(help = "Equirect (lat-long) 2:1 canvas"))]
     Equirect,
     /// The thesis's 3×2 cube map, [`Cube3x2`].
+    #[cfg_attr(feature = "clap", value(name = "cube", help = "3×2 cube map"))]
     Cube3x2,
 }
 

@@ -35,7 +35,6 @@ pub use splat::{SplatCounts, SplatOptions};
 
 use crate::layer::LayerImage;
 use crate::layer_io::ReadLimits;
-use crate::manifest::MappingKind as DeclKind;
 use crate::mapping::{AnyMapping, Mapping, MappingKind};
 use crate::panorama::Panorama;
 
@@ -260,17 +259,9 @@ pub fn render(
     Ok(Rendered { frame, stats })
 }
 
-/// The mapping kind a manifest declares.
-pub fn mapping_kind(decl: DeclKind) -> MappingKind {
-    match decl {
-        DeclKind::LatLong => MappingKind::Equirect,
-        DeclKind::Cube => MappingKind::Cube3x2,
-    }
-}
-
 /// Read every layer of a panorama as full canvases with their mappings, in manifest order.
 pub fn read_layers(pano: &Panorama, limits: &ReadLimits) -> crate::Result<Vec<(LayerImage, AnyMapping)>> {
-    let kind = mapping_kind(pano.manifest.mapping.kind);
+    let kind = MappingKind::from(pano.manifest.mapping.kind);
     if pano.manifest.layers.is_empty() {
         return Err(RenderError::NoLayers.into());
     }

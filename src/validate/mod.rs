@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::continuity;
 use crate::layer::{LayerImage, Sample, SampleType};
 use crate::layer_io::{self, ReadLimits};
-use crate::manifest::{self, LayerDecl, LayerSource, MappingKind as DeclKind};
+use crate::manifest::{self, LayerDecl, LayerSource};
 use crate::mapping::{opposite, AnyMapping, Mapping, MappingKind, Neighbours};
 use crate::pack;
 use crate::panorama::{self, Panorama};
@@ -75,10 +75,7 @@ pub fn validate(path: &Path, options: &ValidateOptions) -> Result<Report, crate:
     };
     let dir = manifest_path.parent().map(Path::to_path_buf).unwrap_or_default();
     let pano = Panorama { dir, manifest_path: manifest_path.clone(), manifest };
-    let kind = match pano.manifest.mapping.kind {
-        DeclKind::LatLong => MappingKind::Equirect,
-        DeclKind::Cube => MappingKind::Cube3x2,
-    };
+    let kind: MappingKind = pano.manifest.mapping.kind.into();
 
     let mut domains: Vec<(AnyMapping, Vec<bool>)> = Vec::new();
     let mut all_layers_read = true;

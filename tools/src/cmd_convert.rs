@@ -16,13 +16,6 @@ use crate::args::Range;
 use crate::output::Output;
 use crate::Failure;
 
-/// Target mapping.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum To {
-    Cube,
-    Equirect,
-}
-
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Input: PNG (8/16-bit), JPEG, EXR or HDR image, a layer EXR (one with a `Z` channel), or a
@@ -35,7 +28,7 @@ pub struct Args {
     output: PathBuf,
     /// Target mapping.
     #[arg(long, value_enum)]
-    to: To,
+    to: pomc::mapping::MappingKind,
     /// Cube face size in pixels (default: a quarter of the equirect width, ffmpeg's default).
     #[arg(long)]
     face_size: Option<usize>,
@@ -225,14 +218,14 @@ fn plan(args: &Args, w: usize, h: usize) -> Result<(Canvas, Canvas, usize), Fail
         })?),
     };
     let (to, size) = match args.to {
-        To::Cube => {
+        pomc::mapping::MappingKind::Cube3x2 => {
             let n = args.face_size.unwrap_or(match in_face {
                 Some(n) => n,
                 None => w / 4,
             });
             (Canvas::Cube(args.layout), n)
         }
-        To::Equirect => {
+        pomc::mapping::MappingKind::Equirect => {
             let width = args.width.unwrap_or(match in_face {
                 Some(n) => 4 * n,
                 None => w,
@@ -324,10 +317,7 @@ fn run_panorama(args: &Args, out: Output, total: Instant) -> Result<u8, Failure>
         ));
     }
     let pano = Panorama::open(&args.input)?;
-    let target = match args.to {
-        To::Cube => MappingKind::Cube,
-        To::Equirect => MappingKind::LatLong,
-    };
+    let target = MappingKind::from(args.to);
     if pano.manifest.mapping.kind == target {
         return Err(fail(
             "CONVERT_USAGE",

@@ -121,10 +121,7 @@ struct Layer {
 }
 
 fn mapping_of(pano: &Panorama, image: &LayerImage) -> Result<AnyMapping, Failure> {
-    let kind = match pano.manifest.mapping.kind {
-        pomc::manifest::MappingKind::LatLong => MappingKind::Equirect,
-        pomc::manifest::MappingKind::Cube => MappingKind::Cube3x2,
-    };
+    let kind: MappingKind = pano.manifest.mapping.kind.into();
     AnyMapping::new(kind, image.width, image.height).map_err(|e| fail("MESH_CANVAS_MISMATCH", e.to_string()))
 }
 
