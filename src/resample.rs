@@ -1013,26 +1013,14 @@ pub fn sample_dir<T: Texel>(
     }
     let d = crate::mapping::sanitize_dir(d).unwrap_or(DVec3::Z).normalize().as_vec3();
     let mut taps = Taps::EMPTY;
-    match canvas {
-        Canvas::Equirect => {
-            let (w, h) = (src.width(), src.height());
-            if w == 0 || w != 2 * h {
-                return Err(ResampleError::NotEquirect { width: w, height: h });
-            }
-            EquirectSource { w, h }.taps(d, opts.filter, &mut taps);
-            resolve(src.data(), ch, &taps, opts, out);
-        }
-        Canvas::Cube(layout) => {
-            let n = layout.face_size(src.width(), src.height())?;
-            let canonical;
-            let data = if layout == CubeLayout::Canonical {
-                src.data()
-            } else {
-                canonical = convert_layout(src, layout, CubeLayout::Canonical)?;
-                canonical.data()
-            };
-            CubeSource { n }.taps(d, opts.filter, &mut taps);
+    match Prepared::new(src, canvas, opts)? {
+        Prepared::Equirect(data, _, s) => {
+            s.taps(d, opts.filter, &mut taps);
             resolve(data, ch, &taps, opts, out);
+        }
+        Prepared::Cube(data, _, s) => {
+            s.taps(d, opts.filter, &mut taps);
+            resolve(data.data(), ch, &taps, opts, out);
         }
     }
     Ok(())

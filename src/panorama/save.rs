@@ -9,6 +9,7 @@
 //! temporary (a mount point, a read-only parent). There the files are written one by one (each
 //! atomically, the manifest last).
 
+use std::borrow::Cow;
 use std::collections::HashSet;
 use std::path::{Component, Path};
 
@@ -207,14 +208,9 @@ fn write_files(
     }
     let write_one = |k: usize, file: String, path: &Path| -> Result<Written, Error> {
         // A made layer is owned: its samples move into the encoder rather than being copied.
-        let made = match layers {
-            Layers::Given(_) => None,
-            Layers::Made(make) => Some(make(k)?),
-        };
-        let image = match (layers, &made) {
-            (_, Some(m)) => m,
-            (Layers::Given(given), None) => &given[k],
-            (Layers::Made(_), None) => unreachable!("made above"),
+        let image: Cow<LayerImage> = match layers {
+            Layers::Given(given) => Cow::Borrowed(&given[k]),
+            Layers::Made(make) => Cow::Owned(make(k)?),
         };
         let size = (image.width as u32, image.height as u32);
         let canvas = image.width as f64 * image.height as f64;
@@ -222,10 +218,11 @@ fn write_files(
         // threshold is not worth cutting up.
         let worth_packing = options.pack
             && (image.domain().iter().filter(|&&m| m).count() as f64) <= options.pack_threshold * canvas;
-        let packed = if worth_packing { Some(pack::pack_layer(image, &options.pack_options)?) } else { None };
+        let packed =
+            if worth_packing { Some(pack::pack_layer(&image, &options.pack_options)?) } else { None };
         let packing = match packed {
             Some(p) if (p.atlas_area() as f64) <= options.pack_threshold * canvas => {
-                drop(made);
+                drop(image);
                 let packing = Packing {
                     atlas_width: p.atlas.width as u32,
                     atlas_height: p.atlas.height as u32,
@@ -235,9 +232,9 @@ fn write_files(
                 Some(packing)
             }
             _ => {
-                match made {
-                    Some(m) => layer_io::write_exr_owned(path, m, &options.exr)?,
-                    None => layer_io::write_exr(path, image, &options.exr)?,
+                match image {
+                    Cow::Owned(m) => layer_io::write_exr_owned(path, m, &options.exr)?,
+                    Cow::Borrowed(b) => layer_io::write_exr(path, b, &options.exr)?,
                 }
                 None
             }
