@@ -213,20 +213,7 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
             (slot_of, rivals)
         },
     );
-    // Centroid of each surface of this layer (finite depths only).
-    let mut sums: Vec<(Vec3, u32)> = Vec::new();
-    for p in 0..n {
-        let (d, id) = (cx.depth[p], cx.surface[p] as usize);
-        if cx.layer_of[p] == k && d.is_finite() && d > 0.0 && cx.surface[p] != NONE {
-            if id >= sums.len() {
-                sums.resize(id + 1, (Vec3::ZERO, 0));
-            }
-            sums[id].0 += cx.dirs[p] * d;
-            sums[id].1 += 1;
-        }
-    }
-    let centroid: Vec<Vec3> =
-        sums.iter().map(|&(sum, c)| if c > 0 { sum / c as f32 } else { Vec3::NAN }).collect();
+    let surfaces = Surfaces::new(cx, k, &seeds);
     let mut fill = Fill::default();
     let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
     for q in order {
@@ -234,7 +221,7 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
         // Pixels only fold seeds reach have no rivals.
         let none = [NONE; RIVALS];
         let rival = rivals.get(slot_of[q] as usize).unwrap_or(&none);
-        let Some((s, d)) = pick_surface(cx, &centroid, own, rival, q) else { continue };
+        let Some((s, d)) = pick_surface(cx, &surfaces, own, rival, q) else { continue };
         let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
         fill.pixels.push(FillPixel { pixel: q, depth: d, rgb: cx.colour(c).to_array(), surface: s });
         fill.max_angle = fill.max_angle.max(angle_of[q]);
@@ -306,12 +293,12 @@ fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
 /// on the other's plane) leave the current choice.
 fn pick_surface(
     cx: &FillContext,
-    centroid: &[Vec3],
+    surfaces: &Surfaces,
     own: usize,
     rivals: &[u32],
     q: usize,
 ) -> Option<(usize, f32)> {
-    let mut best = continue_surface(cx, own, q).map(|d| (own, d));
+    let mut best = continue_surface(cx, surfaces, own, q).map(|d| (own, d));
     for &r in rivals {
         let b = r as usize;
         if r == u32::MAX {
@@ -334,7 +321,7 @@ fn pick_surface(
             (pa, pb)
         } else {
             // Pixels outside every segment (infinitely far) have no centroid.
-            let at = |p: usize| centroid.get(cx.surface[p] as usize).copied().unwrap_or(Vec3::NAN);
+            let at = |p: usize| surfaces.centroid.get(cx.surface[p] as usize).copied().unwrap_or(Vec3::NAN);
             (at(a), at(b))
         };
         if na == Vec3::ZERO || nb == Vec3::ZERO || !(pa + pb + ca + cb).is_finite() {
@@ -381,12 +368,81 @@ fn trusted_plane(cx: &FillContext, p: usize) -> bool {
     })
 }
 
+/// Per surface (segment) of a layer, the centroid of its points; per seed without a normal of
+/// its own, the normal its neighbourhood gives it.
+struct Surfaces {
+    centroid: Vec<Vec3>,
+    borrowed: HashMap<usize, Vec3>,
+}
+
+/// Steps around a seed within which its surface's normals stand in for its missing one.
+const BORROW_STEPS: usize = 3;
+/// Normals that must agree for a seed to borrow their plane.
+const BORROW_MIN: usize = 3;
+
+impl Surfaces {
+    /// The surfaces of layer `k` (finite depths only) and the normals `seeds` borrow.
+    fn new(cx: &FillContext, k: u32, seeds: &[usize]) -> Surfaces {
+        let mut sums: Vec<(Vec3, u32)> = Vec::new();
+        for p in 0..cx.nb.len() {
+            let (d, id) = (cx.depth[p], cx.surface[p] as usize);
+            if cx.layer_of[p] == k && d.is_finite() && d > 0.0 && cx.surface[p] != u32::MAX {
+                if id >= sums.len() {
+                    sums.resize(id + 1, (Vec3::ZERO, 0));
+                }
+                sums[id].0 += cx.dirs[p] * d;
+                sums[id].1 += 1;
+            }
+        }
+        let centroid = sums.iter().map(|&(sum, c)| if c > 0 { sum / c as f32 } else { Vec3::NAN }).collect();
+        let borrowed = seeds
+            .iter()
+            .filter(|&&s| cx.normals[s] == Vec3::ZERO && cx.depth[s].is_finite())
+            .filter_map(|&s| Some((s, borrow_normal(cx, s)?)))
+            .collect();
+        Surfaces { centroid, borrowed }
+    }
+}
+
+/// The normal of the plane around seed `s`, which has none of its own (the ground seen at a
+/// grazing angle): of its surface's normals a few steps around it, the mean of the largest set
+/// that agree (within [`SAME_PLANE_COS`]), when that is at least half of them. Pixels at the
+/// foot of an object carry normals blended with the object's; the majority is the plane.
+fn borrow_normal(cx: &FillContext, s: usize) -> Option<Vec3> {
+    let mut seen = vec![s];
+    let mut front = vec![s];
+    let mut normals = Vec::new();
+    for _ in 0..BORROW_STEPS {
+        let mut next = Vec::new();
+        for &p in &front {
+            for j in 0..8 {
+                let Some(q) = cx.nb.get(p, j) else { continue };
+                if seen.contains(&q) || cx.surface[q] != cx.surface[s] || !cx.links.continuous(p, j) {
+                    continue;
+                }
+                seen.push(q);
+                next.push(q);
+                if cx.normals[q] != Vec3::ZERO {
+                    normals.push(cx.normals[q]);
+                }
+            }
+        }
+        front = next;
+    }
+    let agreeing = |n: Vec3| normals.iter().filter(move |m| m.dot(n) >= SAME_PLANE_COS);
+    let best = normals.iter().copied().max_by_key(|&n| agreeing(n).count())?;
+    let count = agreeing(best).count();
+    (count >= BORROW_MIN && 2 * count >= normals.len()).then(|| agreeing(best).sum::<Vec3>().normalize())
+}
+
 /// Depth at pixel `q` of the surface of source pixel `s` continued behind the occluder: the ray
 /// through `q` meets the tangent plane at `s`. A ray that misses the plane, or meets it only far
 /// beyond `s` (the ground near its horizon, seen from a seed below), does not continue the
-/// surface: `None`, another surface or a farther layer shows there. A seed without a normal
-/// keeps its depth.
-fn continue_surface(cx: &FillContext, s: usize, q: usize) -> Option<f32> {
+/// surface: `None`, another surface or a farther layer shows there. A seed without a normal of
+/// its own (the ground seen at a grazing angle) borrows its neighbourhood's ([`borrow_normal`]) —
+/// else the far ground at the horizon would stand up as a wall of constant depth into the sky —
+/// and otherwise keeps its depth.
+fn continue_surface(cx: &FillContext, surfaces: &Surfaces, s: usize, q: usize) -> Option<f32> {
     let ds = cx.depth[s];
     if ds.is_infinite() {
         return Some(f32::INFINITY);
@@ -394,13 +450,21 @@ fn continue_surface(cx: &FillContext, s: usize, q: usize) -> Option<f32> {
     if cx.normals[s] != Vec3::ZERO {
         return plane_hit(cx, s, q);
     }
+    if let Some(&nrm) = surfaces.borrowed.get(&s) {
+        return plane_hit_with(cx, s, nrm, q);
+    }
     Some(ds.max(cx.depth[q] * 1.0001))
 }
 
 /// Where the ray through `q` meets the tangent plane at `s`, if it does so plausibly: behind
 /// the occluder at `q`, and not much farther than `s` (a plane seen nearly edge-on).
 fn plane_hit(cx: &FillContext, s: usize, q: usize) -> Option<f32> {
-    let (ds, nrm) = (cx.depth[s], cx.normals[s]);
+    plane_hit_with(cx, s, cx.normals[s], q)
+}
+
+/// [`plane_hit`] for the plane through `s` with normal `nrm`.
+fn plane_hit_with(cx: &FillContext, s: usize, nrm: Vec3, q: usize) -> Option<f32> {
+    let ds = cx.depth[s];
     if !ds.is_finite() || nrm == Vec3::ZERO {
         return None;
     }

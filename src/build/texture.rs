@@ -130,7 +130,7 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
         for i in part {
             by_surface.entry(tx.surface[fill.pixels[i as usize].surface]).or_default().push(i);
         }
-        groups.extend(by_surface.into_values());
+        groups.extend(by_surface.into_values().flat_map(|g| by_scale(fill, g)));
     }
     let alpha = (4.0 * std::f32::consts::PI / n as f32).sqrt();
     let copies: Vec<Transfer> =
@@ -164,6 +164,26 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
             f.rgb = c.to_array();
         }
     }
+}
+
+/// Depth ratio within which one part of the fill keeps one set of offsets.
+const SCALE_RATIO: f32 = 2.0;
+
+/// A part split by distance, when its depths span more than a couple of [`SCALE_RATIO`]s: the
+/// ground behind an object near the centre runs from the camera's feet to the horizon, and one
+/// offset fit for its far end would copy the near ground from texture the distance has blurred
+/// grey. Each band of depth gets offsets at its own scale.
+fn by_scale(fill: &Fill, group: Vec<u32>) -> Vec<Vec<u32>> {
+    let depth = |i: &u32| fill.pixels[*i as usize].depth;
+    let (lo, hi) = group.iter().map(depth).fold((f32::INFINITY, 0f32), |(lo, hi), d| (lo.min(d), hi.max(d)));
+    if !(lo > 0.0 && hi.is_finite() && hi > SCALE_RATIO * SCALE_RATIO * lo) {
+        return vec![group];
+    }
+    let mut bands: std::collections::BTreeMap<i32, Vec<u32>> = Default::default();
+    for i in group {
+        bands.entry((depth(&i) / lo).log(SCALE_RATIO).floor() as i32).or_default().push(i);
+    }
+    bands.into_values().collect()
 }
 
 /// Index into `fill.pixels` of every canvas pixel filled, `NONE` elsewhere.

@@ -287,3 +287,47 @@ fn the_fill_continues_the_hidden_texture() {
     assert!(exemplar >= 0.8, "exemplar fill right on {exemplar:.3} of pixels (nearest: {nearest:.3})");
     assert!(exemplar >= nearest + 0.3, "exemplar {exemplar:.3} vs nearest {nearest:.3}");
 }
+
+/// Outdoors with a small sphere 0.32 m from the centre, low in front of the camera: from the
+/// centre it hides the ground from 1.4 m away to the horizon, and some sky above it.
+fn near_sphere_outdoors() -> Scene {
+    let mut scene = Scene::open_sky();
+    scene.objects = vec![Shape::Sphere { centre: DVec3::new(0.3, 0.0, -0.1), radius: 0.16 }];
+    scene
+}
+
+/// Behind an object near the centre the hidden ground runs from near the camera's feet to the
+/// horizon, through every scale of its texture. The fill must continue the near ground's checker
+/// (each band of distance copied at its own scale, not from the far ground the distance blurs
+/// grey), and must not stand the ground up into the sky above the horizon.
+#[test]
+fn the_fill_behind_a_near_object_keeps_the_grounds_scale_and_horizon() {
+    let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
+    let scene = near_sphere_outdoors();
+    let r = render_on(&scene, &m);
+    let b = build::build(&rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
+    let ground = b.layers.iter().find(|l| l.role == Role::Background).expect("a ground layer");
+    let img = &ground.image;
+    let (mut right, mut near, mut above) = (0, 0, 0);
+    for p in 0..img.width * img.height {
+        let Sample::Surface(s) = img.sample(p) else { continue };
+        if r.first_hit.object[p] == 0 {
+            continue;
+        }
+        let dir = m.pixel_dir(p % m.width(), p / m.width());
+        // Above the horizon the ground is never seen: the sky layer shows there.
+        above += (dir.z > 0.0) as usize;
+        let truth = scene.room_hit(DVec3::ZERO, dir).unwrap();
+        // Near ground only: farther away the 25 cm checker is finer than a pixel.
+        if truth.t.is_finite() && truth.t < 4.0 && (s as f64 - truth.t).abs() < 0.01 * truth.t {
+            let c: Vec<f32> = ["R", "G", "B"].iter().map(|ch| img.channel(ch).unwrap().data[p]).collect();
+            near += 1;
+            right += (0..3).all(|i| (c[i] - truth.colour[i]).abs() <= 0.02) as usize;
+        }
+    }
+    assert!(near > 2000, "{near} near ground pixels filled");
+    let share = right as f64 / near as f64;
+    eprintln!("near ground filled right: {share:.3} of {near}; ground filled above the horizon: {above}");
+    assert!(share >= 0.8, "the near ground's checker goes on in {share:.3} of its filled pixels");
+    assert_eq!(above, 0, "ground filled above the horizon");
+}
