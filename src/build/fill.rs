@@ -38,6 +38,9 @@ pub struct Fill {
     pub pixels: Vec<FillPixel>,
     /// Widest angle (radians) between a filled pixel and its source.
     pub max_angle: f64,
+    /// How many of `pixels`, at the end, are the layer's own border pixels, there for their
+    /// colour only ([`recolour_border`]).
+    pub border: usize,
 }
 
 /// Inputs shared by the fills of all layers.
@@ -228,6 +231,38 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     }
     keep_continuous(cx, k, &mut fill);
     fill
+}
+
+/// The layer's own pixels next to a nearer layer join the fill for their colour only (their
+/// depth is kept): an anti-aliased render mixes the occluder's colour into them, and a camera
+/// moved aside sees them apart from it, as a line of the occluder's colour on the surface
+/// behind. Each takes the colour of its most interior neighbour, after the fill is coloured: as
+/// part of the exemplar's parts they moved its ring outwards and skewed its shading correction.
+pub fn recolour_border(cx: &FillContext, k: u32, fill: &mut Fill) {
+    const NONE: u32 = u32::MAX;
+    let nearer = |q: usize| cx.layer_of[q] != NONE && cx.layer_of[q] > k;
+    let border: Vec<usize> = (0..cx.nb.len())
+        .into_par_iter()
+        .filter(|&p| {
+            // Finite surfaces only: recolouring the sky's border as well lifted one view of the
+            // realistic corpus and lowered three (docs/build.md).
+            let d = cx.depth[p];
+            cx.layer_of[p] == k
+                && d > 0.0
+                && d.is_finite()
+                && (0..8).any(|j| cx.nb.get(p, j).is_some_and(nearer))
+        })
+        .collect();
+    fill.border = border.len();
+    for p in border {
+        let c = interior_neighbour(cx, p, k);
+        fill.pixels.push(FillPixel {
+            pixel: p,
+            depth: cx.depth[p],
+            rgb: cx.colour(c).to_array(),
+            surface: p,
+        });
+    }
 }
 
 /// Drop the fill pixels that would leave layer `k` discontinuous: where the fills of two surfaces
@@ -478,7 +513,7 @@ fn plane_hit_with(cx: &FillContext, s: usize, nrm: Vec3, q: usize) -> Option<f32
 
 /// The neighbour of a border pixel `s` that is deepest inside its layer (most neighbours in the
 /// same layer): its colour is free of any mixing with the occluder at the border.
-fn interior_neighbour(cx: &FillContext, s: usize, k: u32) -> usize {
+pub(super) fn interior_neighbour(cx: &FillContext, s: usize, k: u32) -> usize {
     let inside = |p: usize| (0..8).filter(|&j| cx.nb.get(p, j).is_some_and(|q| cx.layer_of[q] == k)).count();
     let mut best = (inside(s), s);
     for j in 0..8 {

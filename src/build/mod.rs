@@ -446,6 +446,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         });
         lap("fill colour", &mut stages);
     }
+    fills.par_iter_mut().enumerate().for_each(|(k, f)| fill::recolour_border(&cx, k as u32, f));
 
     // (7) Images, names, roles, order.
     progress("images");
@@ -474,7 +475,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
             role,
             order: k as u32,
             own_pixels: layer_of.iter().filter(|&&l| l == k as u32).count(),
-            filled_pixels: f.pixels.len(),
+            filled_pixels: f.pixels.len() - f.border,
             depth_range: finite_range(layer.depth().unwrap_or_default()),
             image: layer,
         });

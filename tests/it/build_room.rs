@@ -331,3 +331,66 @@ fn the_fill_behind_a_near_object_keeps_the_grounds_scale_and_horizon() {
     assert!(share >= 0.8, "the near ground's checker goes on in {share:.3} of its filled pixels");
     assert_eq!(above, 0, "ground filled above the horizon");
 }
+
+/// A path tracer anti-aliases colour but point-samples depth: the surface pixels right beside an
+/// object mix in the object's colour. A camera moved aside sees them apart from the object, as a
+/// line of its colour on the wall behind; build recolours them with the fill, so they continue the
+/// wall. (The room rendered at 2048×1024; colour box-filtered 2×2 to 1024×512, depth point-sampled.)
+#[test]
+fn the_surface_beside_an_object_keeps_its_own_colour() {
+    let fine = AnyMapping::new(MappingKind::Equirect, 2048, 1024).unwrap();
+    let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
+    let scene = Scene::room();
+    let r = render_on(&scene, &fine);
+    let hi = rgbd_input(&r, fine, false);
+    let at =
+        |v: &[f32], p: usize, dx: usize, dy: usize| v[(2 * (p / 1024) + dy) * 2048 + 2 * (p % 1024) + dx];
+    let filter = |v: &[f32]| -> Vec<f32> {
+        (0..512 * 1024)
+            .map(|p| (at(v, p, 0, 0) + at(v, p, 1, 0) + at(v, p, 0, 1) + at(v, p, 1, 1)) / 4.0)
+            .collect()
+    };
+    let input = build::RgbdInput {
+        mapping: m,
+        rgb: [filter(&hi.rgb[0]), filter(&hi.rgb[1]), filter(&hi.rgb[2])],
+        depth: (0..512 * 1024).map(|p| at(&hi.depth, p, 1, 1)).collect(),
+        normals: None,
+    };
+    let b = build::build(&input, &BuildOptions::default(), &|_| {}).unwrap();
+    let bg = b.layers.iter().find(|l| l.role == Role::Background).unwrap();
+    let (w, h) = (1024, 512);
+    let (mut right, mut border) = (0, 0);
+    for p in 0..w * h {
+        if b.layer_of[p] != bg.order {
+            continue;
+        }
+        let (x, y) = (p % w, p / w);
+        let beside = (-1i64..=1).flat_map(|dy| (-1i64..=1).map(move |dx| (dx, dy))).any(|(dx, dy)| {
+            let (nx, ny) = ((x as i64 + dx).rem_euclid(w as i64) as usize, y as i64 + dy);
+            (0..h as i64).contains(&ny) && front(&b, ny as usize * w + nx)
+        });
+        if !beside {
+            continue;
+        }
+        // The wall's own colour at the pixel centre (the fine pixel the depth came from): away
+        // from the room's checker edges, where the truth itself is a mix.
+        let truth = |dx, dy| {
+            let (fx, fy) = (2 * x + dx, 2 * y + dy);
+            scene.room_hit(DVec3::ZERO, fine.pixel_dir(fx, fy)).unwrap().colour
+        };
+        let t = truth(1, 1);
+        if [(0, 0), (1, 0), (0, 1)].iter().any(|&(dx, dy)| truth(dx, dy) != t) {
+            continue;
+        }
+        let c: Vec<f32> = ["R", "G", "B"].iter().map(|ch| bg.image.channel(ch).unwrap().data[p]).collect();
+        border += 1;
+        right += (0..3).all(|i| (c[i] - t[i]).abs() <= 0.03) as usize;
+    }
+    assert!(border > 1000, "{border} background pixels beside the objects");
+    let share = right as f64 / border as f64;
+    eprintln!("background beside the objects in its own colour: {share:.3} of {border}");
+    assert!(
+        share >= 0.8,
+        "only {share:.3} of the background pixels beside the objects keep the wall's colour"
+    );
+}
