@@ -39,7 +39,7 @@ pub struct Fill {
     /// Widest angle (radians) between a filled pixel and its source.
     pub max_angle: f64,
     /// How many of `pixels`, at the end, are the layer's own border pixels, there for their
-    /// colour only ([`recolour_border`]).
+    /// colour only ([`recolour_borders`]).
     pub border: usize,
 }
 
@@ -233,28 +233,35 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     fill
 }
 
-/// The layer's own pixels next to a nearer layer join the fill for their colour only (their
+/// Each layer's own pixels next to a nearer layer join its fill for their colour only (their
 /// depth is kept): an anti-aliased render mixes the occluder's colour into them, and a camera
 /// moved aside sees them apart from it, as a line of the occluder's colour on the surface
 /// behind. Each takes the colour of its most interior neighbour, after the fill is coloured: as
 /// part of the exemplar's parts they moved its ring outwards and skewed its shading correction.
-pub fn recolour_border(cx: &FillContext, k: u32, fill: &mut Fill) {
+/// `fills[k]` is layer `k`'s fill; one pass over the canvas serves every layer.
+pub fn recolour_borders(cx: &FillContext, fills: &mut [Fill]) {
     const NONE: u32 = u32::MAX;
-    let nearer = |q: usize| cx.layer_of[q] != NONE && cx.layer_of[q] > k;
-    let border: Vec<usize> = (0..cx.nb.len())
+    // From the nearer side: the pixels above the farthest layer are few, a scan of every pixel's
+    // neighbours is not.
+    let lowest = cx.layer_of.par_iter().copied().min().unwrap_or(NONE);
+    let mut border: Vec<usize> = (0..cx.nb.len())
         .into_par_iter()
-        .filter(|&p| {
-            // Finite surfaces only: recolouring the sky's border as well lifted one view of the
-            // realistic corpus and lowered three (docs/build.md).
-            let d = cx.depth[p];
-            cx.layer_of[p] == k
-                && d > 0.0
-                && d.is_finite()
-                && (0..8).any(|j| cx.nb.get(p, j).is_some_and(nearer))
+        .filter(|&q| cx.layer_of[q] != NONE && cx.layer_of[q] > lowest)
+        .flat_map_iter(|q| {
+            let k = cx.layer_of[q];
+            (0..8).filter_map(move |j| cx.nb.get(q, j)).filter(move |&p| {
+                // Finite surfaces only: recolouring the sky's border as well lifted one view of
+                // the realistic corpus and lowered three (docs/build.md).
+                let d = cx.depth[p];
+                cx.layer_of[p] < k && d > 0.0 && d.is_finite()
+            })
         })
         .collect();
-    fill.border = border.len();
+    border.par_sort_unstable();
+    border.dedup();
     for p in border {
+        let k = cx.layer_of[p];
+        let Some(fill) = fills.get_mut(k as usize) else { continue };
         let c = interior_neighbour(cx, p, k);
         fill.pixels.push(FillPixel {
             pixel: p,
@@ -262,6 +269,7 @@ pub fn recolour_border(cx: &FillContext, k: u32, fill: &mut Fill) {
             rgb: cx.colour(c).to_array(),
             surface: p,
         });
+        fill.border += 1;
     }
 }
 

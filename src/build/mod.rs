@@ -446,7 +446,8 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         });
         lap("fill colour", &mut stages);
     }
-    fills.par_iter_mut().enumerate().for_each(|(k, f)| fill::recolour_border(&cx, k as u32, f));
+    fill::recolour_borders(&cx, &mut fills);
+    lap("borders", &mut stages);
 
     // (7) Images, names, roles, order.
     progress("images");
