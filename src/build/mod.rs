@@ -446,6 +446,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         });
         lap("fill colour", &mut stages);
     }
+    progress("borders");
     fill::recolour_borders(&cx, &mut fills);
     lap("borders", &mut stages);
 
