@@ -521,7 +521,7 @@ fn plane_hit_with(cx: &FillContext, s: usize, nrm: Vec3, q: usize) -> Option<f32
 
 /// The neighbour of a border pixel `s` that is deepest inside its layer (most neighbours in the
 /// same layer): its colour is free of any mixing with the occluder at the border.
-pub(super) fn interior_neighbour(cx: &FillContext, s: usize, k: u32) -> usize {
+fn interior_neighbour(cx: &FillContext, s: usize, k: u32) -> usize {
     let inside = |p: usize| (0..8).filter(|&j| cx.nb.get(p, j).is_some_and(|q| cx.layer_of[q] == k)).count();
     let mut best = (inside(s), s);
     for j in 0..8 {
