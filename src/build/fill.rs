@@ -39,7 +39,7 @@ pub struct Fill {
     /// Widest angle (radians) between a filled pixel and its source.
     pub max_angle: f64,
     /// How many of `pixels`, at the end, are the layer's own border pixels, there for their
-    /// colour only ([`recolour_borders`]).
+    /// colour only ([`add_borders`]).
     pub border: usize,
 }
 
@@ -236,10 +236,10 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
 /// Each layer's own pixels next to a nearer layer join its fill for their colour only (their
 /// depth is kept): an anti-aliased render mixes the occluder's colour into them, and a camera
 /// moved aside sees them apart from it, as a line of the occluder's colour on the surface
-/// behind. Each takes the colour of its most interior neighbour, after the fill is coloured: as
-/// part of the exemplar's parts they moved its ring outwards and skewed its shading correction.
-/// `fills[k]` is layer `k`'s fill; one pass over the canvas serves every layer.
-pub fn recolour_borders(cx: &FillContext, fills: &mut [Fill]) {
+/// behind. They start with the colour of their most interior neighbour and are coloured with
+/// the rest of the fill. `fills[k]` is layer `k`'s fill; one pass over the canvas serves every
+/// layer.
+pub fn add_borders(cx: &FillContext, fills: &mut [Fill]) {
     const NONE: u32 = u32::MAX;
     // From the nearer side: the pixels above the farthest layer are few, a scan of every pixel's
     // neighbours is not.

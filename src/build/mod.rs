@@ -438,6 +438,9 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
     };
     let mut fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(&cx, k)).collect();
     lap("fill", &mut stages);
+    progress("borders");
+    fill::add_borders(&cx, &mut fills);
+    lap("borders", &mut stages);
     if o.fill_colour != FillColour::Nearest {
         progress("fill colour");
         fills.par_iter_mut().enumerate().for_each(|(k, f)| match o.fill_colour {
@@ -446,9 +449,6 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         });
         lap("fill colour", &mut stages);
     }
-    progress("borders");
-    fill::recolour_borders(&cx, &mut fills);
-    lap("borders", &mut stages);
 
     // (7) Images, names, roles, order.
     progress("images");

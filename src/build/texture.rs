@@ -148,9 +148,10 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
     shading.dedup_by_key(|e| e.0);
     // The copy brings its source's lighting: the ratio between the ring and its copy (a shadow,
     // a lamp's glow) is carried smoothly across the hole.
-    let log_ratio = diffuse(tx, fill, &slot, vec![Vec3::ZERO; fill.pixels.len()], &copied, false, |r| {
-        shading.binary_search_by_key(&r, |e| e.0).ok().map(|i| shading[i].1)
-    });
+    let log_ratio =
+        diffuse(tx, fill, &slot, vec![Vec3::ZERO; fill.pixels.len()], &copied, Sources::SameSurface, |r| {
+            shading.binary_search_by_key(&r, |e| e.0).ok().map(|i| shading[i].1)
+        });
     for ((f, g), _) in fill.pixels.iter_mut().zip(log_ratio).zip(&copied).filter(|(_, &c)| c) {
         let g = g.clamp(Vec3::splat(-MAX_LOG_RATIO), Vec3::splat(MAX_LOG_RATIO));
         f.rgb = (Vec3::from(f.rgb) * g.exp()).to_array();
@@ -159,7 +160,7 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
     if copied.iter().any(|c| !c) {
         let start = fill.pixels.iter().map(|f| Vec3::from(f.rgb)).collect();
         let blend: Vec<bool> = copied.iter().map(|c| !c).collect();
-        let rgb = diffuse(tx, fill, &slot, start, &blend, true, |r| clean[r].then(|| tx.colour(r)));
+        let rgb = diffuse(tx, fill, &slot, start, &blend, Sources::All, |r| clean[r].then(|| tx.colour(r)));
         for ((f, c), _) in fill.pixels.iter_mut().zip(rgb).zip(&copied).filter(|(_, &c)| !c) {
             f.rgb = c.to_array();
         }
@@ -348,18 +349,36 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
         .zip(&hole)
         .filter_map(|(&i, &x)| offsets.iter().map(|&t| tx.pixel(x + t)).find(|&p| valid(p)).map(|p| (i, p)))
         .collect();
-    let rgb = |p: usize| tx.colour(p).max(Vec3::ZERO);
-    let shading = match offsets.first() {
+    let rgb = |p: usize| tx.colour(p).max(Vec3::ZERO) + Vec3::splat(RATIO_EPS);
+    let raw: std::collections::HashMap<usize, Vec3> = match offsets.first() {
         Some(&t) => ring_pixels
             .iter()
             .filter_map(|&r| {
                 let p = tx.pixel(tx.point(r, tx.depth[r]) + t);
-                let e = Vec3::splat(RATIO_EPS);
-                valid(p).then(|| ((rgb(r) + e) / (rgb(p) + e)).ln()).map(|g| (r, g))
+                valid(p).then(|| (r, (rgb(r) / rgb(p)).ln()))
             })
             .collect(),
-        None => Vec::new(),
+        None => Default::default(),
     };
+    // Near an edge, a copy a fraction of a pixel off reads as a false ratio as large as the
+    // edge's contrast: each ring pixel takes the median of the ratios around it (1 and 2 steps),
+    // which a line of such pixels across the ring does not move.
+    let shading = raw
+        .keys()
+        .map(|&r| {
+            let (x, y) = (r % w, r / w);
+            let mut near: Vec<Vec3> = std::iter::once(Some(r))
+                .chain((0..8).flat_map(|j| [tx.nb.get_at(x, y, j), tx.nb.get2_at(x, y, j)]))
+                .flatten()
+                .filter_map(|q| raw.get(&q).copied())
+                .collect();
+            let median = |c: usize, near: &mut Vec<Vec3>| {
+                near.sort_unstable_by(|a, b| a[c].total_cmp(&b[c]));
+                near[near.len() / 2][c]
+            };
+            (r, Vec3::new(median(0, &mut near), median(1, &mut near), median(2, &mut near)))
+        })
+        .collect();
     Transfer { sources, shading }
 }
 
@@ -383,12 +402,24 @@ pub fn smooth(tx: &FillContext, k: u32, fill: &mut Fill) {
     }
     let (slot, clean) = (slots(tx, fill), clean_pixels(tx, k));
     let start = fill.pixels.iter().map(|f| Vec3::from(f.rgb)).collect();
-    let rgb = diffuse(tx, fill, &slot, start, &vec![true; fill.pixels.len()], false, |r| {
+    let rgb = diffuse(tx, fill, &slot, start, &vec![true; fill.pixels.len()], Sources::Solved, |r| {
         clean[r].then(|| tx.colour(r))
     });
     for (f, c) in fill.pixels.iter_mut().zip(rgb) {
         f.rgb = c.to_array();
     }
+}
+
+/// Which neighbours [`diffuse`] takes values from, besides the known pixels around the fill.
+#[derive(Clone, Copy, PartialEq)]
+enum Sources {
+    /// Filled pixels being solved, once solved.
+    Solved,
+    /// The same, on the surface being solved only: a shading ratio measured on one surface
+    /// (misread near a seam of its copy) must not tint the one beside it.
+    SameSurface,
+    /// Every filled pixel: the ones not solved keep their value and count as known.
+    All,
 }
 
 /// A value per filled pixel spread from the pixels around the fill that have one (`known`):
@@ -401,7 +432,7 @@ fn diffuse(
     slot: &[u32],
     mut value: Vec<Vec3>,
     solve: &[bool],
-    others_known: bool,
+    sources: Sources,
     known: impl Fn(usize) -> Option<Vec3> + Sync,
 ) -> Vec<Vec3> {
     let w = tx.nb.width();
@@ -415,21 +446,27 @@ fn diffuse(
             [(tx.nb.get_at(x, y, j), 1.0 / diag), (tx.nb.get2_at(x, y, j), 0.25 / diag)]
         })
     };
-    // A neighbour's value: a filled pixel's once solved (or fixed), else what is known there.
-    let at = |r: usize, value: &[Vec3], done: &[bool]| {
+    let surface_at = |r: usize| {
         let s = slot[r];
-        if s == NONE {
+        tx.surface[if s == NONE { r } else { fill.pixels[s as usize].surface }]
+    };
+    // A neighbour's value: a filled pixel's once solved (or fixed), else what is known there.
+    let at = |i: usize, r: usize, value: &[Vec3], done: &[bool]| {
+        let s = slot[r];
+        if sources == Sources::SameSurface && surface_at(r) != tx.surface[fill.pixels[i].surface] {
+            None
+        } else if s == NONE {
             known(r)
         } else if solve[s as usize] {
             done[s as usize].then(|| value[s as usize])
         } else {
-            others_known.then(|| value[s as usize])
+            (sources == Sources::All).then(|| value[s as usize])
         }
     };
     for i in (0..m).filter(|&i| solve[i]) {
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0);
         for (r, wt) in ring(fill.pixels[i].pixel) {
-            if let Some(v) = r.and_then(|r| at(r, &value, &done)) {
+            if let Some(v) = r.and_then(|r| at(i, r, &value, &done)) {
                 sum += v * wt;
                 weight += wt;
             }
@@ -451,7 +488,7 @@ fn diffuse(
                 let (x, y) = (q % w, q / w);
                 let (mut sum, mut weight) = (value[i], 1.0);
                 for j in 0..8 {
-                    if let Some(v) = tx.nb.get_at(x, y, j).and_then(|r| at(r, &value, &all)) {
+                    if let Some(v) = tx.nb.get_at(x, y, j).and_then(|r| at(i, r, &value, &all)) {
                         sum += v;
                         weight += 1.0;
                     }
