@@ -9,7 +9,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::fill::{Fill, FillContext};
+use super::fill::{Fill, FillContext, FillPixel};
 use crate::mapping::{Mapping, Neighbours};
 
 /// How the fill is coloured.
@@ -156,16 +156,58 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
         let g = g.clamp(Vec3::splat(-MAX_LOG_RATIO), Vec3::splat(MAX_LOG_RATIO));
         f.rgb = (Vec3::from(f.rgb) * g.exp()).to_array();
     }
-    // What no offset continues (too little texture around it, or none that matches) is blended.
-    if copied.iter().any(|c| !c) {
+    // Infinitely far content, copied or not, is interpolated along its circles of elevation.
+    let sky: Vec<Option<Vec3>> = fill.pixels.par_iter().map(|f| along_elevation(tx, &clean, f)).collect();
+    let fixed: Vec<bool> = copied.iter().zip(&sky).map(|(&c, s)| c || s.is_some()).collect();
+    for (f, c) in fill.pixels.iter_mut().zip(sky) {
+        if let Some(c) = c {
+            f.rgb = c.to_array();
+        }
+    }
+    // What is left (no offset continues it: too little texture around it, or none that
+    // matches) is blended, from the sky's new values too.
+    if fixed.iter().any(|c| !c) {
         let start = fill.pixels.iter().map(|f| Vec3::from(f.rgb)).collect();
-        let blend: Vec<bool> = copied.iter().map(|c| !c).collect();
+        let blend: Vec<bool> = fixed.iter().map(|c| !c).collect();
         let rgb = diffuse(tx, fill, &slot, start, &blend, Sources::All, |r| clean[r].then(|| tx.colour(r)));
-        for ((f, c), _) in fill.pixels.iter_mut().zip(rgb).zip(&copied).filter(|(_, &c)| !c) {
+        for ((f, c), _) in fill.pixels.iter_mut().zip(rgb).zip(&blend).filter(|(_, &b)| b) {
             f.rgb = c.to_array();
         }
     }
 }
+
+/// Colour of an infinitely far filled pixel interpolated, by angle, between the nearest visible
+/// pixels of its layer both ways along its circle of elevation (about the canvas's +Z): a sky
+/// changes with elevation far more than along it, and blended from its whole ring a wide hole
+/// takes the zenith's blue down to the horizon. `None` near the poles, for finite depth, or
+/// where either way finds nothing within [`SKY_REACH`].
+fn along_elevation(tx: &FillContext, clean: &[bool], f: &FillPixel) -> Option<Vec3> {
+    if f.depth.is_finite() {
+        return None;
+    }
+    let d = tx.dirs[f.pixel].as_dvec3();
+    let rho = d.x.hypot(d.y);
+    if rho < 0.05 {
+        return None;
+    }
+    // Steps of about one pixel (the canvas's mean pixel angle over the circle's radius).
+    let step = (4.0 * std::f64::consts::PI / tx.nb.len() as f64).sqrt() / rho;
+    let count = (SKY_REACH / step) as usize;
+    let phi = d.y.atan2(d.x);
+    let way = |sign: f64| {
+        (1..=count).find_map(|s| {
+            let a = phi + sign * s as f64 * step;
+            let p = tx.pixel(glam::DVec3::new(rho * a.cos(), rho * a.sin(), d.z).as_vec3());
+            (clean[p] && tx.depth[p].is_infinite()).then(|| (s as f32, tx.colour(p)))
+        })
+    };
+    let (a, ca) = way(1.0)?;
+    let (b, cb) = way(-1.0)?;
+    Some((ca * b + cb * a) / (a + b))
+}
+
+/// How far (radians of azimuth) [`along_elevation`] looks each way.
+const SKY_REACH: f64 = std::f64::consts::FRAC_PI_4;
 
 /// Depth ratio within which one part of the fill keeps one set of offsets.
 const SCALE_RATIO: f32 = 2.0;
@@ -363,8 +405,10 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
     // Near an edge, a copy a fraction of a pixel off reads as a false ratio as large as the
     // edge's contrast: each ring pixel takes the median of the ratios around it (1 and 2 steps),
     // which a line of such pixels across the ring does not move.
-    let shading = raw
-        .keys()
+    // In the ring's order (a hash map's varies from run to run; the build is deterministic).
+    let shading = ring_pixels
+        .iter()
+        .filter(|r| raw.contains_key(r))
         .map(|&r| {
             let (x, y) = (r % w, r / w);
             let mut near: Vec<Vec3> = std::iter::once(Some(r))
