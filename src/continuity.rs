@@ -38,6 +38,20 @@ pub fn continues_plane(mid: f64, next: f64, back: f64, tol: f64) -> bool {
 /// since the last row of a grazing plane has what it occludes on its far side.
 #[inline]
 pub fn continuous(a: f64, b: f64, behind_a: Option<f64>, beyond_b: Option<f64>, jump: f64, tol: f64) -> bool {
+    continuous_with(a, b, || behind_a, || beyond_b, jump, tol)
+}
+
+/// [`continuous`] with the depths beyond the pair looked up only when the step alone does not
+/// decide (most pairs: a hot loop over every pixel's 8 links saves the lookups).
+#[inline]
+pub fn continuous_with(
+    a: f64,
+    b: f64,
+    behind_a: impl FnOnce() -> Option<f64>,
+    beyond_b: impl FnOnce() -> Option<f64>,
+    jump: f64,
+    tol: f64,
+) -> bool {
     if a.is_infinite() || b.is_infinite() {
         return a == b;
     }
@@ -45,8 +59,8 @@ pub fn continuous(a: f64, b: f64, behind_a: Option<f64>, beyond_b: Option<f64>, 
         return true;
     }
     let usable = |d: &f64| *d > 0.0 && d.is_finite();
-    behind_a.filter(usable).is_some_and(|d| continues_plane(a, b, d, tol))
-        || beyond_b.filter(usable).is_some_and(|d| continues_plane(b, a, d, tol))
+    behind_a().filter(usable).is_some_and(|d| continues_plane(a, b, d, tol))
+        || beyond_b().filter(usable).is_some_and(|d| continues_plane(b, a, d, tol))
 }
 
 #[cfg(test)]

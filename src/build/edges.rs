@@ -4,7 +4,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::continuity::continuous;
+use crate::continuity::continuous_with;
 use crate::mapping::{opposite, Neighbours, OFFSETS};
 
 /// Tuning of the discontinuity tests.
@@ -212,10 +212,10 @@ fn depth_link(nb: &Neighbours, depth: &[f32], x: usize, y: usize, k: usize, o: &
     if !usable(a) || !usable(b) {
         return None;
     }
-    let behind_a = nb.get_at(x, y, opposite(k)).map(|i| depth[i] as f64);
-    let beyond_b = nb.get2_at(x, y, k).map(|i| depth[i] as f64);
+    let behind_a = || nb.get_at(x, y, opposite(k)).map(|i| depth[i] as f64);
+    let beyond_b = || nb.get2_at(x, y, k).map(|i| depth[i] as f64);
     let (a, b) = (a as f64, b as f64);
-    Some(if continuous(a, b, behind_a, beyond_b, o.jump, o.extrapolation) {
+    Some(if continuous_with(a, b, behind_a, beyond_b, o.jump, o.extrapolation) {
         Link::Smooth
     } else {
         Link::Jump

@@ -15,7 +15,7 @@ use glam::Vec3;
 use super::edges::Links;
 use rayon::prelude::*;
 
-use crate::continuity::continuous;
+use crate::continuity::continuous_with;
 use crate::mapping::{opposite, Neighbours};
 
 /// One filled pixel.
@@ -306,9 +306,9 @@ fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
                 (0..4).filter_map(move |j| {
                     let r = cx.nb.get_at(x, y, j)?;
                     let (a, b) = (d[q] as f64, at(d, Some(r))?);
-                    let behind = at(d, cx.nb.get_at(x, y, opposite(j)));
-                    let beyond = at(d, cx.nb.get2_at(x, y, j));
-                    if continuous(a, b, behind, beyond, cx.jump, cx.plane_tol) {
+                    let behind = || at(d, cx.nb.get_at(x, y, opposite(j)));
+                    let beyond = || at(d, cx.nb.get2_at(x, y, j));
+                    if continuous_with(a, b, behind, beyond, cx.jump, cx.plane_tol) {
                         return None;
                     }
                     Some(if b < a && filled[r] { r } else { q })

@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::RgbdInput;
 use crate::colour::{srgb_to_linear, ColourSpace};
@@ -334,13 +335,15 @@ pub fn read_colour(
     };
     let img = img.to_rgb32f();
     let (w, h) = (img.width() as usize, img.height() as usize);
-    let mut rgb = [Vec::with_capacity(w * h), Vec::with_capacity(w * h), Vec::with_capacity(w * h)];
-    for px in img.pixels() {
-        for (plane, v) in rgb.iter_mut().zip(px.0) {
-            plane.push(if decode { srgb_to_linear(v) } else { v });
+    let plane = |c: usize| -> Vec<f32> {
+        let values = img.as_raw().par_chunks_exact(3).map(|px| px[c]);
+        if decode {
+            values.map(srgb_to_linear).collect()
+        } else {
+            values.collect()
         }
-    }
-    Ok((w, h, rgb))
+    };
+    Ok((w, h, [plane(0), plane(1), plane(2)]))
 }
 
 /// Depth in metres along the stored convention (before z → ray conversion): unknown = NaN.
