@@ -296,16 +296,22 @@ fn near_sphere_outdoors() -> Scene {
     scene
 }
 
+/// [`near_sphere_outdoors`] rendered at 1024 × 512 and built with the defaults.
+fn near_sphere_built() -> (AnyMapping, Scene, Rendered, Built) {
+    let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
+    let scene = near_sphere_outdoors();
+    let r = render_on(&scene, &m);
+    let b = build::build(&rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
+    (m, scene, r, b)
+}
+
 /// Behind an object near the centre the hidden ground runs from near the camera's feet to the
 /// horizon, through every scale of its texture. The fill must continue the near ground's checker
 /// (each band of distance copied at its own scale, not from the far ground the distance blurs
 /// grey), and must not stand the ground up into the sky above the horizon.
 #[test]
 fn the_fill_behind_a_near_object_keeps_the_grounds_scale_and_horizon() {
-    let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
-    let scene = near_sphere_outdoors();
-    let r = render_on(&scene, &m);
-    let b = build::build(&rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
+    let (m, scene, r, b) = near_sphere_built();
     let ground = b.layers.iter().find(|l| l.role == Role::Background).expect("a ground layer");
     let img = &ground.image;
     let (mut right, mut near, mut above) = (0, 0, 0);
@@ -400,10 +406,7 @@ fn the_surface_beside_an_object_keeps_its_own_colour() {
 /// zenith does not spill down into the hole (blended from the whole ring, it did).
 #[test]
 fn the_sky_behind_a_near_object_keeps_its_gradient() {
-    let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
-    let scene = near_sphere_outdoors();
-    let r = render_on(&scene, &m);
-    let b = build::build(&rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
+    let (m, scene, r, b) = near_sphere_built();
     let sky = b.layers.iter().find(|l| l.role == Role::Infinity).expect("an infinity layer");
     let img = &sky.image;
     let (mut sum, mut count) = (0.0, 0);
