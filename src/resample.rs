@@ -754,7 +754,9 @@ fn resolve<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, ou
         }
     }
     if let Some((z, (lo, hi))) = range {
-        out[z] = T::from_f32(out[z].to_f32().clamp(lo, hi));
+        // Equal taps keep their depth exactly: infinitely far ones (a sky) would sum to NaN
+        // (0 · inf for a tap of weight 0, inf − inf for bicubic's negative lobes).
+        out[z] = T::from_f32(if lo == hi { lo } else { out[z].to_f32().clamp(lo, hi) });
     }
 }
 
@@ -1262,6 +1264,28 @@ mod tests {
                 assert_eq!(whole.channels[0].data[i], r, "R rounded to half at {i}");
                 let n: f32 = (1..4).map(|c| whole.channels[c].data[i].powi(2)).sum();
                 assert!((n - 1.0).abs() < 1e-5 || n == 0.0, "normal length² {n} at {i}");
+            }
+        }
+    }
+
+    /// Infinitely far depth (a sky) stays infinite through every filter: a tap of weight 0 on
+    /// +inf must not make a NaN (0 · inf).
+    #[test]
+    fn an_infinitely_far_layer_converts_without_nan() {
+        let cube = Canvas::Cube(CubeLayout::Canonical);
+        for (w, h, size) in [(64, 32, 12), (1024, 512, 256), (100, 50, 30)] {
+            let mut sky = LayerImage::new(w, h);
+            sky.set_channel("R", SampleType::F16, vec![0.5; w * h]);
+            sky.set_channel("Z", SampleType::F32, vec![f32::INFINITY; w * h]);
+            for filter in [Filter::Bilinear, Filter::Bicubic] {
+                let opts = SampleOptions { filter, ..SampleOptions::default() };
+                let out = convert_layer(&sky, Canvas::Equirect, cube, size, &opts).unwrap();
+                let back = convert_layer(&out, cube, Canvas::Equirect, w, &opts).unwrap();
+                for img in [&out, &back] {
+                    let z = &img.channel("Z").unwrap().data;
+                    let nan = z.iter().filter(|v| v.is_nan()).count();
+                    assert_eq!(nan, 0, "{w}x{h} {filter:?}: {nan} NaN depths");
+                }
             }
         }
     }
