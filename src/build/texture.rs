@@ -342,7 +342,7 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
     // Coarse grid over a disc a few hole sizes wide, then each of the best few refined by
     // halving steps down to half a pixel.
     let reach = 4.0 * extent + 32.0 * footprint;
-    let mut step = (2.0 * footprint).max(reach / 24.0);
+    let step = (2.0 * footprint).max(reach / 24.0);
     let cells = (reach / step).ceil() as i32;
     let mut best: Vec<(f32, Vec3)> = Vec::new();
     for a in -cells..=cells {
@@ -356,12 +356,12 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
     }
     best.sort_by(|a, b| a.0.total_cmp(&b.0));
     best.truncate(2 * OFFSETS);
-    for c in &mut best {
+    // Each candidate refined on its own (in parallel: a large part is one long search).
+    best.par_iter_mut().for_each(|c| {
         c.0 = score(c.1, RING_SAMPLES, HOLE_SAMPLES, f32::INFINITY);
-    }
-    while step > 0.5 * footprint {
-        step *= 0.5;
-        for c in &mut best {
+        let mut step = step;
+        while step > 0.5 * footprint {
+            step *= 0.5;
             let centre = c.1;
             for (a, b) in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)] {
                 let t = centre + plane.e1 * (a as f32 * step) + plane.e2 * (b as f32 * step);
@@ -371,7 +371,7 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
                 }
             }
         }
-    }
+    });
     best.sort_by(|a, b| a.0.total_cmp(&b.0));
     let clear = best
         .first()
@@ -520,7 +520,34 @@ fn diffuse(
             done[i] = true;
         }
     }
-    let all = vec![true; m];
+    // The sweeps' sources, found once: per solved pixel its 8 neighbours in order, each a filled
+    // pixel (its index: its current value), a pixel around the fill (KNOWN: what is known there)
+    // or nothing (NONE).
+    const KNOWN: u32 = NONE - 1;
+    let sources_of: Vec<[u32; 8]> = (0..m)
+        .into_par_iter()
+        .map(|i| {
+            let mut e = [NONE; 8];
+            if solve[i] {
+                let q = fill.pixels[i].pixel;
+                let (x, y) = (q % w, q / w);
+                for (j, e) in e.iter_mut().enumerate() {
+                    let Some(r) = tx.nb.get_at(x, y, j) else { continue };
+                    let s = slot[r];
+                    if sources == Sources::SameSurface && surface_at(r) != tx.surface[fill.pixels[i].surface]
+                    {
+                        continue;
+                    }
+                    if s == NONE {
+                        *e = KNOWN;
+                    } else if solve[s as usize] || sources == Sources::All {
+                        *e = s;
+                    }
+                }
+            }
+            e
+        })
+        .collect();
     for _ in 0..SMOOTH_SWEEPS {
         value = (0..m)
             .into_par_iter()
@@ -528,11 +555,17 @@ fn diffuse(
                 if !solve[i] {
                     return value[i];
                 }
-                let q = fill.pixels[i].pixel;
-                let (x, y) = (q % w, q / w);
                 let (mut sum, mut weight) = (value[i], 1.0);
-                for j in 0..8 {
-                    if let Some(v) = tx.nb.get_at(x, y, j).and_then(|r| at(i, r, &value, &all)) {
+                for (j, &e) in sources_of[i].iter().enumerate() {
+                    let v = match e {
+                        NONE => None,
+                        KNOWN => {
+                            let q = fill.pixels[i].pixel;
+                            tx.nb.get_at(q % w, q / w, j).and_then(&known)
+                        }
+                        s => Some(value[s as usize]),
+                    };
+                    if let Some(v) = v {
                         sum += v;
                         weight += 1.0;
                     }
