@@ -259,7 +259,7 @@ impl Renderer {
         images: Vec<LayerImage>,
         method: RenderMethod,
     ) -> crate::Result<Renderer> {
-        let kind = crate::mapping::MappingKind::from(manifest.mapping.kind);
+        let kind = manifest.mapping.kind;
         if images.is_empty() {
             return Err(render::RenderError::NoLayers.into());
         }
@@ -375,7 +375,7 @@ pub fn mesh_scene(
         None => manifest.painter_order().into_iter().filter(|&k| k < images.len()).collect(),
     };
     let radius = sky_radius.unwrap_or_else(|| mesh::default_sky_radius(images));
-    let kind = crate::mapping::MappingKind::from(manifest.mapping.kind);
+    let kind = manifest.mapping.kind;
     order
         .par_iter()
         .map(|&k| {

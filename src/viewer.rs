@@ -153,7 +153,7 @@ fn site_from(
     title: &str,
     options: &SiteOptions,
 ) -> crate::Result<Site> {
-    let kind = crate::mapping::MappingKind::from(manifest.mapping.kind);
+    let kind = manifest.mapping.kind;
     let radius = options.sky_radius.unwrap_or_else(|| mesh::default_sky_radius(images));
     let order: Vec<usize> = manifest.painter_order().into_iter().filter(|&k| k < images.len()).collect();
     let name_of =
@@ -328,7 +328,7 @@ fn info_json(manifest: &Manifest, nodes: &[Node], title: &str, to_world: DMat4) 
         .collect();
     // The canvas parametrisation, for sampling each layer by direction from the centre as the
     // renderer does (texture coordinates interpolated over a large triangle would bend the texture).
-    let mapping = match crate::mapping::MappingKind::from(manifest.mapping.kind) {
+    let mapping = match manifest.mapping.kind {
         MappingKind::Equirect => json!({"kind": "equirect"}),
         MappingKind::Cube3x2 => {
             let faces: Vec<_> = CubeFace::ALL

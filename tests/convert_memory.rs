@@ -47,7 +47,7 @@ fn converting_a_panorama_holds_its_output_about_once() {
     let manifest = Manifest {
         version: "1".into(),
         transforms: Vec::new(),
-        mapping: MappingDecl { kind: MappingKind::Cube },
+        mapping: MappingDecl { kind: MappingKind::Cube3x2 },
         freedom_radius: 0.5,
         layers: vec![LayerDecl::native("a.exr")],
     };

@@ -702,13 +702,7 @@ pub fn manifest(
             d
         })
         .collect();
-    Manifest {
-        version: "1".into(),
-        transforms,
-        mapping: MappingDecl { kind: kind.into() },
-        freedom_radius,
-        layers,
-    }
+    Manifest { version: "1".into(), transforms, mapping: MappingDecl { kind }, freedom_radius, layers }
 }
 
 #[cfg(test)]

@@ -52,41 +52,17 @@ pub struct LayerOrigin {
     pub patches: Vec<Origin>,
 }
 
-/// The parametrisation declared by `<Mapping type=…>`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MappingKind {
-    /// `LatLongMapping` (also accepted: `Equirect`, `EquirectMapping`).
-    LatLong,
-    /// `CubeMapping` 3×2 (also accepted: `Cube`, `Cube3x2`).
-    Cube,
-}
-
-/// The canvas parametrisation a declared mapping names.
-impl From<MappingKind> for crate::mapping::MappingKind {
-    fn from(kind: MappingKind) -> Self {
-        match kind {
-            MappingKind::LatLong => crate::mapping::MappingKind::Equirect,
-            MappingKind::Cube => crate::mapping::MappingKind::Cube3x2,
-        }
-    }
-}
-
-/// How a manifest declares a canvas parametrisation.
-impl From<crate::mapping::MappingKind> for MappingKind {
-    fn from(kind: crate::mapping::MappingKind) -> Self {
-        match kind {
-            crate::mapping::MappingKind::Equirect => MappingKind::LatLong,
-            crate::mapping::MappingKind::Cube3x2 => MappingKind::Cube,
-        }
-    }
-}
+/// The parametrisation declared by `<Mapping type=…>`: the canvas's own kind (one enum for the
+/// declaration and the maths).
+pub use crate::mapping::MappingKind;
 
 impl MappingKind {
-    /// The name written by [`Manifest::to_xml`].
+    /// The name written by [`Manifest::to_xml`]: `LatLongMapping` (also read: `Equirect`,
+    /// `EquirectMapping`) or `CubeMapping` (also read: `Cube`, `Cube3x2`).
     pub fn primary_name(self) -> &'static str {
         match self {
-            MappingKind::LatLong => "LatLongMapping",
-            MappingKind::Cube => "CubeMapping",
+            MappingKind::Equirect => "LatLongMapping",
+            MappingKind::Cube3x2 => "CubeMapping",
         }
     }
 }

@@ -303,7 +303,7 @@ fn panorama(ctx: &mut Ctx, doc: &Document) -> Option<Manifest> {
     Some(Manifest {
         version,
         transforms: transforms.unwrap_or_default(),
-        mapping: mapping.unwrap_or(MappingDecl { kind: MappingKind::LatLong }),
+        mapping: mapping.unwrap_or(MappingDecl { kind: MappingKind::Equirect }),
         freedom_radius: freedom.unwrap_or(0.0),
         layers,
     })
@@ -393,17 +393,17 @@ fn scale(ctx: &mut Ctx, el: &El) -> Option<Transform> {
 
 /// Accepted `type` names: the primary ones first (written by `to_xml`), then aliases.
 const MAPPING_NAMES: &[(&str, MappingKind)] = &[
-    ("LatLongMapping", MappingKind::LatLong),
-    ("CubeMapping", MappingKind::Cube),
-    ("EquirectMapping", MappingKind::LatLong),
-    ("Equirect", MappingKind::LatLong),
-    ("Cube3x2", MappingKind::Cube),
-    ("Cube", MappingKind::Cube),
+    ("LatLongMapping", MappingKind::Equirect),
+    ("CubeMapping", MappingKind::Cube3x2),
+    ("EquirectMapping", MappingKind::Equirect),
+    ("Equirect", MappingKind::Equirect),
+    ("Cube3x2", MappingKind::Cube3x2),
+    ("Cube", MappingKind::Cube3x2),
 ];
 
 fn mapping_decl(ctx: &mut Ctx, el: &El) -> MappingDecl {
     ctx.leaf(el, &["type"]);
-    let fallback = MappingDecl { kind: MappingKind::LatLong };
+    let fallback = MappingDecl { kind: MappingKind::Equirect };
     let Some((ty, at)) = ctx.required(el, "type", "LatLongMapping") else {
         return fallback;
     };

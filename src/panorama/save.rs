@@ -348,7 +348,7 @@ mod tests {
         let m = Manifest {
             version: "1".into(),
             transforms: Vec::new(),
-            mapping: MappingDecl { kind: MappingKind::LatLong },
+            mapping: MappingDecl { kind: MappingKind::Equirect },
             freedom_radius: 0.5,
             layers: vec![LayerDecl::native(file)],
         };

@@ -261,7 +261,7 @@ pub fn render(
 
 /// Read every layer of a panorama as full canvases with their mappings, in manifest order.
 pub fn read_layers(pano: &Panorama, limits: &ReadLimits) -> crate::Result<Vec<(LayerImage, AnyMapping)>> {
-    let kind = MappingKind::from(pano.manifest.mapping.kind);
+    let kind = pano.manifest.mapping.kind;
     if pano.manifest.layers.is_empty() {
         return Err(RenderError::NoLayers.into());
     }

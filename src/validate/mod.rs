@@ -75,7 +75,7 @@ pub fn validate(path: &Path, options: &ValidateOptions) -> Result<Report, crate:
     };
     let dir = manifest_path.parent().map(Path::to_path_buf).unwrap_or_default();
     let pano = Panorama { dir, manifest_path: manifest_path.clone(), manifest };
-    let kind: MappingKind = pano.manifest.mapping.kind.into();
+    let kind = pano.manifest.mapping.kind;
 
     let mut domains: Vec<(AnyMapping, Vec<bool>)> = Vec::new();
     let mut all_layers_read = true;

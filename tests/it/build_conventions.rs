@@ -12,7 +12,7 @@ fn world(c: Convention, d: DVec3) -> DVec3 {
     let m = Manifest {
         version: "1".into(),
         transforms: c.transforms(),
-        mapping: MappingDecl { kind: MappingKind::LatLong },
+        mapping: MappingDecl { kind: MappingKind::Equirect },
         freedom_radius: 0.5,
         layers: vec![],
     };

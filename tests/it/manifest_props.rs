@@ -114,7 +114,7 @@ fn manifest() -> impl Strategy<Value = Manifest> {
                 && det != 0.0
                 && m.inverse().is_finite()
         }),
-        prop::sample::select(vec![MappingKind::LatLong, MappingKind::Cube]),
+        prop::sample::select(vec![MappingKind::Equirect, MappingKind::Cube3x2]),
         prop_oneof![Just(0.0), (1e-9f64..1e3)],
         prop::collection::vec(layer(0), 1..4),
     )

@@ -41,7 +41,7 @@ fn thesis_example_parses() {
             Transform::Scale([-1.0, 1.0, 1.0]),
         ]
     );
-    assert_eq!(m.mapping.kind, MappingKind::LatLong);
+    assert_eq!(m.mapping.kind, MappingKind::Equirect);
     assert_eq!(m.freedom_radius, 0.5);
     assert_eq!(m.layers.len(), 2);
     assert_eq!(
@@ -110,11 +110,11 @@ fn latin1_names_are_decoded() {
 #[test]
 fn mapping_aliases_are_accepted() {
     for (name, kind) in [
-        ("Equirect", MappingKind::LatLong),
-        ("EquirectMapping", MappingKind::LatLong),
-        ("CubeMapping", MappingKind::Cube),
-        ("Cube", MappingKind::Cube),
-        ("Cube3x2", MappingKind::Cube),
+        ("Equirect", MappingKind::Equirect),
+        ("EquirectMapping", MappingKind::Equirect),
+        ("CubeMapping", MappingKind::Cube3x2),
+        ("Cube", MappingKind::Cube3x2),
+        ("Cube3x2", MappingKind::Cube3x2),
     ] {
         let xml = THESIS.replace("'LatLongMapping'", &format!("'{name}'"));
         assert_eq!(parse(xml.as_bytes(), "m.xml").unwrap().mapping.kind, kind, "{name}");

@@ -307,7 +307,6 @@ fn run_layer(args: &Args, opts: SampleOptions, out: Output, total: Instant) -> R
 /// written as a panorama (sparse layers packed again) with the manifest's mapping changed. A POMC
 /// cube map is in the canonical layout.
 fn run_panorama(args: &Args, out: Output, total: Instant) -> Result<u8, Failure> {
-    use pomc::manifest::MappingKind;
     use pomc::panorama::{self, Panorama, SaveOptions};
     if args.layout != CubeLayout::Canonical || args.in_layout.is_some_and(|l| l != CubeLayout::Canonical) {
         return Err(fail(
@@ -317,7 +316,7 @@ fn run_panorama(args: &Args, out: Output, total: Instant) -> Result<u8, Failure>
         ));
     }
     let pano = Panorama::open(&args.input)?;
-    let target = MappingKind::from(args.to);
+    let target = args.to;
     if pano.manifest.mapping.kind == target {
         return Err(fail(
             "CONVERT_USAGE",

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use pomc::layer::LayerImage;
 use pomc::layer_io::ReadLimits;
-use pomc::mapping::{AnyMapping, MappingKind};
+use pomc::mapping::AnyMapping;
 use pomc::mesh::{self, accuracy, encode, export, MeshParams};
 use pomc::panorama::Panorama;
 
@@ -121,7 +121,7 @@ struct Layer {
 }
 
 fn mapping_of(pano: &Panorama, image: &LayerImage) -> Result<AnyMapping, Failure> {
-    let kind: MappingKind = pano.manifest.mapping.kind.into();
+    let kind = pano.manifest.mapping.kind;
     AnyMapping::new(kind, image.width, image.height).map_err(|e| fail("MESH_CANVAS_MISMATCH", e.to_string()))
 }
 

@@ -393,7 +393,7 @@ fn convert_takes_a_panorama() {
     assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
     assert_eq!(json(&run)["layers"], 2);
     let cube = Panorama::open(&dir.path().join("cube")).unwrap();
-    assert_eq!(cube.manifest.mapping.kind, pomc::manifest::MappingKind::Cube);
+    assert_eq!(cube.manifest.mapping.kind, pomc::manifest::MappingKind::Cube3x2);
     assert!(cube.manifest.layers[1].packing.is_some(), "the sparse objects layer is packed again");
     let check = pomc(&["validate", &p("cube"), "--json"]);
     assert_eq!(json(&check)["errors"], 0, "{}", String::from_utf8_lossy(&check.stdout));
