@@ -460,7 +460,7 @@ enum Sources {
     /// Filled pixels being solved, once solved.
     Solved,
     /// The same, on the surface being solved only: a shading ratio measured on one surface
-    /// (misread near a seam of its copy) must not tint the one beside it.
+    /// (misread by an edge) must not tint the one beside it across a crease.
     SameSurface,
     /// Every filled pixel: the ones not solved keep their value and count as known.
     All,
