@@ -10,7 +10,8 @@
 //! Filters are nearest, bilinear and bicubic (Keys `a = −0.5`, i.e. Catmull-Rom). Depth is never blended
 //! across a discontinuity: with [`SampleOptions::depth_channel`] set, a pixel is filtered only when every
 //! tap with a non-zero weight is inside the layer and their depths are within
-//! [`SampleOptions::max_relative_jump`]; otherwise **all** channels take the nearest tap, so colour,
+//! [`SampleOptions::max_relative_jump`] (or, bilinear, on one plane by the continuity rule: then
+//! blended in inverse depth); otherwise **all** channels take the nearest tap, so colour,
 //! coverage and depth stay consistent. Filtered depth is clamped to the taps' range.
 //!
 //! The hot loop is `f32`; the only trigonometry per pixel is a polynomial `atan2` (error below
@@ -326,6 +327,43 @@ trait Source: Sync {
     fn coords(&self, d: &Dirs, out: &mut Coords);
     /// Filter taps around continuous coordinates `(x, y)` of `face` (0 for equirect).
     fn taps_at(&self, face: u8, x: f32, y: f32, filter: Filter, out: &mut Taps);
+    /// Texel `(i, j)` of `face`, wrapped, over a pole or on the neighbouring face as taps are.
+    fn texel_at(&self, face: u8, i: i64, j: i64) -> usize;
+
+    /// Whether the bilinear taps around `(x, y)` lie on one surface by the continuity rule
+    /// ([`crate::continuity::continuous`]: a step within `jump`, or a plane through the texel
+    /// beyond either end, along both rows and both columns): a grazing floor doubles its depth a
+    /// row near the horizon, smoothly.
+    #[allow(clippy::too_many_arguments)]
+    fn bilinear_on_plane<T: Texel>(
+        &self,
+        data: &[T],
+        ch: usize,
+        z: usize,
+        face: u8,
+        x: f32,
+        y: f32,
+        jump: f32,
+    ) -> bool {
+        let (x0, _, _) = axis_weights(Filter::Bilinear, x);
+        let (y0, _, _) = axis_weights(Filter::Bilinear, y);
+        let depth = |i: i64, j: i64| data[self.texel_at(face, i, j) * ch + z].to_f32() as f64;
+        let pair = |(ai, aj): (i64, i64), (di, dj): (i64, i64)| {
+            let (bi, bj) = (ai + di, aj + dj);
+            crate::continuity::continuous_with(
+                depth(ai, aj),
+                depth(bi, bj),
+                || Some(depth(ai - di, aj - dj)),
+                || Some(depth(bi + di, bj + dj)),
+                jump as f64,
+                crate::continuity::PLANAR,
+            )
+        };
+        pair((x0, y0), (1, 0))
+            && pair((x0, y0 + 1), (1, 0))
+            && pair((x0, y0), (0, 1))
+            && pair((x0 + 1, y0), (0, 1))
+    }
 
     /// Plain bilinear sample (no depth rule) written straight into `out`; sources override this with a
     /// version that skips the generic tap list.
@@ -522,6 +560,11 @@ impl Source for EquirectSource {
         }
     }
 
+    #[inline]
+    fn texel_at(&self, _face: u8, i: i64, j: i64) -> usize {
+        self.index(i, j)
+    }
+
     #[inline(always)]
     fn taps_at(&self, _face: u8, x: f32, y: f32, filter: Filter, out: &mut Taps) {
         let (x0, nx, wx) = axis_weights(filter, x);
@@ -663,6 +706,11 @@ impl Source for CubeSource {
         }
     }
 
+    #[inline]
+    fn texel_at(&self, face: u8, i: i64, j: i64) -> usize {
+        self.texel(face as usize, i, j)
+    }
+
     #[inline(always)]
     fn taps_at(&self, face: u8, x: f32, y: f32, filter: Filter, out: &mut Taps) {
         let face = face as usize;
@@ -682,15 +730,20 @@ impl Source for CubeSource {
     }
 }
 
-/// Whether the taps may be blended under the depth-aware rule; also returns the depth range.
+/// What the depth-aware rule makes of a pixel's taps.
+enum DepthTaps {
+    /// Some tap outside or unknown: the nearest texel.
+    Apart,
+    /// Within the relative jump: blended, clamped to the range.
+    Close(f32, f32),
+    /// All inside, stepping by more than the jump: blended only on one plane (then in inverse
+    /// depth, which is linear along a plane), else the nearest texel.
+    Steep(f32, f32),
+}
+
+/// The taps under the depth-aware rule, with their depth range.
 #[inline]
-fn blendable<T: Texel>(
-    src: &[T],
-    ch: usize,
-    taps: &Taps,
-    opts: &SampleOptions,
-    z: usize,
-) -> Option<(f32, f32)> {
+fn blendable<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, z: usize) -> DepthTaps {
     let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
     for k in 0..taps.n {
         if taps.w[k] == 0.0 {
@@ -700,33 +753,58 @@ fn blendable<T: Texel>(
         let zv = src[base + z].to_f32();
         // Negative = outside, NaN = unknown: neither mixes with anything.
         if zv.is_nan() || zv < 0.0 {
-            return None;
+            return DepthTaps::Apart;
         }
         if let Some(a) = opts.coverage_channel {
             let cov = src[base + a].to_f32();
             if cov.is_nan() || cov <= 0.0 {
-                return None;
+                return DepthTaps::Apart;
             }
         }
         lo = lo.min(zv);
         hi = hi.max(zv);
     }
     // All-infinite taps (sky) blend; finite next to infinite does not.
-    (hi <= lo * (1.0 + opts.max_relative_jump)).then_some((lo, hi))
+    if hi <= lo * (1.0 + opts.max_relative_jump) {
+        DepthTaps::Close(lo, hi)
+    } else if hi.is_finite() && lo > 0.0 {
+        DepthTaps::Steep(lo, hi)
+    } else {
+        DepthTaps::Apart
+    }
 }
 
 /// Write the filtered value of `taps` into `out` (one pixel, `ch` samples).
 #[inline(always)]
 fn resolve<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, out: &mut [T]) {
+    resolve_with(src, ch, taps, opts, || false, out)
+}
+
+/// [`resolve`], where `on_plane` says whether taps stepping by more than the relative jump lie on
+/// one plane (asked only then).
+#[inline(always)]
+fn resolve_with<T: Texel>(
+    src: &[T],
+    ch: usize,
+    taps: &Taps,
+    opts: &SampleOptions,
+    on_plane: impl FnOnce() -> bool,
+    out: &mut [T],
+) {
     if taps.n == 1 {
         copy_pixel(src, ch, taps.nearest, out);
         return;
     }
     let mut range = None;
+    let mut inverse = false;
     if let Some(z) = opts.depth_channel {
         match blendable(src, ch, taps, opts, z) {
-            Some(r) => range = Some((z, r)),
-            None => {
+            DepthTaps::Close(lo, hi) => range = Some((z, (lo, hi))),
+            DepthTaps::Steep(lo, hi) if on_plane() => {
+                range = Some((z, (lo, hi)));
+                inverse = true;
+            }
+            _ => {
                 copy_pixel(src, ch, taps.nearest, out);
                 return;
             }
@@ -754,9 +832,18 @@ fn resolve<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, ou
         }
     }
     if let Some((z, (lo, hi))) = range {
+        let d = if inverse {
+            let s: f32 = (0..taps.n)
+                .filter(|&k| taps.w[k] != 0.0)
+                .map(|k| taps.w[k] / src[taps.idx[k] * ch + z].to_f32())
+                .sum();
+            1.0 / s
+        } else {
+            out[z].to_f32()
+        };
         // Equal taps keep their depth exactly: infinitely far ones (a sky) would sum to NaN
         // (0 · inf for a tap of weight 0, inf − inf for bicubic's negative lobes).
-        out[z] = T::from_f32(if lo == hi { lo } else { out[z].to_f32().clamp(lo, hi) });
+        out[z] = T::from_f32(if lo == hi { lo } else { d.clamp(lo, hi) });
     }
 }
 
@@ -993,8 +1080,15 @@ fn run<T: Texel, S: Source>(
         }
         let mut taps = Taps::EMPTY;
         for (i, px) in out.chunks_exact_mut(ch).enumerate() {
-            source.taps_at(coords.face[i], coords.x[i], coords.y[i], opts.filter, &mut taps);
-            resolve(data, ch, &taps, opts, px);
+            let (face, x, y) = (coords.face[i], coords.x[i], coords.y[i]);
+            source.taps_at(face, x, y, opts.filter, &mut taps);
+            let on_plane = || match opts.depth_channel {
+                Some(z) if opts.filter == Filter::Bilinear => {
+                    source.bilinear_on_plane(data, ch, z, face, x, y, opts.max_relative_jump)
+                }
+                _ => false,
+            };
+            resolve_with(data, ch, &taps, opts, on_plane, px);
         }
     })
 }
