@@ -382,12 +382,34 @@ trait Source: Sync {
         resolve(data, ch, &taps, &SampleOptions::default(), out);
     }
 
-    /// Taps of one direction.
-    fn taps(&self, d: Vec3, filter: Filter, out: &mut Taps) {
+    /// Source coordinates (face, x, y) of one direction.
+    fn coords_of(&self, d: Vec3) -> (u8, f32, f32) {
         let dirs = Dirs { x: vec![d.x], y: vec![d.y], z: vec![d.z] };
         let mut c = Coords::with_len(1);
         self.coords(&dirs, &mut c);
-        self.taps_at(c.face[0], c.x[0], c.y[0], filter, out);
+        (c.face[0], c.x[0], c.y[0])
+    }
+
+    /// One pixel under `opts` at source coordinates `(face, x, y)`: its taps, the depth-aware
+    /// rule (steep bilinear taps asked [`Source::bilinear_on_plane`]) and the filtered value.
+    #[inline(always)]
+    fn sample<T: Texel>(
+        &self,
+        data: &[T],
+        ch: usize,
+        (face, x, y): (u8, f32, f32),
+        opts: &SampleOptions,
+        taps: &mut Taps,
+        out: &mut [T],
+    ) {
+        self.taps_at(face, x, y, opts.filter, taps);
+        let on_plane = || match opts.depth_channel {
+            Some(z) if opts.filter == Filter::Bilinear => {
+                self.bilinear_on_plane(data, ch, z, face, x, y, opts.max_relative_jump)
+            }
+            _ => false,
+        };
+        resolve_with(data, ch, taps, opts, on_plane, out);
     }
 }
 
@@ -1080,15 +1102,7 @@ fn run<T: Texel, S: Source>(
         }
         let mut taps = Taps::EMPTY;
         for (i, px) in out.chunks_exact_mut(ch).enumerate() {
-            let (face, x, y) = (coords.face[i], coords.x[i], coords.y[i]);
-            source.taps_at(face, x, y, opts.filter, &mut taps);
-            let on_plane = || match opts.depth_channel {
-                Some(z) if opts.filter == Filter::Bilinear => {
-                    source.bilinear_on_plane(data, ch, z, face, x, y, opts.max_relative_jump)
-                }
-                _ => false,
-            };
-            resolve_with(data, ch, &taps, opts, on_plane, px);
+            source.sample(data, ch, (coords.face[i], coords.x[i], coords.y[i]), opts, &mut taps, px);
         }
     })
 }
@@ -1110,14 +1124,8 @@ pub fn sample_dir<T: Texel>(
     let d = crate::mapping::sanitize_dir(d).unwrap_or(DVec3::Z).normalize().as_vec3();
     let mut taps = Taps::EMPTY;
     match Prepared::new(src, canvas, opts)? {
-        Prepared::Equirect(data, _, s) => {
-            s.taps(d, opts.filter, &mut taps);
-            resolve(data, ch, &taps, opts, out);
-        }
-        Prepared::Cube(data, _, s) => {
-            s.taps(d, opts.filter, &mut taps);
-            resolve(data.data(), ch, &taps, opts, out);
-        }
+        Prepared::Equirect(data, _, s) => s.sample(data, ch, s.coords_of(d), opts, &mut taps, out),
+        Prepared::Cube(data, _, s) => s.sample(data.data(), ch, s.coords_of(d), opts, &mut taps, out),
     }
     Ok(())
 }

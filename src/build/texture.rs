@@ -490,22 +490,27 @@ fn diffuse(
             [(tx.nb.get_at(x, y, j), 1.0 / diag), (tx.nb.get2_at(x, y, j), 0.25 / diag)]
         })
     };
-    let surface_at = |r: usize| {
+    // Where filled pixel `i` takes neighbour `r`'s value from: a filled pixel (its index), a pixel
+    // around the fill (KNOWN: what is known there) or nowhere (NONE).
+    const KNOWN: u32 = NONE - 1;
+    let source = |i: usize, r: usize| -> u32 {
         let s = slot[r];
-        tx.surface[if s == NONE { r } else { fill.pixels[s as usize].surface }]
+        let surface = || tx.surface[if s == NONE { r } else { fill.pixels[s as usize].surface }];
+        if sources == Sources::SameSurface && surface() != tx.surface[fill.pixels[i].surface] {
+            NONE
+        } else if s == NONE {
+            KNOWN
+        } else if solve[s as usize] || sources == Sources::All {
+            s
+        } else {
+            NONE
+        }
     };
     // A neighbour's value: a filled pixel's once solved (or fixed), else what is known there.
-    let at = |i: usize, r: usize, value: &[Vec3], done: &[bool]| {
-        let s = slot[r];
-        if sources == Sources::SameSurface && surface_at(r) != tx.surface[fill.pixels[i].surface] {
-            None
-        } else if s == NONE {
-            known(r)
-        } else if solve[s as usize] {
-            done[s as usize].then(|| value[s as usize])
-        } else {
-            (sources == Sources::All).then(|| value[s as usize])
-        }
+    let at = |i: usize, r: usize, value: &[Vec3], done: &[bool]| match source(i, r) {
+        NONE => None,
+        KNOWN => known(r),
+        s => (!solve[s as usize] || done[s as usize]).then(|| value[s as usize]),
     };
     for i in (0..m).filter(|&i| solve[i]) {
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0);
@@ -520,10 +525,7 @@ fn diffuse(
             done[i] = true;
         }
     }
-    // The sweeps' sources, found once: per solved pixel its 8 neighbours in order, each a filled
-    // pixel (its index: its current value), a pixel around the fill (KNOWN: what is known there)
-    // or nothing (NONE).
-    const KNOWN: u32 = NONE - 1;
+    // The sweeps' sources, found once: per solved pixel, its 8 neighbours in order.
     let sources_of: Vec<[u32; 8]> = (0..m)
         .into_par_iter()
         .map(|i| {
@@ -532,16 +534,8 @@ fn diffuse(
                 let q = fill.pixels[i].pixel;
                 let (x, y) = (q % w, q / w);
                 for (j, e) in e.iter_mut().enumerate() {
-                    let Some(r) = tx.nb.get_at(x, y, j) else { continue };
-                    let s = slot[r];
-                    if sources == Sources::SameSurface && surface_at(r) != tx.surface[fill.pixels[i].surface]
-                    {
-                        continue;
-                    }
-                    if s == NONE {
-                        *e = KNOWN;
-                    } else if solve[s as usize] || sources == Sources::All {
-                        *e = s;
+                    if let Some(r) = tx.nb.get_at(x, y, j) {
+                        *e = source(i, r);
                     }
                 }
             }
