@@ -219,17 +219,26 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     let surfaces = Surfaces::new(cx, k, &seeds);
     let mut fill = Fill::default();
     let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
+    let mut own_plane: HashMap<usize, FillPixel> = HashMap::new();
     for q in order {
         let own = src[q] as usize;
         // Pixels only fold seeds reach have no rivals.
         let none = [NONE; RIVALS];
         let rival = rivals.get(slot_of[q] as usize).unwrap_or(&none);
         let Some((s, d)) = pick_surface(cx, &surfaces, own, rival, q) else { continue };
-        let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
-        fill.pixels.push(FillPixel { pixel: q, depth: d, rgb: cx.colour(c).to_array(), surface: s });
+        let mut pixel = |s: usize, depth: f32| {
+            let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
+            FillPixel { pixel: q, depth, rgb: cx.colour(c).to_array(), surface: s }
+        };
+        fill.pixels.push(pixel(s, d));
+        if s != own {
+            if let Some(d) = continue_surface(cx, &surfaces, own, q) {
+                own_plane.insert(q, pixel(own, d));
+            }
+        }
         fill.max_angle = fill.max_angle.max(angle_of[q]);
     }
-    keep_continuous(cx, k, &mut fill);
+    keep_continuous(cx, k, &mut fill, own_plane);
     fill
 }
 
@@ -279,7 +288,12 @@ pub fn add_borders(cx: &FillContext, fills: &mut [Fill]) {
 /// not one surface, the nearer pixel goes when it is filled — the farther surface then shows
 /// through where the nearer stops, so no hole opens — else the filled one. A layer is continuous
 /// inside its domain (spec §1); every step lies on its border.
-fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
+///
+/// A dropped pixel that had taken a rival's plane ([`pick_surface`]) then gets its nearest seed's
+/// plane (`own_plane`) back if that is continuous with every neighbour left: a rival's plane can
+/// be a thin object's (a table leg's) continued far beyond it, and dropping all it claimed left
+/// a hole in the layer where the nearest seed's surface continues.
+fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill, mut own_plane: HashMap<usize, FillPixel>) {
     let n = cx.nb.len();
     let mut d: Vec<f32> = (0..n)
         .into_par_iter()
@@ -292,6 +306,21 @@ fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
     }
     let w = cx.nb.width();
     let at = |d: &[f32], i: Option<usize>| i.map(|i| d[i] as f64).filter(|v| *v > 0.0);
+    let mut dropped = Vec::new();
+    let at_start = fill.pixels.len();
+    // Pixel `q` and its 4-neighbour `r` (in direction `j`) are one surface.
+    let link = |d: &[f32], q: usize, j: usize, r: usize| {
+        let (x, y) = (q % w, q / w);
+        let Some(b) = at(d, Some(r)) else { return false };
+        continuous_with(
+            d[q] as f64,
+            b,
+            || at(d, cx.nb.get_at(x, y, opposite(j))),
+            || at(d, cx.nb.get2_at(x, y, j)),
+            cx.jump,
+            cx.plane_tol,
+        )
+    };
     // Each pass only removes pixels; one that removes none ends it. A removal can take away the
     // plane another pair was continued by, hence the passes (few: 1–3 on realistic scenes).
     for _ in 0..64 {
@@ -305,13 +334,11 @@ fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
                 // 4-neighbours, as validate checks: a diagonal step is judged by the steps around it.
                 (0..4).filter_map(move |j| {
                     let r = cx.nb.get_at(x, y, j)?;
-                    let (a, b) = (d[q] as f64, at(d, Some(r))?);
-                    let behind = || at(d, cx.nb.get_at(x, y, opposite(j)));
-                    let beyond = || at(d, cx.nb.get2_at(x, y, j));
-                    if continuous_with(a, b, behind, beyond, cx.jump, cx.plane_tol) {
+                    let b = at(d, Some(r))?;
+                    if link(d, q, j, r) {
                         return None;
                     }
-                    Some(if b < a && filled[r] { r } else { q })
+                    Some(if b < d[q] as f64 && filled[r] { r } else { q })
                 })
             })
             .collect();
@@ -323,8 +350,69 @@ fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill) {
         for &p in &drop {
             d[p] = f32::NAN;
             filled[p] = false;
+            dropped.extend(own_plane.remove(&p));
         }
         fill.pixels.retain(|f| filled[f.pixel]);
+    }
+    if fill.pixels.len() == at_start {
+        return;
+    }
+    // A fill left with no continuous path to the layer's own pixels continues nothing seen: a
+    // remnant of a rival's plane whose surroundings went. It goes too.
+    let mut reached = vec![false; n];
+    let mut queue: VecDeque<usize> = VecDeque::new();
+    for f in &fill.pixels {
+        let (x, y) = (f.pixel % w, f.pixel / w);
+        let anchored =
+            (0..4).any(|j| cx.nb.get_at(x, y, j).is_some_and(|r| !filled[r] && link(&d, f.pixel, j, r)));
+        if anchored {
+            reached[f.pixel] = true;
+            queue.push_back(f.pixel);
+        }
+    }
+    while let Some(q) = queue.pop_front() {
+        let (x, y) = (q % w, q / w);
+        for j in 0..4 {
+            if let Some(r) = cx.nb.get_at(x, y, j) {
+                if filled[r] && !reached[r] && link(&d, q, j, r) {
+                    reached[r] = true;
+                    queue.push_back(r);
+                }
+            }
+        }
+    }
+    for f in fill.pixels.iter().filter(|f| !reached[f.pixel]) {
+        d[f.pixel] = f32::NAN;
+        filled[f.pixel] = false;
+        dropped.extend(own_plane.remove(&f.pixel));
+    }
+    fill.pixels.retain(|f| filled[f.pixel]);
+    // Each pass takes back the pixels continuous with all their neighbours so far; one taken
+    // back gives its neighbours a value to be judged against, hence the passes.
+    loop {
+        let before = dropped.len();
+        dropped.retain(|f| {
+            let q = f.pixel;
+            let (x, y) = (q % w, q / w);
+            d[q] = f.depth;
+            let mut any = false;
+            let ok = (0..4).all(|j| match cx.nb.get_at(x, y, j) {
+                Some(r) if at(&d, Some(r)).is_some() => {
+                    any = true;
+                    link(&d, q, j, r)
+                }
+                _ => true,
+            });
+            if any && ok {
+                fill.pixels.push(*f);
+                return false;
+            }
+            d[q] = f32::NAN;
+            true
+        });
+        if dropped.len() == before {
+            break;
+        }
     }
 }
 
@@ -540,6 +628,62 @@ fn interior_neighbour(cx: &FillContext, s: usize, k: u32) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::build::edges::EdgeOptions;
+    use crate::mapping::{AnyMapping, Mapping, MappingKind};
+
+    /// A wall at 3 m with a nearer layer (1 m) in front of a block of it. Its fill continues the
+    /// wall, except for a rival plane at 2 m claimed in two places: a band touching the wall's
+    /// fill, and an island cut off from everything (the fill pixels around it went).
+    #[test]
+    fn a_rival_plane_dropped_gives_back_the_nearest_seeds_plane_and_leaves_no_remnant() {
+        let m = AnyMapping::new(MappingKind::Equirect, 64, 32).unwrap();
+        let (w, n) = (64, 64 * 32);
+        let nb = Neighbours::new(m);
+        let hidden = |p: usize| (20..44).contains(&(p % w)) && (8..24).contains(&(p / w));
+        let depth: Vec<f32> = (0..n).map(|p| if hidden(p) { 1.0 } else { 3.0 }).collect();
+        let layer_of: Vec<u32> = (0..n).map(|p| hidden(p) as u32).collect();
+        let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+        let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+        let (normals, surface) = (vec![Vec3::ZERO; n], vec![0u32; n]);
+        let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
+        let cx = FillContext {
+            nb: &nb,
+            dirs: &dirs,
+            depth: &depth,
+            normals: &normals,
+            layer_of: &layer_of,
+            freedom_radius: 0.5,
+            margin: 0.0,
+            links: &links,
+            surface: &surface,
+            jump: crate::continuity::JUMP,
+            plane_tol: EdgeOptions::default().extrapolation,
+            rgb: &rgb,
+        };
+        let band = |p: usize| (24..32).contains(&(p % w)) && (10..12).contains(&(p / w));
+        let island = |p: usize| (36..40).contains(&(p % w)) && (18..20).contains(&(p / w));
+        let moat = |p: usize| (35..41).contains(&(p % w)) && (17..21).contains(&(p / w)) && !island(p);
+        let px = |p: usize, depth: f32| FillPixel { pixel: p, depth, rgb: [0.5; 3], surface: 0 };
+        let mut fill = Fill::default();
+        let mut own_plane = HashMap::new();
+        for p in (0..n).filter(|&p| hidden(p) && !moat(p)) {
+            if band(p) || island(p) {
+                fill.pixels.push(px(p, 2.0));
+                own_plane.insert(p, px(p, 3.0));
+            } else {
+                fill.pixels.push(px(p, 3.0));
+            }
+        }
+        keep_continuous(&cx, 0, &mut fill, own_plane);
+        let got: HashMap<usize, f32> = fill.pixels.iter().map(|f| (f.pixel, f.depth)).collect();
+        assert!(
+            (0..n).filter(|&p| band(p)).all(|p| got.get(&p) == Some(&3.0)),
+            "the band takes the wall back"
+        );
+        assert!(got.values().all(|&d| d == 3.0), "no pixel keeps the rival's plane");
+        let holes = (0..n).filter(|&p| hidden(p) && !moat(p) && !island(p) && !got.contains_key(&p)).count();
+        assert_eq!(holes, 0, "the wall's fill has no hole");
+    }
 
     #[test]
     fn band_is_the_parallax_difference() {
