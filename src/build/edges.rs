@@ -146,6 +146,11 @@ impl Links {
 /// pixels wide.
 const SOFT: usize = 4;
 
+/// Largest share of a ramp's jump (in log depth) one step of it may take: a sharp edge resized
+/// ×2 bilinearly takes about half in its largest step, a Gaussian blur of σ 1 px about 40 %; the
+/// limb of a sphere before the jump to what is behind it, 80–90 %.
+const MAX_STEP_SHARE: f64 = 0.65;
+
 /// Pixels of depth edges spread over a few pixels (depth resized or blurred, or from a depth
 /// network), with the depth of the edge's farther side. Such a ramp of in-between depths joins the
 /// two surfaces, and the pair test passes on its gentler steps. Found along rows and columns: in
@@ -192,6 +197,13 @@ fn ramp_at(nb: &Neighbours, depth: &[f32], p: usize, k: usize, o: &EdgeOptions) 
     let flat_ends = 4.0 * step(0).max(step(N - 2)) < s;
     let (near, far) = (line[1].max(line[N - 2]), line[1].min(line[N - 2]));
     if !(steepest && flat_ends && (near - far) / far > o.jump) {
+        return Vec::new();
+    }
+    // Spread over the ramp: no one step takes most of the jump (in log depth, where resized
+    // and blurred edges spread most evenly). The limb of a curved object steepens into one
+    // jump to what is behind it, which is most of the way: its pixels are the object's own.
+    let widest = (1..N - 2).map(|i| (line[i + 1] / line[i]).ln().abs()).fold(0.0, f64::max);
+    if widest > MAX_STEP_SHARE * (near / far).ln() {
         return Vec::new();
     }
     let margin = 0.1 * (near - far);
@@ -363,6 +375,33 @@ mod tests {
                 assert!(c.len() == 1 && (28..34).contains(&c[0]), "sigma {sigma} row {y}: cuts at {c:?}");
             }
         }
+    }
+
+    /// The limb of a sphere near the centre (0.1 m radius, 0.3 m away, 3 m in front of a wall):
+    /// along a row its depth steepens towards the silhouette, then jumps to the wall. The window
+    /// has flat ends and a jump, like a blurred edge, but the jump is one step: the limb's pixels
+    /// are the sphere's, not a ramp to move behind it.
+    #[test]
+    fn the_limb_of_a_curved_object_is_not_a_ramp() {
+        let (w, h) = (256usize, 128usize);
+        let m = AnyMapping::new(MappingKind::Equirect, w, h).unwrap();
+        let nb = Neighbours::new(m);
+        let (dist, radius) = (0.3f64, 0.1f64);
+        let row: Vec<f32> = (0..w)
+            .map(|x| {
+                let a = (x as f64 + 0.5 - 128.0) * std::f64::consts::TAU / w as f64;
+                let off = dist * a.sin();
+                if a.abs() < std::f64::consts::FRAC_PI_2 && off.abs() < radius {
+                    (dist * a.cos() - (radius * radius - off * off).sqrt()) as f32
+                } else {
+                    3.0
+                }
+            })
+            .collect();
+        assert!(row.iter().filter(|&&d| d < 3.0).count() > 20, "the sphere spans the row");
+        let depth: Vec<f32> = (0..w * h).map(|p| row[p % w]).collect();
+        let ramp = ramp_pixels(&nb, &depth, &EdgeOptions::default());
+        assert!(ramp.is_empty(), "limb pixels taken for a ramp: {:?}", &ramp[..ramp.len().min(6)]);
     }
 
     #[test]
