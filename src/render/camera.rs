@@ -146,6 +146,19 @@ impl EquirectCamera {
 }
 
 impl Camera {
+    /// The same view at `factor` times the resolution along each axis (sub-samples of a pixel are
+    /// the pixels of the finer grid inside it); `None` beyond the size limits.
+    pub fn scaled(&self, factor: usize) -> Option<Camera> {
+        let (w, h) = (self.width().checked_mul(factor)?, self.height().checked_mul(factor)?);
+        check_size(w, h).ok()?;
+        Some(match *self {
+            Camera::Perspective(c) => {
+                Camera::Perspective(Perspective { width: w, height: h, focal: c.focal * factor as f64, ..c })
+            }
+            Camera::Equirect(c) => Camera::Equirect(EquirectCamera { width: w, height: h, ..c }),
+        })
+    }
+
     /// Output width, pixels.
     pub fn width(&self) -> usize {
         match self {

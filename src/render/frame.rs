@@ -9,7 +9,7 @@ use std::path::Path;
 
 use image::{ExtendedColorType, ImageEncoder};
 
-use super::accum::Accum;
+use super::accum::{Accum, Cell};
 use super::RenderError;
 use crate::layer::{LayerImage, SampleType, OUTSIDE_DEPTH};
 
@@ -39,17 +39,72 @@ impl Frame {
             depth: vec![OUTSIDE_DEPTH; n],
             covered: vec![false; n],
         };
-        for (i, c) in acc.cells.iter().enumerate() {
+        let colour = |c: &Cell, k: usize| {
+            let v = c.rgb[k] / c.w;
+            if v.is_finite() {
+                v
+            } else {
+                0.0
+            }
+        };
+        for i in 0..n {
+            let (c, behind) = acc.resolve(i);
             if !(c.w > 0.0 && c.w.is_finite()) {
                 continue;
             }
             f.covered[i] = true;
             for k in 0..3 {
-                let v = c.rgb[k] / c.w;
-                f.rgb[k][i] = if v.is_finite() { v } else { 0.0 };
+                f.rgb[k][i] = match behind {
+                    Some((b, alpha)) => alpha * colour(c, k) + (1.0 - alpha) * colour(b, k),
+                    None => colour(c, k),
+                };
             }
+            // The distance is the one of the group that shows most.
+            let c = match behind {
+                Some((b, alpha)) if alpha < 0.5 && b.w > 0.0 && b.w.is_finite() => b,
+                _ => c,
+            };
             let d = if c.z.is_infinite() { f32::INFINITY } else { c.wz / c.w };
             f.depth[i] = if d.is_nan() { c.z } else { d };
+        }
+        f
+    }
+
+    /// Each `factor × factor` block as one pixel: the mean colour of its covered sub-pixels, the
+    /// distance of its nearest one, covered if any is (the frame's size must be a multiple).
+    pub(crate) fn downsampled(&self, factor: usize) -> Frame {
+        let (w, h) = (self.width / factor, self.height / factor);
+        let mut f = Frame {
+            width: w,
+            height: h,
+            rgb: [vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h]],
+            depth: vec![OUTSIDE_DEPTH; w * h],
+            covered: vec![false; w * h],
+        };
+        for y in 0..h {
+            for x in 0..w {
+                let (mut n, mut sum, mut near) = (0u32, [0.0f32; 3], f32::INFINITY);
+                for sy in 0..factor {
+                    let row = (y * factor + sy) * self.width;
+                    for i in row + x * factor..row + (x + 1) * factor {
+                        if self.covered[i] {
+                            n += 1;
+                            for (s, plane) in sum.iter_mut().zip(&self.rgb) {
+                                *s += plane[i];
+                            }
+                            near = near.min(self.depth[i]);
+                        }
+                    }
+                }
+                if n > 0 {
+                    let o = y * w + x;
+                    for (plane, s) in f.rgb.iter_mut().zip(sum) {
+                        plane[o] = s / n as f32;
+                    }
+                    f.depth[o] = near;
+                    f.covered[o] = true;
+                }
+            }
         }
         f
     }
@@ -156,9 +211,31 @@ mod tests {
     }
 
     #[test]
+    fn downsampling_averages_the_covered_sub_pixels() {
+        // 4 × 2 sub-pixels → 2 × 1: the left block half covered, the right one a hole.
+        let mut f = Frame {
+            width: 4,
+            height: 2,
+            rgb: [vec![0.0; 8], vec![0.0; 8], vec![0.0; 8]],
+            depth: vec![OUTSIDE_DEPTH; 8],
+            covered: vec![false; 8],
+        };
+        for (i, v, d) in [(0, 1.0, 3.0), (5, 0.5, 2.0)] {
+            f.rgb[0][i] = v;
+            f.depth[i] = d;
+            f.covered[i] = true;
+        }
+        let g = f.downsampled(2);
+        assert_eq!((g.width, g.height), (2, 1));
+        assert_eq!(g.covered, vec![true, false]);
+        assert_eq!((g.rgb[0][0], g.depth[0]), (0.75, 2.0));
+        assert_eq!((g.rgb[0][1], g.depth[1]), (0.0, OUTSIDE_DEPTH));
+    }
+
+    #[test]
     fn empty_cells_are_holes_without_nan() {
         let mut acc = Accum::new(2, 1, 0.03);
-        acc.add(1, f32::INFINITY, 0.5, [1.0, 0.5, 0.25], 0);
+        acc.add(1, f32::INFINITY, 0.5, 1.0, [1.0, 0.5, 0.25], 0);
         let f = Frame::from_accum(&acc);
         assert_eq!(f.covered, vec![false, true]);
         assert_eq!(f.depth, vec![OUTSIDE_DEPTH, f32::INFINITY]);

@@ -414,8 +414,11 @@ impl LayerCtx<'_> {
         if !self.camera.wraps() && self.off_screen(c.q, sx.max(sy) + radius) {
             return 0;
         }
+        // The footprint's area on the output, shared by its samples.
+        let area = self.footprint_area(c, &linked, &own).unwrap_or(sx * sy);
+        let cover = area / (nx * ny) as f64 / (radius * radius);
         if nx == 1 && ny == 1 {
-            let one = Splat { q: c.q, dist: c.dist, rgb: c.rgb, layer: self.index };
+            let one = Splat { q: c.q, dist: c.dist, rgb: c.rgb, layer: self.index, cover };
             splat(self.camera, self.scales, radius, &one, acc);
             return 1;
         }
@@ -424,13 +427,33 @@ impl LayerCtx<'_> {
             let oy = (b as f64 + 0.5) / ny as f64 - 0.5;
             for a in 0..nx {
                 let ox = (a as f64 + 0.5) / nx as f64 - 0.5;
-                done += self.emit(c, &linked, &own, ox, oy, radius, acc);
+                done += self.emit(c, &linked, &own, (ox, oy), radius, cover, acc);
             }
         }
         done
     }
 
-    /// Filter the footprint point at offset `(ox, oy)` into the output; returns 1 if it projects.
+    /// Output-space vector from `a` to `b`, with the equirect metric (as [`Self::gap`]).
+    #[inline]
+    fn delta(&self, a: DVec2, b: DVec2) -> DVec2 {
+        let mut dx = b.x - a.x;
+        if self.camera.wraps() {
+            let w = self.camera.width() as f64;
+            dx -= w * (dx / w).round();
+        }
+        DVec2::new(dx * row_scale(self.scales, a.y), b.y - a.y)
+    }
+
+    /// Area on the output (equirect metric) of pixel `c`'s footprint, as its samples cover it:
+    /// the parallelogram through the midpoints of its sides. `None` where one does not project.
+    fn footprint_area(&self, c: &Pt, linked: &[Option<&Pt>; 8], own: &[Option<DVec3>; 8]) -> Option<f64> {
+        let at = |ox: f64, oy: f64| self.camera.project(interpolate(c, linked, own, ox, oy).0);
+        let (u, v) = (self.delta(at(-0.5, 0.0)?, at(0.5, 0.0)?), self.delta(at(0.0, -0.5)?, at(0.0, 0.5)?));
+        Some(u.perp_dot(v).abs())
+    }
+
+    /// Filter the footprint point at offset `o` into the output with coverage `cover` per unit of
+    /// filter weight; returns 1 if it projects.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     fn emit(
@@ -438,15 +461,15 @@ impl LayerCtx<'_> {
         c: &Pt,
         linked: &[Option<&Pt>; 8],
         own: &[Option<DVec3>; 8],
-        ox: f64,
-        oy: f64,
+        o: (f64, f64),
         radius: f64,
+        cover: f64,
         acc: &mut Accum,
     ) -> u64 {
-        let (cam, rgb) = interpolate(c, linked, own, ox, oy);
+        let (cam, rgb) = interpolate(c, linked, own, o.0, o.1);
         let Some(q) = self.camera.project(cam) else { return 0 };
         let dist = if c.dist.is_infinite() { f32::INFINITY } else { cam.length() as f32 };
-        splat(self.camera, self.scales, radius, &Splat { q, dist, rgb, layer: self.index }, acc);
+        splat(self.camera, self.scales, radius, &Splat { q, dist, rgb, layer: self.index, cover }, acc);
         1
     }
 
@@ -478,14 +501,24 @@ impl LayerCtx<'_> {
             _ => (f64::INFINITY, f64::INFINITY),
         };
         let side = along_x.max(along_y);
+        // The rectangle's area on the output: its projected quad (shoelace).
+        let area = |q: &[Option<DVec2>; 4]| {
+            let [Some(a), Some(b), Some(d), Some(e)] = *q else { return None };
+            let (b, d, e) = (self.delta(a, b), self.delta(a, d), self.delta(a, e));
+            Some((b.perp_dot(d) + d.perp_dot(e)).abs() / 2.0)
+        };
         if side <= self.o.spacing {
-            return self.emit(c, linked, own, cx, cy, self.o.radius, acc);
+            let r = self.o.radius;
+            let cover = area(&q).unwrap_or(side * side) / (r * r);
+            return self.emit(c, linked, own, (cx, cy), r, cover, acc);
         }
         if depth >= MAX_REFINE {
             // Only a surface touching the eye gets here (one layer pixel wider than 2^16 samples
             // at the spacing); its samples grow so the footprint stays covered.
             let grow = if side.is_finite() { side / self.o.spacing } else { 1.0 };
-            return self.emit(c, linked, own, cx, cy, self.o.radius * grow, acc);
+            let r = self.o.radius * grow;
+            let cover = area(&q).filter(|a| a.is_finite()).map_or(1.0, |a| a / (r * r));
+            return self.emit(c, linked, own, (cx, cy), r, cover, acc);
         }
         let (nx, ny) = (1 + (along_x > self.o.spacing) as usize, 1 + (along_y > self.o.spacing) as usize);
         let (w, h) = (sq.w / nx as f64, sq.h / ny as f64);
@@ -579,6 +612,9 @@ struct Splat {
     dist: f32,
     rgb: [f32; 3],
     layer: u32,
+    /// Coverage of the output per unit of filter weight: the sample's area over the filter's
+    /// integral `r²` ([`super::accum::Cell::cover`]).
+    cover: f64,
 }
 
 /// The horizontal metric at output row coordinate `y` (clamped into the image).
@@ -616,7 +652,15 @@ fn splat(camera: &Camera, scales: &[f64], r: f64, s: &Splat, acc: &mut Accum) {
         for px in x0..=x1 {
             let fx = 1.0 - (px as f64 + 0.5 - q.x).abs() * sc / r;
             if fx > 0.0 {
-                acc.add(row + px.rem_euclid(w) as usize, s.dist, (fx * fy) as f32, s.rgb, s.layer);
+                let wt = fx * fy;
+                acc.add(
+                    row + px.rem_euclid(w) as usize,
+                    s.dist,
+                    wt as f32,
+                    (wt * s.cover) as f32,
+                    s.rgb,
+                    s.layer,
+                );
             }
         }
     }

@@ -187,7 +187,9 @@ fn very_near_far_and_infinite_content_matches_the_analytic_sphere() {
                 Camera::Equirect(EquirectCamera::new(eye, 128, 64).unwrap()),
             ];
             for cam in cams {
-                let f = render_one(&img, m, &cam, &MeshOptions::default()).frame;
+                // One ray per pixel: the rasteriser's own geometry, pixel centre by pixel centre.
+                let o = MeshOptions { supersample: 1, ..MeshOptions::default() };
+                let f = render_one(&img, m, &cam, &o).frame;
                 assert_eq!(f.holes(), 0, "{kind:?} r={r} {cam:?}");
                 let (mut worst_c, mut worst_d) = (0.0f64, 0.0f64);
                 for y in 0..f.height {
@@ -374,7 +376,8 @@ fn brute(g: &LayerGeometry, eye: DVec3, d: DVec3) -> (bool, f64) {
 fn rasterisation_is_watertight_and_clipped_at_the_near_plane() {
     let (img, m, g) = floor_geometry(24);
     let layers = [RenderLayer { image: &img, mapping: m }];
-    let o = MeshOptions::default();
+    // One ray per pixel, compared with ray casting through each pixel centre.
+    let o = MeshOptions { supersample: 1, ..MeshOptions::default() };
     let eye = DVec3::new(0.3, -0.2, 0.0);
     let cams = [
         // Horizontal: the floor runs under and behind the camera (triangles cross the eye plane).
@@ -432,7 +435,9 @@ fn infinity_layer_is_drawn_behind_everything() {
     assert!(f.depth.iter().any(|d| d.is_infinite()));
     let t = truth(&scene, &cam, 1);
     let (pm, ps) = (metrics::psnr(&f, &t), metrics::psnr(&p.splat(&cam), &t));
-    assert!(pm >= ps - 0.5, "mesh {pm} vs splat {ps}");
+    // Within issue 10's 1 dB of each other: the mesh's footprint quads grow the box by ¼ layer
+    // pixel (3.7 output pixels here), the splat's coverage keeps its silhouette.
+    assert!(pm >= ps - 1.0, "mesh {pm} vs splat {ps}");
 }
 
 #[test]
@@ -530,4 +535,58 @@ fn grazing_ground_under_the_sky_is_drawn() {
     );
     let f = p.mesh(&cam);
     assert!(f.holes() <= 4, "displaced: {} holes", f.holes());
+}
+
+/// A box against the sky seen from aside, each layer pixel ~3.7 output pixels wide. The splat's
+/// filter reaches ¾ of a pixel past each sample; a silhouette must not grow by it: the box's
+/// distance shows in as many output pixels as in the truth, to within half a pixel along its
+/// outline (0.35 now; 0.74 when the nearest group won whatever its coverage). The mesh's
+/// footprint quads grow it by ¼ layer pixel (spec §9.4b step 3), ~1 output pixel here.
+#[test]
+fn the_splat_keeps_silhouettes_to_their_size() {
+    let scene = Scene {
+        room: Aabb { min: DVec3::splat(-1e6), max: DVec3::splat(1e6) },
+        objects: vec![Shape::Box(Aabb { min: DVec3::new(2.0, -0.5, -0.5), max: DVec3::new(2.5, 0.5, 0.5) })],
+    };
+    let p = Pano::new(&scene, MappingKind::Equirect, 512, 256);
+    let cam = persp(DVec3::new(0.0, 0.4, 0.0), DVec3::new(2.0, 0.0, 0.0));
+    let t = truth(&scene, &cam, 1);
+    // The box is within 3 m; the room's walls (the truth's sky) are 10⁶ m away.
+    let near = |d: f32| d > 0.0 && d < 100.0;
+    let count = |f: &Frame| f.depth.iter().filter(|&&d| near(d)).count() as f64;
+    // Outline length: truth pixels with a 4-neighbour of the sky.
+    let (w, h) = (t.width, t.height);
+    let finite = |x: usize, y: usize| near(t.depth[y * w + x]);
+    let outline = (1..h - 1)
+        .flat_map(|y| (1..w - 1).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            finite(x, y)
+                && [(x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)].iter().any(|&(a, b)| !finite(a, b))
+        })
+        .count() as f64;
+    let (truth_n, splat_n, mesh_n) = (count(&t), count(&p.splat(&cam)), count(&p.mesh(&cam)));
+    eprintln!("box pixels: truth {truth_n}, splat {splat_n}, mesh {mesh_n}; outline {outline}");
+    assert!(outline > 100.0);
+    assert!((splat_n - truth_n).abs() <= 0.5 * outline, "splat {splat_n} vs truth {truth_n}");
+}
+
+/// Sub-samples: against what a camera sees (4 × 4 rays a pixel), 2 × 2 rays a pixel beat one on
+/// the room's checker edges and silhouettes, and leave no hole one ray did not.
+#[test]
+fn sub_samples_bring_the_mesh_closer_to_a_camera() {
+    let p = Pano::new(&Scene::room(), MappingKind::Equirect, 1024, 512);
+    for cam in &views()[..3] {
+        let t = truth(&Scene::room(), cam, 4);
+        let render = |supersample| {
+            let o = MeshOptions { supersample, ..MeshOptions::default() };
+            rasterize::render_mesh(&p.refs(), &p.meshes, DMat4::IDENTITY, cam, &o).unwrap().frame
+        };
+        let (one, two) = (render(1), render(2));
+        assert_no_nan(&two);
+        assert_eq!((two.width, two.height), (one.width, one.height));
+        assert!(two.holes() <= one.holes());
+        let (p1, p2) = (metrics::psnr(&one, &t), metrics::psnr(&two, &t));
+        eprintln!("PSNR against a 16-ray camera: 1 ray {p1:.2} dB, 2 × 2 rays {p2:.2} dB");
+        assert!(p2 > p1 + 0.25, "1 ray {p1}, 2 × 2 rays {p2}");
+    }
 }

@@ -55,11 +55,16 @@ pub struct MeshOptions {
     pub jump: f64,
     /// Near plane of perspective cameras, camera-space units (world units): nearer content is cut.
     pub near: f64,
+    /// Sub-samples per output pixel along each axis (1–4): each pixel is the mean of the
+    /// `supersample²` rays of a finer grid inside it that meet a surface. A camera integrates over
+    /// its pixels, and the splat method's filter spreads each sample over ¾ of a pixel: one ray
+    /// per pixel draws magnified texture and silhouettes sharper (and aliased) than either.
+    pub supersample: usize,
 }
 
 impl Default for MeshOptions {
     fn default() -> Self {
-        MeshOptions { jump: 0.1, near: 1e-6 }
+        MeshOptions { jump: 0.1, near: 1e-6, supersample: 2 }
     }
 }
 
@@ -84,7 +89,7 @@ pub struct RasterCounts {
     pub tests: u64,
     /// Tests that found the pixel inside the triangle.
     pub fragments: u64,
-    /// Output pixels coloured from an infinity sample.
+    /// Sub-pixels coloured from an infinity sample (output pixels × `supersample²`).
     pub infinity_pixels: u64,
 }
 
@@ -115,6 +120,9 @@ fn check_options(o: &MeshOptions) -> Result<(), RenderError> {
     }
     if !(o.near > 0.0 && o.near.is_finite()) {
         return Err(RenderError::BadOptions("near must be a positive distance".into()));
+    }
+    if !(1..=4).contains(&o.supersample) {
+        return Err(RenderError::BadOptions("supersample must be 1, 2, 3 or 4".into()));
     }
     Ok(())
 }
@@ -156,6 +164,13 @@ pub fn render_mesh(
         }
     }
     let t_raster = Instant::now();
+    // Sub-samples are the pixels of a finer camera; past the size limits, one ray per pixel.
+    let ss = o.supersample;
+    let fine = if ss > 1 { camera.scaled(ss) } else { None };
+    let (ss, camera) = match &fine {
+        Some(c) => (ss, c),
+        None => (1, camera),
+    };
     let cam = Cam::new(camera);
     let (w, h) = cam.size();
     let to_cam = camera.to_camera() * local_to_world;
@@ -281,10 +296,11 @@ pub fn render_mesh(
         frame.covered[y * w..(y + 1) * w].copy_from_slice(&covered);
         counts.infinity_pixels += inf;
     }
+    let frame = if ss > 1 { frame.downsampled(ss) } else { frame };
     let compose_s = t_compose.elapsed().as_secs_f64();
     let stats = MeshRenderStats {
-        width: w,
-        height: h,
+        width: frame.width,
+        height: frame.height,
         layers: layers.len(),
         holes: frame.holes(),
         hole_ratio: frame.hole_ratio(),
