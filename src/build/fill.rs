@@ -120,6 +120,7 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     }
     let jump_seeds = seeds.len();
     seeds.extend(fold_seeds);
+    let reach: HashMap<usize, f64> = seeds.par_iter().map(|&s| (s, planar_reach(cx, k, s))).collect();
     // The band search and the rival search are independent.
     let ((src, angle_of, order), (slot_of, rivals)) = rayon::join(
         || {
@@ -164,6 +165,7 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
                         || angle
                             > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64)
                                 + cx.margin
+                        || angle > reach[&s].max(2.0 * cx.margin)
                     {
                         continue;
                     }
@@ -499,6 +501,43 @@ fn trusted_plane(cx: &FillContext, p: usize) -> bool {
     })
 }
 
+/// Steps along each of the 8 directions within which [`planar_reach`] looks.
+const REACH_STEPS: usize = 48;
+
+/// How far (an angle) the tangent plane at seed `s` may be continued behind an occluder: as far
+/// as it fits the seed's own visible surface (within the plane tolerance, relative), looking along
+/// the 8 directions over the layer's pixels of the same segment. A wall fits its plane all the
+/// way; the tangent plane of a sphere or of a table leg leaves the surface within a few pixels,
+/// and continued far beyond (along a thin pole in front of it) it draws a sliver of the object
+/// where there is none. Unlimited without a normal of its own or when nothing contradicts it.
+fn planar_reach(cx: &FillContext, k: u32, s: usize) -> f64 {
+    let n = cx.normals[s];
+    let ds = cx.depth[s];
+    if n == Vec3::ZERO || !ds.is_finite() {
+        return f64::INFINITY;
+    }
+    let on_plane = n.dot(cx.dirs[s] * ds);
+    let mut reach = f64::INFINITY;
+    for j in 0..8 {
+        let mut p = s;
+        for _ in 0..REACH_STEPS {
+            let Some(q) = cx.nb.get(p, j) else { break };
+            if cx.layer_of[q] != k || cx.surface[q] != cx.surface[s] || !cx.links.continuous(p, j) {
+                break;
+            }
+            let (dq, denom) = (cx.depth[q], n.dot(cx.dirs[q]));
+            let t = on_plane / denom;
+            if !(denom < 0.0 && t.is_finite() && (t - dq).abs() <= cx.plane_tol as f32 * dq) {
+                let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
+                reach = reach.min(angle);
+                break;
+            }
+            p = q;
+        }
+    }
+    reach
+}
+
 /// Per surface (segment) of a layer, the centroid of its points; per seed without a normal of
 /// its own, the normal its neighbourhood gives it.
 struct Surfaces {
@@ -630,6 +669,58 @@ mod tests {
     use super::*;
     use crate::build::edges::EdgeOptions;
     use crate::mapping::{AnyMapping, Mapping, MappingKind};
+
+    /// The tangent plane of a wall may be continued without limit; a sphere's (0.5 m radius, 2 m
+    /// away) only about as far as it fits the sphere within the plane tolerance.
+    #[test]
+    fn a_curved_surface_is_continued_only_as_far_as_its_plane_fits() {
+        let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
+        let (w, n) = (256, 256 * 128);
+        let nb = Neighbours::new(m);
+        let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+        let centre = Vec3::new(2.0, 0.0, 0.0);
+        // The sphere where the ray meets it, else a wall at x = 4.
+        let hit = |d: Vec3| {
+            let b = d.dot(centre);
+            let disc = b * b - centre.length_squared() + 0.25;
+            (disc > 0.0 && b > 0.0).then(|| b - disc.sqrt())
+        };
+        let (mut depth, mut normals, mut surface) = (vec![0f32; n], vec![Vec3::ZERO; n], vec![0u32; n]);
+        for p in 0..n {
+            let d = dirs[p];
+            (depth[p], normals[p], surface[p]) = match hit(d) {
+                Some(t) => (t, (d * t - centre).normalize(), 1),
+                None if d.x > 0.05 => (4.0 / d.x, Vec3::new(-1.0, 0.0, 0.0), 0),
+                None => (f32::NAN, Vec3::ZERO, u32::MAX),
+            };
+        }
+        let layer_of = vec![0u32; n];
+        let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+        let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
+        let cx = FillContext {
+            nb: &nb,
+            dirs: &dirs,
+            depth: &depth,
+            normals: &normals,
+            layer_of: &layer_of,
+            freedom_radius: 0.5,
+            margin: 0.0,
+            links: &links,
+            surface: &surface,
+            jump: crate::continuity::JUMP,
+            plane_tol: EdgeOptions::default().extrapolation,
+            rgb: &rgb,
+        };
+        let pixel = std::f64::consts::PI / 128.0;
+        // On the sphere, 5° off its centre direction; on the wall, 40° off.
+        let at = |az: f64| (64 * w) + ((az.to_radians() / std::f64::consts::TAU * w as f64) as usize);
+        let (on_sphere, on_wall) = (at(5.0), at(40.0));
+        assert_eq!((surface[on_sphere], surface[on_wall]), (1, 0));
+        let sphere = planar_reach(&cx, 0, on_sphere);
+        eprintln!("sphere reach {:.1} px", sphere / pixel);
+        assert!(sphere > pixel && sphere < 8.0 * pixel, "sphere reach {} px", sphere / pixel);
+        assert_eq!(planar_reach(&cx, 0, on_wall), f64::INFINITY);
+    }
 
     /// A wall at 3 m with a nearer layer (1 m) in front of a block of it. Its fill continues the
     /// wall, except for a rival plane at 2 m claimed in two places: a band touching the wall's
