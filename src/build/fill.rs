@@ -670,6 +670,35 @@ mod tests {
     use crate::build::edges::EdgeOptions;
     use crate::mapping::{AnyMapping, Mapping, MappingKind};
 
+    /// A fill context over the given planes with the build's default rules (freedom radius
+    /// 0.5 m, no margin).
+    #[allow(clippy::too_many_arguments)]
+    fn context<'a>(
+        nb: &'a Neighbours,
+        dirs: &'a [Vec3],
+        depth: &'a [f32],
+        normals: &'a [Vec3],
+        layer_of: &'a [u32],
+        links: &'a Links,
+        surface: &'a [u32],
+        rgb: &'a [Vec<f32>; 3],
+    ) -> FillContext<'a> {
+        FillContext {
+            nb,
+            dirs,
+            depth,
+            normals,
+            layer_of,
+            freedom_radius: 0.5,
+            margin: 0.0,
+            links,
+            surface,
+            jump: crate::continuity::JUMP,
+            plane_tol: EdgeOptions::default().extrapolation,
+            rgb,
+        }
+    }
+
     /// The tangent plane of a wall may be continued without limit; a sphere's (0.5 m radius, 2 m
     /// away) only about as far as it fits the sphere within the plane tolerance.
     #[test]
@@ -697,20 +726,7 @@ mod tests {
         let layer_of = vec![0u32; n];
         let links = Links::compute(&nb, &depth, &EdgeOptions::default());
         let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
-        let cx = FillContext {
-            nb: &nb,
-            dirs: &dirs,
-            depth: &depth,
-            normals: &normals,
-            layer_of: &layer_of,
-            freedom_radius: 0.5,
-            margin: 0.0,
-            links: &links,
-            surface: &surface,
-            jump: crate::continuity::JUMP,
-            plane_tol: EdgeOptions::default().extrapolation,
-            rgb: &rgb,
-        };
+        let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
         let pixel = std::f64::consts::PI / 128.0;
         // On the sphere, 5° off its centre direction; on the wall, 40° off.
         let at = |az: f64| (64 * w) + ((az.to_radians() / std::f64::consts::TAU * w as f64) as usize);
@@ -737,20 +753,7 @@ mod tests {
         let links = Links::compute(&nb, &depth, &EdgeOptions::default());
         let (normals, surface) = (vec![Vec3::ZERO; n], vec![0u32; n]);
         let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
-        let cx = FillContext {
-            nb: &nb,
-            dirs: &dirs,
-            depth: &depth,
-            normals: &normals,
-            layer_of: &layer_of,
-            freedom_radius: 0.5,
-            margin: 0.0,
-            links: &links,
-            surface: &surface,
-            jump: crate::continuity::JUMP,
-            plane_tol: EdgeOptions::default().extrapolation,
-            rgb: &rgb,
-        };
+        let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
         let band = |p: usize| (24..32).contains(&(p % w)) && (10..12).contains(&(p / w));
         let island = |p: usize| (36..40).contains(&(p % w)) && (18..20).contains(&(p / w));
         let moat = |p: usize| (35..41).contains(&(p % w)) && (17..21).contains(&(p / w)) && !island(p);

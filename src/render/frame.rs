@@ -29,16 +29,22 @@ pub struct Frame {
 }
 
 impl Frame {
-    /// Normalise the filter sums (the division of Alg. 9), guarding every value against NaN.
-    pub(crate) fn from_accum(acc: &Accum) -> Frame {
-        let n = acc.cells.len();
-        let mut f = Frame {
-            width: acc.width,
-            height: acc.height,
+    /// A `width × height` frame that is all holes (black, depth −1).
+    pub fn holes_only(width: usize, height: usize) -> Frame {
+        let n = width * height;
+        Frame {
+            width,
+            height,
             rgb: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
             depth: vec![OUTSIDE_DEPTH; n],
             covered: vec![false; n],
-        };
+        }
+    }
+
+    /// Normalise the filter sums (the division of Alg. 9), guarding every value against NaN.
+    pub(crate) fn from_accum(acc: &Accum) -> Frame {
+        let n = acc.cells.len();
+        let mut f = Frame::holes_only(acc.width, acc.height);
         let colour = |c: &Cell, k: usize| {
             let v = c.rgb[k] / c.w;
             if v.is_finite() {
@@ -74,13 +80,7 @@ impl Frame {
     /// distance of its nearest one, covered if any is (the frame's size must be a multiple).
     pub(crate) fn downsampled(&self, factor: usize) -> Frame {
         let (w, h) = (self.width / factor, self.height / factor);
-        let mut f = Frame {
-            width: w,
-            height: h,
-            rgb: [vec![0.0; w * h], vec![0.0; w * h], vec![0.0; w * h]],
-            depth: vec![OUTSIDE_DEPTH; w * h],
-            covered: vec![false; w * h],
-        };
+        let mut f = Frame::holes_only(w, h);
         for y in 0..h {
             for x in 0..w {
                 let (mut n, mut sum, mut near) = (0u32, [0.0f32; 3], f32::INFINITY);
@@ -213,13 +213,7 @@ mod tests {
     #[test]
     fn downsampling_averages_the_covered_sub_pixels() {
         // 4 × 2 sub-pixels → 2 × 1: the left block half covered, the right one a hole.
-        let mut f = Frame {
-            width: 4,
-            height: 2,
-            rgb: [vec![0.0; 8], vec![0.0; 8], vec![0.0; 8]],
-            depth: vec![OUTSIDE_DEPTH; 8],
-            covered: vec![false; 8],
-        };
+        let mut f = Frame::holes_only(4, 2);
         for (i, v, d) in [(0, 1.0, 3.0), (5, 0.5, 2.0)] {
             f.rgb[0][i] = v;
             f.depth[i] = d;

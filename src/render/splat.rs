@@ -346,12 +346,7 @@ impl LayerCtx<'_> {
     /// Output-space distance between two projected points, with the equirect metric.
     #[inline]
     fn gap(&self, a: DVec2, b: DVec2) -> f64 {
-        let mut dx = b.x - a.x;
-        if self.camera.wraps() {
-            let w = self.camera.width() as f64;
-            dx -= w * (dx / w).round();
-        }
-        (dx * row_scale(self.scales, a.y)).hypot(b.y - a.y)
+        self.delta(a, b).length()
     }
 
     /// Whether the centre pixel `c` and its neighbour `n` are one surface by the shared rule

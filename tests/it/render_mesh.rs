@@ -420,12 +420,17 @@ fn rasterisation_is_watertight_and_clipped_at_the_near_plane() {
     }
 }
 
-#[test]
-fn infinity_layer_is_drawn_behind_everything() {
-    let scene = Scene {
+/// A box 2 m away inside a room 10⁶ m across: the room is the build's infinity layer.
+fn box_against_the_sky() -> Scene {
+    Scene {
         room: Aabb { min: DVec3::splat(-1e6), max: DVec3::splat(1e6) },
         objects: vec![Shape::Box(Aabb { min: DVec3::new(2.0, -0.5, -0.5), max: DVec3::new(2.5, 0.5, 0.5) })],
-    };
+    }
+}
+
+#[test]
+fn infinity_layer_is_drawn_behind_everything() {
+    let scene = box_against_the_sky();
     let p = Pano::new(&scene, MappingKind::Equirect, 512, 256);
     assert!(p.layers.iter().any(|l| l.depth().unwrap().iter().any(|z| z.is_infinite())));
     let cam = persp(DVec3::new(0.0, 0.4, 0.0), DVec3::new(2.0, 0.0, 0.0));
@@ -544,10 +549,7 @@ fn grazing_ground_under_the_sky_is_drawn() {
 /// footprint quads grow it by ¼ layer pixel (spec §9.4b step 3), ~1 output pixel here.
 #[test]
 fn the_splat_keeps_silhouettes_to_their_size() {
-    let scene = Scene {
-        room: Aabb { min: DVec3::splat(-1e6), max: DVec3::splat(1e6) },
-        objects: vec![Shape::Box(Aabb { min: DVec3::new(2.0, -0.5, -0.5), max: DVec3::new(2.5, 0.5, 0.5) })],
-    };
+    let scene = box_against_the_sky();
     let p = Pano::new(&scene, MappingKind::Equirect, 512, 256);
     let cam = persp(DVec3::new(0.0, 0.4, 0.0), DVec3::new(2.0, 0.0, 0.0));
     let t = truth(&scene, &cam, 1);

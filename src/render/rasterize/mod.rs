@@ -234,14 +234,7 @@ pub fn render_mesh(
     let planes: Vec<Planes> =
         layers.iter().zip(meshes).map(|(l, g)| Planes::new(l.image, l.mapping, g.has_infinity)).collect();
     let cam_to_local = to_cam.inverse();
-    let n = w * h;
-    let mut frame = Frame {
-        width: w,
-        height: h,
-        rgb: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
-        depth: vec![OUTSIDE_DEPTH; n],
-        covered: vec![false; n],
-    };
+    let mut frame = Frame::holes_only(w, h);
     type Row = (Vec<[f32; 3]>, Vec<f32>, Vec<bool>, u64);
     let rows: Vec<Row> = (0..h)
         .into_par_iter()
