@@ -592,3 +592,33 @@ fn sub_samples_bring_the_mesh_closer_to_a_camera() {
         assert!(p2 > p1 + 0.25, "1 ray {p1}, 2 × 2 rays {p2}");
     }
 }
+
+/// A pole one layer pixel wide against the sky (1.2 cm at 1.6 m, a pixel 0.7°): the mesh draws it
+/// at its own footprint's width, not the ¼ pixel more on each side that lets neighbouring border
+/// quads overlap (there are none across a line one pixel wide). Ground seen at a grazing angle,
+/// one row thick by the 10 % step but one surface by the lattice walk, keeps the wider quads.
+#[test]
+fn a_line_one_pixel_wide_keeps_its_width_in_the_mesh() {
+    let scene = Scene {
+        room: Aabb { min: DVec3::splat(-1e6), max: DVec3::splat(1e6) },
+        // Around the first column's pixel centres (azimuth 0.35°), narrower than the column.
+        objects: vec![Shape::Box(Aabb {
+            min: DVec3::new(1.6, 0.0038, -0.6),
+            max: DVec3::new(1.612, 0.0158, 0.6),
+        })],
+    };
+    let p = Pano::new(&scene, MappingKind::Equirect, 512, 256);
+    let cam = persp(DVec3::new(0.0, 0.2, 0.0), DVec3::new(1.6, 0.0, 0.0));
+    let t = truth(&scene, &cam, 4);
+    let near = |d: f32| d > 0.0 && d < 100.0;
+    let count = |f: &Frame| f.depth.iter().filter(|&&d| near(d)).count() as f64;
+    // The pole's width in the layer: pixels of the middle row nearer than the sky.
+    let z = p.layers.iter().find_map(|l| l.depth().filter(|z| z.iter().any(|d| near(*d)))).unwrap();
+    let wide = (0..512).filter(|&x| near(z[128 * 512 + x])).count();
+    let (truth_n, mesh_n) = (count(&t), count(&p.mesh(&cam)));
+    eprintln!("pole: {wide} layer pixel(s) wide; output pixels: truth {truth_n}, mesh {mesh_n}");
+    assert_eq!(wide, 1);
+    // One footprint is ~1.6 truth widths here (720 output pixels with sub-samples), 1.5 of them 2.5
+    // (900 before).
+    assert!(mesh_n < 2.1 * truth_n, "mesh {mesh_n} vs truth {truth_n}");
+}

@@ -311,7 +311,7 @@ impl LayerGeometry {
         let corners: Vec<(u32, [DVec3; 4])> = (0..h)
             .into_par_iter()
             .flat_map_iter(|y| {
-                let (depth, nb, dz) = (&depth, &nb, &dz);
+                let (depth, nb, dz, lattice) = (&depth, &nb, &dz, &lattice);
                 (0..w).filter_map(move |x| {
                     let p = y * w + x;
                     let d = depth(p)?;
@@ -341,10 +341,23 @@ impl LayerGeometry {
                         (None, None) => 0.0,
                     };
                     let (gx, gy) = (grad(0, 1), grad(2, 3));
-                    let f = FOOTPRINT;
+                    // Across a line one pixel wide (both sides cut), the pixel's own footprint:
+                    // there is no neighbouring quad to overlap, and ¼ pixel more on each side
+                    // would draw a thin pole or wire half as wide again.
+                    let cut = |k: usize| {
+                        nb.get_at(x, y, k).map_or(true, |q| !lattice.continuous(p as u32, q as u32))
+                    };
+                    let half = |plus: usize, minus: usize| {
+                        if nd[plus].is_none() && nd[minus].is_none() && cut(plus) && cut(minus) {
+                            0.5
+                        } else {
+                            FOOTPRINT
+                        }
+                    };
+                    let (fx, fy) = (half(0, 1), half(2, 3));
                     let corner = |sx: f64, sy: f64| {
-                        let z = (d + f * (sx * gx + sy * gy)).clamp(d / (1.0 + jump), d * (1.0 + jump));
-                        corner_dir(&m, x, y, sx * f, sy * f) * z
+                        let z = (d + fx * sx * gx + fy * sy * gy).clamp(d / (1.0 + jump), d * (1.0 + jump));
+                        corner_dir(&m, x, y, sx * fx, sy * fy) * z
                     };
                     Some((
                         p as u32,
