@@ -117,7 +117,9 @@ impl Accum {
         if b.w == 0.0 {
             return (c, None);
         }
-        let alpha = (c.cover / COVER_FULL).clamp(0.0, 1.0);
+        let alpha = c.cover / COVER_FULL;
+        // A NaN coverage shows the nearest group alone, like a full one.
+        let alpha = if alpha.is_nan() { 1.0 } else { alpha.clamp(0.0, 1.0) };
         if alpha >= 1.0 {
             (c, None)
         } else {
