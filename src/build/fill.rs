@@ -165,7 +165,8 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
                         || angle
                             > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64)
                                 + cx.margin
-                        || angle > reach[&s].max(2.0 * cx.margin)
+                        // The reach is looked up only past its floor (most pixels stay within it).
+                        || (angle > 2.0 * cx.margin && angle > reach[&s])
                     {
                         continue;
                     }
@@ -516,7 +517,6 @@ fn planar_reach(cx: &FillContext, k: u32, s: usize) -> f64 {
     if n == Vec3::ZERO || !ds.is_finite() {
         return f64::INFINITY;
     }
-    let on_plane = n.dot(cx.dirs[s] * ds);
     let mut reach = f64::INFINITY;
     for j in 0..8 {
         let mut p = s;
@@ -525,9 +525,9 @@ fn planar_reach(cx: &FillContext, k: u32, s: usize) -> f64 {
             if cx.layer_of[q] != k || cx.surface[q] != cx.surface[s] || !cx.links.continuous(p, j) {
                 break;
             }
-            let (dq, denom) = (cx.depth[q], n.dot(cx.dirs[q]));
-            let t = on_plane / denom;
-            if !(denom < 0.0 && t.is_finite() && (t - dq).abs() <= cx.plane_tol as f32 * dq) {
+            let dq = cx.depth[q];
+            let t = plane_depth(cx, s, n, q);
+            if !(n.dot(cx.dirs[q]) < 0.0 && t.is_finite() && (t - dq).abs() <= cx.plane_tol as f32 * dq) {
                 let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
                 reach = reach.min(angle);
                 break;
@@ -638,12 +638,17 @@ fn plane_hit_with(cx: &FillContext, s: usize, nrm: Vec3, q: usize) -> Option<f32
     if !ds.is_finite() || nrm == Vec3::ZERO {
         return None;
     }
-    let denom = nrm.dot(cx.dirs[q]);
-    if denom > -1e-3 {
+    if nrm.dot(cx.dirs[q]) > -1e-3 {
         return None;
     }
-    let t = nrm.dot(cx.dirs[s] * ds) / denom;
+    let t = plane_depth(cx, s, nrm, q);
     (t.is_finite() && t > cx.depth[q] && t < 8.0 * ds).then_some(t)
+}
+
+/// Distance along the ray through `q` to the plane through seed `s` with normal `nrm`.
+#[inline]
+fn plane_depth(cx: &FillContext, s: usize, nrm: Vec3, q: usize) -> f32 {
+    nrm.dot(cx.dirs[s] * cx.depth[s]) / nrm.dot(cx.dirs[q])
 }
 
 /// The neighbour of a border pixel `s` that is deepest inside its layer (most neighbours in the
