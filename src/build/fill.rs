@@ -476,7 +476,7 @@ fn pick_surface(
 }
 
 /// Cosine of the angle under which two seeds' normals are taken for one plane.
-const SAME_PLANE_COS: f32 = 0.94; // 20°
+pub(super) const SAME_PLANE_COS: f32 = 0.94; // 20°
 
 /// Seeds `a` and `b` continue the same surface: one segment, and normals that agree (a segment
 /// can run round a rounded-off crease; its faces still compete).

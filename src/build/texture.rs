@@ -9,7 +9,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::fill::{Fill, FillContext, FillPixel};
+use super::fill::{Fill, FillContext, FillPixel, SAME_PLANE_COS};
 use crate::mapping::{Mapping, Neighbours};
 
 /// How the fill is coloured.
@@ -55,6 +55,27 @@ const UNCOVERED: f32 = 0.02;
 const COPY_MATCH: f32 = 0.5;
 const PLAIN: f32 = 1e-4;
 const MIN_RING: usize = 24;
+/// Smallest gain (per channel) a match may apply to its source, and the largest its inverse: the
+/// lighting correction's range ([`MAX_LOG_RATIO`]).
+const MIN_GAIN: f32 = 0.25;
+/// Cost of relighting a source, per (log gain)² and unit of the ring's variance.
+const LIGHT_COST: f32 = 0.25;
+
+fn ln_sq(g: Vec3) -> Vec3 {
+    let l = Vec3::new(g.x.ln(), g.y.ln(), g.z.ln());
+    l * l
+}
+
+/// How well an offset carries the ring onto visible surface: the ring's mean mismatch after the best
+/// gain and offset of its colours (`lit`) and as they are (`raw`), and the share of the hole it
+/// leaves uncovered.
+#[derive(Debug)]
+struct Match {
+    lit: f32,
+    raw: f32,
+    uncovered: f32,
+}
+
 /// Offsets kept per part: each pixel takes the first that lands on visible surface.
 const OFFSETS: usize = 4;
 
@@ -252,7 +273,7 @@ fn clean_pixels(tx: &FillContext, k: u32) -> Vec<bool> {
 }
 
 /// Largest shading correction of a copy, as a log ratio (a factor of 2 either way).
-const MAX_LOG_RATIO: f32 = std::f32::consts::LN_2;
+const MAX_LOG_RATIO: f32 = 2.0 * std::f32::consts::LN_2;
 
 /// Small colour added before taking ratios (dark pixels have noisy ratios).
 const RATIO_EPS: f32 = 0.02;
@@ -276,7 +297,11 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
     let first = fill.pixels[group[0] as usize];
     let plane = Plane::new(tx, first.pixel, first.depth, first.surface);
     let surface = tx.surface[first.surface];
-    let valid = |p: usize| clean[p] && tx.surface[p] == surface && on_plane(tx, &plane, p);
+    // Another segment on the same plane is the same surface for its texture (a wall seen through
+    // a ring's hole is cut off from the rest of the wall).
+    let same =
+        |p: usize| tx.surface[p] == surface || (plane.finite && tx.normals[p].dot(plane.n) >= SAME_PLANE_COS);
+    let valid = |p: usize| clean[p] && same(p) && on_plane(tx, &plane, p);
     // The hole's points (each pixel's own) and its visible ring on the same surface (2 pixels
     // deep), with their colours.
     let hole: Vec<Vec3> =
@@ -304,7 +329,7 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
     // Copy only what matches clearly better than texture at random would (twice the ring's
     // variance); a plain surface (no variance) is blended.
     let mean = ring.iter().map(|r| r.1).sum::<Vec3>() / ring.len() as f32;
-    let random = 2.0 * ring.iter().map(|r| (r.1 - mean).length_squared()).sum::<f32>() / ring.len() as f32;
+    let random = ring.iter().map(|r| (r.1 - mean).length_squared()).sum::<f32>() / ring.len() as f32;
     if random < PLAIN {
         return none;
     }
@@ -319,25 +344,53 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
     }
     // Mean mismatch of the ring carried by `t` and the share of the hole it leaves uncovered;
     // `None` as soon as their sum cannot beat `bound`.
-    let parts = |t: Vec3, ring_n: usize, hole_n: usize, bound: f32| -> Option<(f32, f32)> {
+    let parts = |t: Vec3, ring_n: usize, hole_n: usize, bound: f32| -> Option<Match> {
         let (ring_n, hole_n) = (ring.len().min(ring_n), hole_samples.len().min(hole_n));
         let cap = bound * ring_n as f32;
-        let mut sum = 0.0;
+        // Per channel over the valid sources: sums of ring, source and their products, so that the
+        // mismatch is taken after the best gain and offset (the copy's lighting is corrected
+        // afterwards; a far source is lit differently).
+        let (mut r1, mut s1, mut rr, mut rs, mut ss) =
+            (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+        let (mut n, mut invalid) = (0.0, 0.0);
         for (x, feat) in spread(&ring, ring_n) {
             let p = tx.pixel(x + t);
-            sum += if valid(p) { (tx.feature(p) - feat).length_squared() } else { INVALID };
-            if sum >= cap {
-                return None;
+            if valid(p) {
+                let f = tx.feature(p);
+                n += 1.0;
+                r1 += feat;
+                s1 += f;
+                rr += feat * feat;
+                rs += feat * f;
+                ss += f * f;
+            } else {
+                invalid += INVALID;
+                if invalid >= cap {
+                    return None;
+                }
             }
         }
+        let lit = if n > 0.0 {
+            let (mr, ms) = (r1 / n, s1 / n);
+            let (var_r, cov, var_s) = (rr / n - mr * mr, rs / n - mr * ms, ss / n - ms * ms);
+            let gain = (cov / var_s.max(Vec3::splat(1e-12)))
+                .clamp(Vec3::splat(MIN_GAIN), Vec3::splat(1.0 / MIN_GAIN));
+            // A source lit like the ring is preferred: its correction is smaller, so surer.
+            let relit = LIGHT_COST * (var_r * ln_sq(gain)).element_sum();
+            n * ((var_r - 2.0 * gain * cov + gain * gain * var_s).max(Vec3::ZERO).element_sum() + relit)
+        } else {
+            0.0
+        };
+        let raw = (rr - 2.0 * rs + ss).max(Vec3::ZERO).element_sum();
         let mut uncovered = 0;
         for x in spread(&hole_samples, hole_n) {
             uncovered += !valid(tx.pixel(x + t)) as u32;
         }
-        Some((sum / ring_n as f32, uncovered as f32 / hole_n as f32))
+        let per = |sum: f32| (sum + invalid) / ring_n as f32;
+        Some(Match { lit: per(lit), raw: per(raw), uncovered: uncovered as f32 / hole_n as f32 })
     };
     let score = |t: Vec3, ring_n: usize, hole_n: usize, bound: f32| {
-        parts(t, ring_n, hole_n, bound).map_or(f32::INFINITY, |(m, u)| m + UNCOVERED * u)
+        parts(t, ring_n, hole_n, bound).map_or(f32::INFINITY, |m| m.lit + UNCOVERED * m.uncovered)
     };
     // Coarse grid over a disc a few hole sizes wide, then each of the best few refined by
     // halving steps down to half a pixel.
@@ -373,10 +426,10 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
         }
     });
     best.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let clear = best
-        .first()
-        .and_then(|b| parts(b.1, RING_SAMPLES, HOLE_SAMPLES, f32::INFINITY))
-        .is_some_and(|(mismatch, uncovered)| mismatch <= COPY_MATCH * random && uncovered <= 0.5);
+    let clear =
+        best.first().and_then(|b| parts(b.1, RING_SAMPLES, HOLE_SAMPLES, f32::INFINITY)).is_some_and(|m| {
+            (m.lit <= COPY_MATCH * random || m.raw <= 2.0 * COPY_MATCH * random) && m.uncovered <= 0.5
+        });
     if !clear {
         return none;
     }

@@ -288,6 +288,61 @@ fn the_fill_continues_the_hidden_texture() {
     assert!(exemplar >= nearest + 0.3, "exemplar {exemplar:.3} vs nearest {nearest:.3}");
 }
 
+/// A picture frame 0.7 m before a wall of contrasting 25 cm squares, lit unevenly (the light
+/// falls off fourfold along the wall, 1.7-fold across the frame). The wall seen through the
+/// frame's window is cut off from the rest of the wall, and a copy from elsewhere on the wall is
+/// lit differently: the fill must still continue the checker behind the bars, in phase and at
+/// the local brightness. (A blend of the two tints, or the wrong one, is off by 60 % or more.)
+#[test]
+fn the_fill_continues_a_wall_seen_through_a_frame_under_uneven_light() {
+    let bar = |y0: f64, y1: f64, z0: f64, z1: f64| {
+        Shape::Box(Aabb { min: DVec3::new(3.2, y0, z0), max: DVec3::new(3.3, y1, z1) })
+    };
+    let scene = Scene {
+        room: Scene::room().room,
+        objects: vec![
+            bar(-0.4, 0.4, 0.0, 0.15),
+            bar(-0.4, 0.4, 0.65, 0.8),
+            bar(-0.4, -0.25, 0.15, 0.65),
+            bar(0.25, 0.4, 0.15, 0.65),
+        ],
+    };
+    // The wall's colour at direction `d` from the centre: tint by the checker's phase, times light.
+    let wall = |d: DVec3| {
+        // The frame hides only the wall at x = 4 (its own x is rounding noise there).
+        let q = (d * scene.room_hit(DVec3::ZERO, d).unwrap().t / 0.25).floor();
+        let tint = if ((q.y + q.z) as i64).rem_euclid(2) == 0 { [0.8, 0.7, 0.6] } else { [0.2, 0.25, 0.3] };
+        let light = (0.5 * 4f64.powf(d.y)) as f32;
+        tint.map(|c| c * light)
+    };
+    let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
+    let r = render_on(&scene, &m);
+    let mut input = rgbd_input(&r, m, false);
+    for p in (0..m.width() * m.height()).filter(|&p| r.first_hit.object[p] == 0) {
+        let c = wall(m.pixel_dir(p % m.width(), p / m.width()));
+        (0..3).for_each(|i| input.rgb[i][p] = c[i]);
+    }
+    let b = build::build(&input, &BuildOptions::default(), &|_| {}).unwrap();
+    let bg = &b.layers[0].image;
+    let (mut right, mut filled) = (0, 0);
+    for p in 0..bg.width * bg.height {
+        let Sample::Surface(z) = bg.sample(p) else { continue };
+        let d = m.pixel_dir(p % m.width(), p / m.width());
+        let t = scene.room_hit(DVec3::ZERO, d).unwrap().t;
+        if r.first_hit.object[p] == 0 || (z as f64 - t).abs() > 0.01 * t {
+            continue;
+        }
+        let c: Vec<f32> = ["R", "G", "B"].iter().map(|ch| bg.channel(ch).unwrap().data[p]).collect();
+        let truth = wall(d);
+        filled += 1;
+        right += (0..3).all(|i| (c[i] - truth[i]).abs() <= 0.15 * truth[i]) as usize;
+    }
+    let share = right as f64 / filled as f64;
+    eprintln!("wall behind the frame filled right: {share:.3} of {filled}");
+    assert!(filled > 800, "{filled} filled pixels on the wall");
+    assert!(share >= 0.8, "the wall's checker goes on in {share:.3} of its filled pixels");
+}
+
 /// Outdoors with a small sphere 0.32 m from the centre, low in front of the camera: from the
 /// centre it hides the ground from 1.4 m away to the horizon, and some sky above it.
 fn near_sphere_outdoors() -> Scene {
