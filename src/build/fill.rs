@@ -440,7 +440,7 @@ fn pick_surface(
         }
         let Some(cur) = best else {
             // The nearest seed's plane misses the ray: the first rival whose plane it meets.
-            best = plane_hit(cx, b, q).map(|d| (b, d));
+            best = plane_hit(cx, surfaces, b, q).map(|d| (b, d));
             continue;
         };
         if same_surface(cx, b, cur.0) {
@@ -465,7 +465,7 @@ fn pick_surface(
         // on the crease itself), against a tolerance that scales with the depths.
         let (sa, sb) = (nb.dot(ca - pb), na.dot(cb - pa));
         let tol = 1e-3 * cx.depth[a].min(cx.depth[b]);
-        let Some(db) = plane_hit(cx, b, q) else { continue };
+        let Some(db) = plane_hit(cx, surfaces, b, q) else { continue };
         let concave = sa > tol && sb > tol;
         let convex = sa < -tol && sb < -tol;
         if (concave && db < cur.1) || (convex && db > cur.1) {
@@ -542,8 +542,13 @@ fn planar_reach(cx: &FillContext, k: u32, s: usize) -> f64 {
 /// its own, the normal its neighbourhood gives it.
 struct Surfaces {
     centroid: Vec<Vec3>,
+    /// Farthest depth each surface is seen at.
+    far: Vec<f32>,
     borrowed: HashMap<usize, Vec3>,
 }
+
+/// How much farther than its surface is seen anywhere the fill may continue it.
+const FAR_SEEN: f32 = 1.5;
 
 /// Steps around a seed within which its surface's normals stand in for its missing one.
 const BORROW_STEPS: usize = 3;
@@ -554,12 +559,15 @@ impl Surfaces {
     /// The surfaces of layer `k` (finite depths only) and the normals `seeds` borrow.
     fn new(cx: &FillContext, k: u32, seeds: &[usize]) -> Surfaces {
         let mut sums: Vec<(Vec3, u32)> = Vec::new();
+        let mut far: Vec<f32> = Vec::new();
         for p in 0..cx.nb.len() {
             let (d, id) = (cx.depth[p], cx.surface[p] as usize);
             if cx.layer_of[p] == k && d.is_finite() && d > 0.0 && cx.surface[p] != u32::MAX {
                 if id >= sums.len() {
                     sums.resize(id + 1, (Vec3::ZERO, 0));
+                    far.resize(id + 1, 0.0);
                 }
+                far[id] = far[id].max(d);
                 sums[id].0 += cx.dirs[p] * d;
                 sums[id].1 += 1;
             }
@@ -570,7 +578,7 @@ impl Surfaces {
             .filter(|&&s| cx.normals[s] == Vec3::ZERO && cx.depth[s].is_finite())
             .filter_map(|&s| Some((s, borrow_normal(cx, s)?)))
             .collect();
-        Surfaces { centroid, borrowed }
+        Surfaces { centroid, far, borrowed }
     }
 }
 
@@ -618,22 +626,23 @@ fn continue_surface(cx: &FillContext, surfaces: &Surfaces, s: usize, q: usize) -
         return Some(f32::INFINITY);
     }
     if cx.normals[s] != Vec3::ZERO {
-        return plane_hit(cx, s, q);
+        return plane_hit(cx, surfaces, s, q);
     }
     if let Some(&nrm) = surfaces.borrowed.get(&s) {
-        return plane_hit_with(cx, s, nrm, q);
+        return plane_hit_with(cx, surfaces, s, nrm, q);
     }
     Some(ds.max(cx.depth[q] * 1.0001))
 }
 
 /// Where the ray through `q` meets the tangent plane at `s`, if it does so plausibly: behind
-/// the occluder at `q`, and not much farther than `s` (a plane seen nearly edge-on).
-fn plane_hit(cx: &FillContext, s: usize, q: usize) -> Option<f32> {
-    plane_hit_with(cx, s, cx.normals[s], q)
+/// the occluder at `q`, not much farther than `s` (a plane seen nearly edge-on), nor than its
+/// surface is seen anywhere (ground that ends short of the horizon is not continued up to it).
+fn plane_hit(cx: &FillContext, surfaces: &Surfaces, s: usize, q: usize) -> Option<f32> {
+    plane_hit_with(cx, surfaces, s, cx.normals[s], q)
 }
 
 /// [`plane_hit`] for the plane through `s` with normal `nrm`.
-fn plane_hit_with(cx: &FillContext, s: usize, nrm: Vec3, q: usize) -> Option<f32> {
+fn plane_hit_with(cx: &FillContext, surfaces: &Surfaces, s: usize, nrm: Vec3, q: usize) -> Option<f32> {
     let ds = cx.depth[s];
     if !ds.is_finite() || nrm == Vec3::ZERO {
         return None;
@@ -642,7 +651,8 @@ fn plane_hit_with(cx: &FillContext, s: usize, nrm: Vec3, q: usize) -> Option<f32
         return None;
     }
     let t = plane_depth(cx, s, nrm, q);
-    (t.is_finite() && t > cx.depth[q] && t < 8.0 * ds).then_some(t)
+    let seen = surfaces.far.get(cx.surface[s] as usize).map_or(f32::INFINITY, |&f| FAR_SEEN * f);
+    (t.is_finite() && t > cx.depth[q] && t < 8.0 * ds && t <= seen).then_some(t)
 }
 
 /// Distance along the ray through `q` to the plane through seed `s` with normal `nrm`.

@@ -393,6 +393,45 @@ fn the_fill_behind_a_near_object_keeps_the_grounds_scale_and_horizon() {
     assert_eq!(above, 0, "ground filled above the horizon");
 }
 
+/// Ground that ends short of the horizon (a sphere of 1 km radius 1.2 m below the centre: it
+/// is seen up to 49 m away) behind a sphere near the centre. The fill continues the ground behind
+/// the sphere but not past its far edge: its tangent planes would run on over the sky. (The row
+/// just above the edge is the pixel's share of the limb.)
+#[test]
+fn the_fill_does_not_carry_the_ground_past_its_far_edge() {
+    const R: f64 = 1000.0;
+    let scene = Scene {
+        room: Aabb { min: DVec3::splat(-f64::INFINITY), max: DVec3::splat(f64::INFINITY) },
+        objects: vec![
+            Shape::Sphere { centre: DVec3::new(0.0, 0.0, -1.2 - R), radius: R },
+            Shape::Sphere { centre: DVec3::new(0.3, 0.0, -0.1), radius: 0.16 },
+        ],
+    };
+    let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
+    let r = render_on(&scene, &m);
+    let b = build::build(&rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
+    let ground_at = |x: usize, y: usize| {
+        scene.hits(DVec3::ZERO, m.pixel_dir(x, y.min(m.height() - 1))).iter().any(|h| h.object == 1)
+    };
+    let (mut over_sky, mut ground) = (0, 0);
+    for p in 0..m.width() * m.height() {
+        let (x, y) = (p % m.width(), p / m.width());
+        let on_ground = ground_at(x, y) || ground_at(x, y + 1);
+        for l in &b.layers {
+            // Finite depth beyond the near sphere (within 0.5 m of the centre).
+            if let Sample::Surface(z) = l.image.sample(p) {
+                if z > 1.0 && z.is_finite() {
+                    ground += on_ground as usize;
+                    over_sky += !on_ground as usize;
+                }
+            }
+        }
+    }
+    eprintln!("ground pixels {ground}, ground over the sky {over_sky}");
+    assert!(ground > 100_000, "{ground} ground pixels");
+    assert_eq!(over_sky, 0, "the ground filled over the sky beyond its edge");
+}
+
 /// A path tracer anti-aliases colour but point-samples depth: the surface pixels right beside an
 /// object mix in the object's colour. A camera moved aside sees them apart from the object, as a
 /// line of its colour on the wall behind; build recolours them with the fill, so they continue the
