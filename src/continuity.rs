@@ -2,11 +2,17 @@
 //! layers where it fails, validate reports layers where it fails, and the renderers never stretch a
 //! surface across it: one rule, here.
 
+use crate::mapping::{opposite, Neighbours};
+
 /// Tolerance of the plane test, relative to the nearer inverse depth.
 pub const PLANAR: f64 = 0.05;
 
 /// Relative depth step between neighbours above which build separates surfaces (`--jump`).
 pub const JUMP: f64 = 0.08;
+
+/// Relative depth step above which two neighbours of one layer are not one surface for `validate`
+/// (its default) and for `convert`, which separates them so that its output validates.
+pub const LAYER_JUMP: f64 = 0.5;
 
 /// Relative depth step above which the mesher leaves two neighbouring vertices unconnected: looser
 /// than [`JUMP`], since a layer built with it is already one surface and only its remaining
@@ -61,6 +67,45 @@ pub fn continuous_with(
     let usable = |d: &f64| *d > 0.0 && d.is_finite();
     behind_a().filter(usable).is_some_and(|d| continues_plane(a, b, d, tol))
         || beyond_b().filter(usable).is_some_and(|d| continues_plane(b, a, d, tol))
+}
+
+/// The 4-neighbour pairs `(p, q)`, `p < q`, of a canvas that are not one surface by [`continuous`]
+/// (relative step `jump`, plane tolerance [`PLANAR`], the pixels beside the pair as its plane test's
+/// ends), across the equirect seam, over the poles and across cube-face edges. `depth` is `None`
+/// outside the layer, `+inf` for infinitely far content.
+pub fn breaks(
+    nb: &Neighbours,
+    depth: impl Fn(usize) -> Option<f64> + Sync,
+    jump: f64,
+) -> Vec<(usize, usize)> {
+    use rayon::prelude::*;
+    let (w, h) = (nb.width(), nb.len() / nb.width().max(1));
+    (0..h)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            let mut row = Vec::new();
+            for x in 0..w {
+                let p = y * w + x;
+                let Some(a) = depth(p) else { continue };
+                // Every pair once, from its lower index: over the poles and cube-face edges "right"
+                // and "down" are not the only directions a pair is seen from.
+                for k in 0..4 {
+                    let Some(q) = nb.get_at(x, y, k).filter(|&q| q > p) else { continue };
+                    let Some(b) = depth(q) else { continue };
+                    // The plain step test first: the plane test's two lookups are rarely needed.
+                    if continuous(a, b, None, None, jump, PLANAR) {
+                        continue;
+                    }
+                    let behind = nb.get_at(x, y, opposite(k)).and_then(&depth);
+                    let beyond = nb.get2_at(x, y, k).and_then(&depth);
+                    if !continuous(a, b, behind, beyond, jump, PLANAR) {
+                        row.push((p, q));
+                    }
+                }
+            }
+            row
+        })
+        .collect()
 }
 
 #[cfg(test)]

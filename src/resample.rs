@@ -24,9 +24,10 @@ use std::str::FromStr;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use crate::continuity;
 use crate::layer::{LayerImage, SampleType};
 use crate::mapping::layout::{convert_layout, CubeLayout, LayoutError};
-use crate::mapping::{CubeFace, FacePoint};
+use crate::mapping::{AnyMapping, CubeFace, FacePoint};
 use crate::raster::Raster;
 
 /// Errors of sampling and conversion.
@@ -348,21 +349,30 @@ trait Source: Sync {
         let (x0, _, _) = axis_weights(Filter::Bilinear, x);
         let (y0, _, _) = axis_weights(Filter::Bilinear, y);
         let depth = |i: i64, j: i64| data[self.texel_at(face, i, j) * ch + z].to_f32() as f64;
+        // Pairs with a texel outside the layer (negative, NaN) are not asked: at a layer's edge
+        // the inside taps alone are blended. Some pair must be asked.
         let pair = |(ai, aj): (i64, i64), (di, dj): (i64, i64)| {
             let (bi, bj) = (ai + di, aj + dj);
-            crate::continuity::continuous_with(
-                depth(ai, aj),
-                depth(bi, bj),
+            let (a, b) = (depth(ai, aj), depth(bi, bj));
+            if a.is_nan() || b.is_nan() || a < 0.0 || b < 0.0 {
+                return None;
+            }
+            Some(crate::continuity::continuous_with(
+                a,
+                b,
                 || Some(depth(ai - di, aj - dj)),
                 || Some(depth(bi + di, bj + dj)),
                 jump as f64,
                 crate::continuity::PLANAR,
-            )
+            ))
         };
-        pair((x0, y0), (1, 0))
-            && pair((x0, y0 + 1), (1, 0))
-            && pair((x0, y0), (0, 1))
-            && pair((x0 + 1, y0), (0, 1))
+        let pairs = [
+            pair((x0, y0), (1, 0)),
+            pair((x0, y0 + 1), (1, 0)),
+            pair((x0, y0), (0, 1)),
+            pair((x0 + 1, y0), (0, 1)),
+        ];
+        pairs.iter().any(Option::is_some) && pairs.iter().all(|p| p.unwrap_or(true))
     }
 
     /// Plain bilinear sample (no depth rule) written straight into `out`; sources override this with a
@@ -796,6 +806,37 @@ fn blendable<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, 
     }
 }
 
+/// Whether the tap at `base` is inside the layer (known depth ≥ 0, covered).
+#[inline]
+fn tap_inside<T: Texel>(src: &[T], base: usize, opts: &SampleOptions, z: usize) -> bool {
+    let zv = src[base + z].to_f32();
+    let covered = opts.coverage_channel.map_or(true, |a| src[base + a].to_f32() > 0.0);
+    zv >= 0.0 && covered
+}
+
+/// When the nearest texel is inside the layer but some weighted taps are not: the inside taps,
+/// their weights renormalised (`None` if their weight is under half, as bicubic lobes can leave).
+#[inline]
+fn inside_taps<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, z: usize) -> Option<Taps> {
+    let is_in = |i: usize| tap_inside(src, i * ch, opts, z);
+    if !is_in(taps.nearest) || (0..taps.n).all(|k| taps.w[k] == 0.0 || is_in(taps.idx[k])) {
+        return None;
+    }
+    let mut kept = Taps { nearest: taps.nearest, ..Taps::EMPTY };
+    for k in (0..taps.n).filter(|&k| taps.w[k] != 0.0 && is_in(taps.idx[k])) {
+        kept.idx[kept.n] = taps.idx[k];
+        kept.w[kept.n] = taps.w[k];
+        kept.n += 1;
+    }
+    let sum: f32 = kept.w[..kept.n].iter().sum();
+    // NaN weights fail too.
+    if sum.is_nan() || sum < 0.5 {
+        return None;
+    }
+    kept.w[..kept.n].iter_mut().for_each(|w| *w /= sum);
+    Some(kept)
+}
+
 /// Write the filtered value of `taps` into `out` (one pixel, `ch` samples).
 #[inline(always)]
 fn resolve<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, out: &mut [T]) {
@@ -819,7 +860,15 @@ fn resolve_with<T: Texel>(
     }
     let mut range = None;
     let mut inverse = false;
+    let inside;
+    let mut taps = taps;
     if let Some(z) = opts.depth_channel {
+        // At a layer's edge the texel the point falls in decides inside or outside; inside, the
+        // taps that are blend alone (a nearest texel there would break the surface into steps).
+        if let Some(t) = inside_taps(src, ch, taps, opts, z) {
+            inside = t;
+            taps = &inside;
+        }
         match blendable(src, ch, taps, opts, z) {
             DepthTaps::Close(lo, hi) => range = Some((z, (lo, hi))),
             DepthTaps::Steep(lo, hi) if on_plane() => {
@@ -1235,12 +1284,50 @@ fn convert_layer_in_bands(
             renormalise(&mut planes, [x, y, z], at..at + rows * w);
         }
     }
+    // Layers live on the two canvases of the format (an exchange layout has no neighbours here).
+    let kind = match to {
+        Canvas::Equirect => Some(crate::mapping::MappingKind::Equirect),
+        Canvas::Cube(CubeLayout::Canonical) => Some(crate::mapping::MappingKind::Cube3x2),
+        Canvas::Cube(_) => None,
+    };
+    if let (Some(z), Some(Ok(mapping))) = (o.depth_channel, kind.map(|k| AnyMapping::new(k, w, h))) {
+        separate(&mut planes, z, o.coverage_channel, &mapping);
+    }
     let mut dst = LayerImage::new(w, h);
     for (channel, data) in src.channels.iter().zip(planes) {
         dst.set_channel(&channel.name, channel.sample_type, data);
     }
     Ok(dst)
 }
+
+/// Resampled, two parts of a layer a thin gap apart in the source (a line of pixels outside it)
+/// can touch where the gap runs aslant the new grid: of each pair of neighbours that is not one
+/// surface ([`continuity::breaks`] at [`continuity::LAYER_JUMP`]), the nearer pixel is taken out of
+/// the layer, until none is left (a pixel taken out can end a plane that kept another pair one).
+fn separate(planes: &mut [Vec<f32>], z: usize, coverage: Option<usize>, mapping: &AnyMapping) {
+    let nb = crate::mapping::Neighbours::new(*mapping);
+    for _ in 0..SEPARATE_PASSES {
+        let depth = |i: usize| {
+            let d = planes[z][i];
+            let covered = coverage.map_or(true, |a| planes[a][i] > 0.0);
+            (d > 0.0 && covered).then_some(d as f64)
+        };
+        let breaks = continuity::breaks(&nb, depth, continuity::LAYER_JUMP);
+        if breaks.is_empty() {
+            return;
+        }
+        for (p, q) in breaks {
+            let nearer = if planes[z][p] <= planes[z][q] { p } else { q };
+            planes[z][nearer] = -1.0;
+            if let Some(a) = coverage {
+                planes[a][nearer] = 0.0;
+            }
+        }
+    }
+}
+
+/// Passes of [`separate`]: each removes every break it finds; few pairs depend on another.
+const SEPARATE_PASSES: usize = 4;
 
 /// Samples per band of [`convert_layer`]: large enough to keep both cores busy, small against the
 /// output.
@@ -1360,7 +1447,12 @@ mod tests {
                 convert(&raster, from, to, size, &SampleOptions { filter: Filter::Nearest, ..o }).unwrap();
             let at = |r: &Raster<f32>, i: usize, c: usize| r.data()[i * ch + c];
             for i in 0..whole.width * whole.height {
-                assert_eq!(whole.channels[4].data[i].to_bits(), at(&plain, i, 4).to_bits(), "Z at {i}");
+                // The layer's parts that touch after resampling are separated ([`separate`]).
+                let (z, zp) = (whole.channels[4].data[i], at(&plain, i, 4));
+                assert!(
+                    z.to_bits() == zp.to_bits() || (z == -1.0 && zp >= 0.0),
+                    "Z at {i}: {z} against {zp}"
+                );
                 assert_eq!(whole.channels[6].data[i], at(&near, i, 6), "id at {i}");
                 let r = half::f16::from_f32(at(&plain, i, 0)).to_f32();
                 assert_eq!(whole.channels[0].data[i], r, "R rounded to half at {i}");
@@ -1390,6 +1482,33 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// At a layer's edge, a point whose nearest texel is inside blends the inside taps (here on a
+    /// plane, in inverse depth) instead of taking the nearest texel, a row's step away: resampled
+    /// grazing ground near its edge otherwise steps against its blended neighbours.
+    #[test]
+    fn a_point_at_a_layers_edge_blends_its_inside_taps() {
+        use crate::mapping::{Equirect, Mapping};
+        let (w, h) = (16, 8);
+        // Ground-like: inverse depth linear in the row, 0.1 + 0.15 y (4 m at row 1, 1.43 m at 4).
+        let plane = |y: f64| 1.0 / (0.1 + 0.15 * y);
+        let mut z: Vec<f32> = (0..w * h).map(|p| plane((p / w) as f64) as f32).collect();
+        z[2 * w + 4] = -1.0;
+        let src = Raster::from_vec(w, h, 1, z).unwrap();
+        let opts = SampleOptions { depth_channel: Some(0), ..SampleOptions::default() };
+        // Source point (5.3, 3.3): taps (4..=5, 2..=3), (4, 2) outside; the nearest is (5, 3).
+        let d = Equirect::new(w, h).unwrap().pixel_to_dir(5.3, 3.3);
+        let mut out = [0.0f32];
+        sample_dir(&src, Canvas::Equirect, d, &opts, &mut out).unwrap();
+        let truth = plane(2.8);
+        let err = (out[0] as f64 / truth - 1.0).abs();
+        assert!(
+            err < 0.02,
+            "depth {} against the plane's {truth:.3} (nearest texel {:.3})",
+            out[0],
+            plane(3.0)
+        );
     }
 
     #[test]

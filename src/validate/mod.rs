@@ -16,7 +16,7 @@ use crate::continuity;
 use crate::layer::{LayerImage, Sample, SampleType};
 use crate::layer_io::{self, ReadLimits};
 use crate::manifest::{self, LayerDecl, LayerSource};
-use crate::mapping::{opposite, AnyMapping, Mapping, MappingKind, Neighbours};
+use crate::mapping::{AnyMapping, Mapping, MappingKind, Neighbours};
 use crate::pack;
 use crate::panorama::{self, Panorama};
 
@@ -40,7 +40,11 @@ pub struct ValidateOptions {
 
 impl Default for ValidateOptions {
     fn default() -> Self {
-        ValidateOptions { limits: ReadLimits::default(), jump_threshold: 0.5, normal_tolerance: 0.01 }
+        ValidateOptions {
+            limits: ReadLimits::default(),
+            jump_threshold: continuity::LAYER_JUMP,
+            normal_tolerance: 0.01,
+        }
     }
 }
 
@@ -432,7 +436,7 @@ fn check_continuity(
     loc: &str,
     issues: &mut Vec<Issue>,
 ) {
-    let (w, h) = (image.width, image.height);
+    let w = image.width;
     let nb = Neighbours::new(*mapping);
     let sample = image.sampler();
     let depth = |i: usize| match sample(i) {
@@ -440,38 +444,10 @@ fn check_continuity(
         Sample::Infinite => Some(f64::INFINITY),
         _ => None,
     };
-    let rows: Vec<(usize, usize)> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let mut count = 0;
-            let mut first = usize::MAX;
-            for x in 0..w {
-                let i = y * w + x;
-                let Some(a) = depth(i) else { continue };
-                // Every 4-neighbour pair once (from its lower index: over the poles and cube-face
-                // edges "right" and "down" are not the only directions a pair is seen from).
-                for k in 0..4 {
-                    let Some(q) = nb.get_at(x, y, k).filter(|&q| q > i) else { continue };
-                    let Some(b) = depth(q) else { continue };
-                    // The plain step test first: the plane test's two extra lookups are rarely needed.
-                    let (jump, planar) = (options.jump_threshold, continuity::PLANAR);
-                    if continuity::continuous(a, b, None, None, jump, planar) {
-                        continue;
-                    }
-                    let behind = nb.get_at(x, y, opposite(k)).and_then(depth);
-                    let beyond = nb.get2_at(x, y, k).and_then(depth);
-                    if !continuity::continuous(a, b, behind, beyond, jump, planar) {
-                        count += 1;
-                        first = first.min(i);
-                    }
-                }
-            }
-            (count, first)
-        })
-        .collect();
-    let count: usize = rows.iter().map(|r| r.0).sum();
+    let breaks = continuity::breaks(&nb, depth, options.jump_threshold);
+    let count = breaks.len();
     if count > 0 {
-        let first = rows.iter().map(|r| r.1).min().unwrap_or(0);
+        let first = breaks.iter().map(|b| b.0).min().unwrap_or(0);
         let (x, y) = (first % w, first / w);
         issues.push(issue(
             codes::DEPTH_DISCONTINUITY,

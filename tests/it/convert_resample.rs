@@ -532,3 +532,70 @@ fn grazing_ground_stays_one_surface_through_a_conversion() {
     eprintln!("pairs not one surface: {broken}");
     assert_eq!(broken, 0, "{broken} neighbour pairs of the converted ground are not one surface");
 }
+
+/// Two walls (2 m and 6 m away) a line of pixels apart, the line aslant: converted to a cube and
+/// back, the two may touch where the line runs across the new grid; each pair of neighbours that
+/// is not one surface is opened (its nearer pixel taken out), so the result validates.
+#[test]
+fn two_parts_a_line_apart_stay_apart_through_conversions() {
+    let (w, h) = (1024, 512);
+    let eq = Equirect::new(w, h).unwrap();
+    let step = std::f64::consts::TAU / w as f64;
+    let part = |d: DVec3| {
+        let u = d.y.atan2(d.x) + 0.6 * d.z;
+        if u < 0.0 {
+            2.0
+        } else if u > 1.2 * step {
+            6.0
+        } else {
+            -1.0
+        }
+    };
+    let mut img = LayerImage::new(w, h);
+    img.set_channel("Z", SampleType::F32, (0..w * h).map(|p| part(eq.pixel_dir(p % w, p / w))).collect());
+    let opts = SampleOptions::default();
+    let cube = Canvas::Cube(CubeLayout::Canonical);
+    let there = convert_layer(&img, Canvas::Equirect, cube, 256, &opts).unwrap();
+    let back = convert_layer(&there, cube, Canvas::Equirect, w, &opts).unwrap();
+    for (out, face) in [(&there, 256), (&back, w)] {
+        let z = &out.channel("Z").unwrap().data;
+        let breaks = broken_pairs(z, out.width, out.height, face);
+        let near = z.iter().filter(|v| **v > 0.0 && **v < 4.0).count() as f64 / z.len() as f64;
+        eprintln!("{} × {}: {breaks} breaks, near part {near:.3} of the canvas", out.width, out.height);
+        assert_eq!(breaks, 0, "{breaks} pairs of the two parts touch");
+        assert!((near - 0.5).abs() < 0.02, "the near part is {near:.3} of the canvas");
+    }
+}
+
+/// Neighbour pairs inside one `face × face` square of a canvas (a whole equirect when `face` is
+/// its width: the seam is not crossed), both inside the layer (depth > 0), that are not one
+/// surface by spec §7.2's rule written out: a step within 50 %, or 1/d extrapolated linearly (a
+/// plane) from the pixel beyond either end within 5 % of the nearer.
+fn broken_pairs(z: &[f32], w: usize, h: usize, face: usize) -> usize {
+    let plane =
+        |mid: f64, next: f64, back: f64| (2.0 / mid - 1.0 / back - 1.0 / next).abs() * mid.min(next) <= 0.05;
+    let continuous = |a: f64, b: f64, behind: Option<f64>, beyond: Option<f64>| {
+        (a - b).abs() <= 0.5 * a.min(b)
+            || behind.is_some_and(|c| plane(a, b, c))
+            || beyond.is_some_and(|c| plane(b, a, c))
+    };
+    let at = |x: usize, y: usize| Some(z[y * w + x] as f64).filter(|v| *v > 0.0);
+    let (fw, fh) = (face.min(w), face.min(h));
+    let mut broken = 0;
+    for y in 0..h {
+        for x in 0..w {
+            for (dx, dy) in [(1usize, 0usize), (0, 1)] {
+                let (fx, fy) = (x % fw, y % fh);
+                if fx + dx >= fw || fy + dy >= fh {
+                    continue;
+                }
+                let (Some(a), Some(b)) = (at(x, y), at(x + dx, y + dy)) else { continue };
+                let behind = (fx >= dx && fy >= dy).then(|| at(x - dx, y - dy)).flatten();
+                let beyond =
+                    (fx + 2 * dx < fw && fy + 2 * dy < fh).then(|| at(x + 2 * dx, y + 2 * dy)).flatten();
+                broken += !continuous(a, b, behind, beyond) as usize;
+            }
+        }
+    }
+    broken
+}
