@@ -484,15 +484,6 @@ fn malformed_inputs_are_errors_not_panics() {
 /// depths blended along the plane, in inverse depth, not left as a staircase of nearest texels).
 #[test]
 fn grazing_ground_stays_one_surface_through_a_conversion() {
-    // Spec §7.2's rule, written out: a step within 50 %, or 1/d extrapolated linearly (a plane)
-    // from the pixel beyond either end within 5 % of the nearer.
-    let plane =
-        |mid: f64, next: f64, back: f64| (2.0 / mid - 1.0 / back - 1.0 / next).abs() * mid.min(next) <= 0.05;
-    let continuous = |a: f64, b: f64, behind: Option<f64>, beyond: Option<f64>| {
-        (a - b).abs() <= 0.5 * a.min(b)
-            || behind.is_some_and(|c| plane(a, b, c))
-            || beyond.is_some_and(|c| plane(b, a, c))
-    };
     let (w, h) = (1024, 512);
     let eq = Equirect::new(w, h).unwrap();
     let mut img = LayerImage::new(w, h);
@@ -511,24 +502,7 @@ fn grazing_ground_stays_one_surface_through_a_conversion() {
     )
     .unwrap();
     let z = &out.channel("Z").unwrap().data;
-    let (ow, n) = (out.width, 256usize);
-    let at = |x: usize, y: usize| Some(z[y * ow + x] as f64).filter(|v| *v > 0.0);
-    let mut broken = 0;
-    for y in 0..out.height {
-        for x in 0..ow {
-            // Pairs inside one face, with a pixel beyond each end.
-            for (dx, dy) in [(1usize, 0usize), (0, 1)] {
-                let (fx, fy) = (x % n, y % n);
-                if fx < dx || fy < dy || fx + 2 * dx >= n || fy + 2 * dy >= n {
-                    continue;
-                }
-                let (Some(a), Some(b)) = (at(x, y), at(x + dx, y + dy)) else { continue };
-                let behind = at(x - dx, y - dy);
-                let beyond = at(x + 2 * dx, y + 2 * dy);
-                broken += !continuous(a, b, behind, beyond) as usize;
-            }
-        }
-    }
+    let broken = broken_pairs(z, out.width, out.height, 256);
     eprintln!("pairs not one surface: {broken}");
     assert_eq!(broken, 0, "{broken} neighbour pairs of the converted ground are not one surface");
 }
