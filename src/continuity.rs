@@ -69,43 +69,38 @@ pub fn continuous_with(
         || beyond_b().filter(usable).is_some_and(|d| continues_plane(b, a, d, tol))
 }
 
-/// The 4-neighbour pairs `(p, q)`, `p < q`, of a canvas that are not one surface by [`continuous`]
-/// (relative step `jump`, plane tolerance [`PLANAR`], the pixels beside the pair as its plane test's
-/// ends), across the equirect seam, over the poles and across cube-face edges. `depth` is `None`
-/// outside the layer, `+inf` for infinitely far content.
-pub fn breaks(
+/// The 4-neighbour pairs `(p, q)`, `p < q`, starting in row `y` of a canvas, that are not one
+/// surface by [`continuous`] (relative step `jump`, plane tolerance [`PLANAR`], the pixels beside
+/// the pair as its plane test's ends), across the equirect seam, over the poles and across cube-face
+/// edges; each is passed to `visit`. `depth` is `None` outside the layer, `+inf` for infinitely far
+/// content. Callers walk the rows (in parallel) and keep what they need: a count, or the pixels.
+pub fn row_breaks(
     nb: &Neighbours,
-    depth: impl Fn(usize) -> Option<f64> + Sync,
+    depth: impl Fn(usize) -> Option<f64>,
     jump: f64,
-) -> Vec<(usize, usize)> {
-    use rayon::prelude::*;
-    let (w, h) = (nb.width(), nb.len() / nb.width().max(1));
-    (0..h)
-        .into_par_iter()
-        .flat_map_iter(|y| {
-            let mut row = Vec::new();
-            for x in 0..w {
-                let p = y * w + x;
-                let Some(a) = depth(p) else { continue };
-                // Every pair once, from its lower index: over the poles and cube-face edges "right"
-                // and "down" are not the only directions a pair is seen from.
-                for k in 0..4 {
-                    let Some(q) = nb.get_at(x, y, k).filter(|&q| q > p) else { continue };
-                    let Some(b) = depth(q) else { continue };
-                    // The plain step test first: the plane test's two lookups are rarely needed.
-                    if continuous(a, b, None, None, jump, PLANAR) {
-                        continue;
-                    }
-                    let behind = nb.get_at(x, y, opposite(k)).and_then(&depth);
-                    let beyond = nb.get2_at(x, y, k).and_then(&depth);
-                    if !continuous(a, b, behind, beyond, jump, PLANAR) {
-                        row.push((p, q));
-                    }
-                }
+    y: usize,
+    mut visit: impl FnMut(usize, usize),
+) {
+    let w = nb.width();
+    for x in 0..w {
+        let p = y * w + x;
+        let Some(a) = depth(p) else { continue };
+        // Every pair once, from its lower index: over the poles and cube-face edges "right" and
+        // "down" are not the only directions a pair is seen from.
+        for k in 0..4 {
+            let Some(q) = nb.get_at(x, y, k).filter(|&q| q > p) else { continue };
+            let Some(b) = depth(q) else { continue };
+            // The plain step test first: the plane test's two lookups are rarely needed.
+            if continuous(a, b, None, None, jump, PLANAR) {
+                continue;
             }
-            row
-        })
-        .collect()
+            let behind = nb.get_at(x, y, opposite(k)).and_then(&depth);
+            let beyond = nb.get2_at(x, y, k).and_then(&depth);
+            if !continuous(a, b, behind, beyond, jump, PLANAR) {
+                visit(p, q);
+            }
+        }
+    }
 }
 
 #[cfg(test)]

@@ -272,7 +272,7 @@ fn clean_pixels(tx: &FillContext, k: u32) -> Vec<bool> {
         .collect()
 }
 
-/// Largest shading correction of a copy, as a log ratio (a factor of 2 either way).
+/// Largest shading correction of a copy, as a log ratio (a factor of 4 either way).
 const MAX_LOG_RATIO: f32 = 2.0 * std::f32::consts::LN_2;
 
 /// Small colour added before taking ratios (dark pixels have noisy ratios).
@@ -326,8 +326,8 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
     if ring.len() < MIN_RING {
         return none;
     }
-    // Copy only what matches clearly better than texture at random would (twice the ring's
-    // variance); a plain surface (no variance) is blended.
+    // Copy only what matches clearly better than texture at random would (the ring's variance
+    // after a fitted gain and offset, twice it as it is); a plain surface (no variance) is blended.
     let mean = ring.iter().map(|r| r.1).sum::<Vec3>() / ring.len() as f32;
     let random = ring.iter().map(|r| (r.1 - mean).length_squared()).sum::<f32>() / ring.len() as f32;
     if random < PLAIN {
@@ -343,7 +343,7 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
         return none;
     }
     // Mean mismatch of the ring carried by `t` and the share of the hole it leaves uncovered;
-    // `None` as soon as their sum cannot beat `bound`.
+    // `None` as soon as the ring's invalid sources alone cannot beat `bound`.
     let parts = |t: Vec3, ring_n: usize, hole_n: usize, bound: f32| -> Option<Match> {
         let (ring_n, hole_n) = (ring.len().min(ring_n), hole_samples.len().min(hole_n));
         let cap = bound * ring_n as f32;
@@ -370,7 +370,9 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
                 }
             }
         }
-        let lit = if n > 0.0 {
+        let raw = (rr - 2.0 * rs + ss).max(Vec3::ZERO).element_sum();
+        // A fit to a few sources fits anything: below `MIN_RING` of them, colours as they are.
+        let lit = if n >= MIN_RING as f32 {
             let (mr, ms) = (r1 / n, s1 / n);
             let (var_r, cov, var_s) = (rr / n - mr * mr, rs / n - mr * ms, ss / n - ms * ms);
             let gain = (cov / var_s.max(Vec3::splat(1e-12)))
@@ -379,9 +381,8 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
             let relit = LIGHT_COST * (var_r * ln_sq(gain)).element_sum();
             n * ((var_r - 2.0 * gain * cov + gain * gain * var_s).max(Vec3::ZERO).element_sum() + relit)
         } else {
-            0.0
+            raw
         };
-        let raw = (rr - 2.0 * rs + ss).max(Vec3::ZERO).element_sum();
         let mut uncovered = 0;
         for x in spread(&hole_samples, hole_n) {
             uncovered += !valid(tx.pixel(x + t)) as u32;

@@ -444,10 +444,22 @@ fn check_continuity(
         Sample::Infinite => Some(f64::INFINITY),
         _ => None,
     };
-    let breaks = continuity::breaks(&nb, depth, options.jump_threshold);
-    let count = breaks.len();
+    let h = image.height;
+    // Per row: the count and the first pair's pixel (a hostile layer can break at every pixel).
+    let rows: Vec<(usize, usize)> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let (mut count, mut first) = (0, usize::MAX);
+            continuity::row_breaks(&nb, depth, options.jump_threshold, y, |p, _| {
+                count += 1;
+                first = first.min(p);
+            });
+            (count, first)
+        })
+        .collect();
+    let count: usize = rows.iter().map(|r| r.0).sum();
     if count > 0 {
-        let first = breaks.iter().map(|b| b.0).min().unwrap_or(0);
+        let first = rows.iter().map(|r| r.1).min().unwrap_or(0);
         let (x, y) = (first % w, first / w);
         issues.push(issue(
             codes::DEPTH_DISCONTINUITY,
