@@ -289,10 +289,11 @@ fn the_fill_continues_the_hidden_texture() {
 }
 
 /// A picture frame 0.7 m before a wall of contrasting 25 cm squares, lit unevenly (the light
-/// falls off fourfold along the wall, 1.7-fold across the frame). The wall seen through the
+/// falls off almost fivefold along the wall, 1.4-fold across the frame). The wall seen through the
 /// frame's window is cut off from the rest of the wall, and a copy from elsewhere on the wall is
 /// lit differently: the fill must still continue the checker behind the bars, in phase and at
-/// the local brightness. (A blend of the two tints, or the wrong one, is off by 60 % or more.)
+/// the local brightness. (A blend of the two tints is off by a third or more, the wrong tint by
+/// three quarters or more; the test allows 15 %.)
 #[test]
 fn the_fill_continues_a_wall_seen_through_a_frame_under_uneven_light() {
     let bar = |y0: f64, y1: f64, z0: f64, z1: f64| {
