@@ -348,22 +348,21 @@ trait Source: Sync {
     ) -> bool {
         let (x0, _, _) = axis_weights(Filter::Bilinear, x);
         let (y0, _, _) = axis_weights(Filter::Bilinear, y);
-        // Outside the layer (uncovered too) reads as −1.
+        // Outside the layer (negative, unknown, uncovered) reads as −1.
         let depth = |i: i64, j: i64| {
             let t = self.texel_at(face, i, j) * ch;
-            let covered = cov.map_or(true, |a| data[t + a].to_f32() > 0.0);
-            if covered {
+            if tap_inside(data, t, z, cov) {
                 data[t + z].to_f32() as f64
             } else {
                 -1.0
             }
         };
-        // Pairs with a texel outside the layer (negative, NaN) are not asked: at a layer's edge
-        // the inside taps alone are blended. Some pair must be asked.
+        // Pairs with a texel outside the layer are not asked: at a layer's edge the inside taps
+        // alone are blended. Some pair must be asked.
         let pair = |(ai, aj): (i64, i64), (di, dj): (i64, i64)| {
             let (bi, bj) = (ai + di, aj + dj);
             let (a, b) = (depth(ai, aj), depth(bi, bj));
-            if a.is_nan() || b.is_nan() || a < 0.0 || b < 0.0 {
+            if a < 0.0 || b < 0.0 {
                 return None;
             }
             Some(crate::continuity::continuous_with(
@@ -423,13 +422,14 @@ trait Source: Sync {
     ) {
         self.taps_at(face, x, y, opts.filter, taps);
         let mut opts = opts;
-        let bilinear = SampleOptions { filter: Filter::Bilinear, ..*opts };
+        let bilinear;
         if let (Some(z), Filter::Bicubic) = (opts.depth_channel, opts.filter) {
             // Depth stepping by more than the jump over the 4 × 4 taps (ground at a grazing angle),
             // or reaching out of the layer, is sampled as the bilinear filter would (on its plane,
             // from its inside taps), not left as the nearest texel's staircase.
             if !matches!(blendable(data, ch, taps, opts, z), DepthTaps::Close(..)) {
                 self.taps_at(face, x, y, Filter::Bilinear, taps);
+                bilinear = SampleOptions { filter: Filter::Bilinear, ..*opts };
                 opts = &bilinear;
             }
         }
@@ -808,17 +808,11 @@ fn blendable<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, 
             continue;
         }
         let base = taps.idx[k] * ch;
-        let zv = src[base + z].to_f32();
-        // Negative = outside, NaN = unknown: neither mixes with anything.
-        if zv.is_nan() || zv < 0.0 {
+        // Outside or unknown mixes with nothing.
+        if !tap_inside(src, base, z, opts.coverage_channel) {
             return DepthTaps::Apart;
         }
-        if let Some(a) = opts.coverage_channel {
-            let cov = src[base + a].to_f32();
-            if cov.is_nan() || cov <= 0.0 {
-                return DepthTaps::Apart;
-            }
-        }
+        let zv = src[base + z].to_f32();
         lo = lo.min(zv);
         hi = hi.max(zv);
     }
@@ -832,19 +826,18 @@ fn blendable<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, 
     }
 }
 
-/// Whether the tap at `base` is inside the layer (known depth ≥ 0, covered).
+/// Whether the texel at `base` is inside the layer: a known depth ≥ 0 (negative = outside, NaN =
+/// unknown) and, with a coverage channel `cov`, covered.
 #[inline]
-fn tap_inside<T: Texel>(src: &[T], base: usize, opts: &SampleOptions, z: usize) -> bool {
-    let zv = src[base + z].to_f32();
-    let covered = opts.coverage_channel.map_or(true, |a| src[base + a].to_f32() > 0.0);
-    zv >= 0.0 && covered
+fn tap_inside<T: Texel>(src: &[T], base: usize, z: usize, cov: Option<usize>) -> bool {
+    src[base + z].to_f32() >= 0.0 && cov.map_or(true, |a| src[base + a].to_f32() > 0.0)
 }
 
 /// When the nearest texel is inside the layer but some weighted taps are not: the inside taps,
 /// their weights renormalised (`None` if their weight is under half, as bicubic lobes can leave).
 #[inline]
 fn inside_taps<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &SampleOptions, z: usize) -> Option<Taps> {
-    let is_in = |i: usize| tap_inside(src, i * ch, opts, z);
+    let is_in = |i: usize| tap_inside(src, i * ch, z, opts.coverage_channel);
     if !is_in(taps.nearest) || (0..taps.n).all(|k| taps.w[k] == 0.0 || is_in(taps.idx[k])) {
         return None;
     }
