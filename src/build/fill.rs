@@ -120,7 +120,9 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     }
     let jump_seeds = seeds.len();
     seeds.extend(fold_seeds);
-    let reach: HashMap<usize, f64> = seeds.par_iter().map(|&s| (s, planar_reach(cx, k, s))).collect();
+    let surfaces = Surfaces::new(cx, k, &seeds);
+    let reach: HashMap<usize, f64> =
+        seeds.par_iter().map(|&s| (s, planar_reach(cx, &surfaces, k, s))).collect();
     // The band search and the rival search are independent.
     let ((src, angle_of, order), (slot_of, rivals)) = rayon::join(
         || {
@@ -219,7 +221,6 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
             (slot_of, rivals)
         },
     );
-    let surfaces = Surfaces::new(cx, k, &seeds);
     let mut fill = Fill::default();
     let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
     let mut own_plane: HashMap<usize, FillPixel> = HashMap::new();
@@ -511,8 +512,19 @@ const REACH_STEPS: usize = 48;
 /// way; the tangent plane of a sphere or of a table leg leaves the surface within a few pixels,
 /// and continued far beyond (along a thin pole in front of it) it draws a sliver of the object
 /// where there is none. Unlimited without a normal of its own or when nothing contradicts it.
-fn planar_reach(cx: &FillContext, k: u32, s: usize) -> f64 {
-    let n = cx.normals[s];
+fn planar_reach(cx: &FillContext, surfaces: &Surfaces, k: u32, s: usize) -> f64 {
+    // Without a normal of its own or a borrowed one (the normals around disagree: a curved
+    // surface), the mean of its neighbours' stands in.
+    let n = match surfaces.normal(cx, s) {
+        n if n != Vec3::ZERO => n,
+        _ => (0..8)
+            .filter_map(|j| {
+                cx.nb.get(s, j).filter(|&q| cx.surface[q] == cx.surface[s] && cx.links.continuous(s, j))
+            })
+            .map(|q| cx.normals[q])
+            .sum::<Vec3>()
+            .normalize_or_zero(),
+    };
     let ds = cx.depth[s];
     if n == Vec3::ZERO || !ds.is_finite() {
         return f64::INFINITY;
@@ -527,7 +539,10 @@ fn planar_reach(cx: &FillContext, k: u32, s: usize) -> f64 {
             }
             let dq = cx.depth[q];
             let t = plane_depth(cx, s, n, q);
-            if !(n.dot(cx.dirs[q]) < 0.0 && t.is_finite() && (t - dq).abs() <= cx.plane_tol as f32 * dq) {
+            let turned = cx.normals[q] != Vec3::ZERO && cx.normals[q].dot(n) < SAME_PLANE_COS;
+            if turned
+                || !(n.dot(cx.dirs[q]) < 0.0 && t.is_finite() && (t - dq).abs() <= cx.plane_tol as f32 * dq)
+            {
                 let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
                 reach = reach.min(angle);
                 break;
@@ -556,6 +571,14 @@ const BORROW_STEPS: usize = 3;
 const BORROW_MIN: usize = 3;
 
 impl Surfaces {
+    /// The normal of seed `s`: its own, else the one it borrows, else zero.
+    fn normal(&self, cx: &FillContext, s: usize) -> Vec3 {
+        match cx.normals[s] {
+            n if n != Vec3::ZERO => n,
+            _ => self.borrowed.get(&s).copied().unwrap_or(Vec3::ZERO),
+        }
+    }
+
     /// The surfaces of layer `k` (finite depths only) and the normals `seeds` borrow.
     fn new(cx: &FillContext, k: u32, seeds: &[usize]) -> Surfaces {
         let mut sums: Vec<(Vec3, u32)> = Vec::new();
@@ -714,16 +737,16 @@ mod tests {
         }
     }
 
-    /// The tangent plane of a wall may be continued without limit; a sphere's (0.5 m radius, 2 m
-    /// away) only about as far as it fits the sphere within the plane tolerance.
-    #[test]
-    fn a_curved_surface_is_continued_only_as_far_as_its_plane_fits() {
-        let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
-        let (w, n) = (256, 256 * 128);
+    /// [`planar_reach`] in pixels of seeds on a wall at x = `wall` and on a sphere of 0.5 m radius
+    /// centred `dist` away along +x, on a `w` × `w/2` equirect canvas: the sphere seed `az`° off
+    /// the sphere's centre direction (with its own normal, then without), the wall seed 40° off.
+    fn sphere_and_wall_reach(w: usize, dist: f32, wall: f32, az: f64) -> (f64, f64, f64) {
+        let m = AnyMapping::new(MappingKind::Equirect, w, w / 2).unwrap();
+        let n = w * w / 2;
         let nb = Neighbours::new(m);
         let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
-        let centre = Vec3::new(2.0, 0.0, 0.0);
-        // The sphere where the ray meets it, else a wall at x = 4.
+        let centre = Vec3::new(dist, 0.0, 0.0);
+        // The sphere where the ray meets it, else the wall.
         let hit = |d: Vec3| {
             let b = d.dot(centre);
             let disc = b * b - centre.length_squared() + 0.25;
@@ -734,23 +757,43 @@ mod tests {
             let d = dirs[p];
             (depth[p], normals[p], surface[p]) = match hit(d) {
                 Some(t) => (t, (d * t - centre).normalize(), 1),
-                None if d.x > 0.05 => (4.0 / d.x, Vec3::new(-1.0, 0.0, 0.0), 0),
+                None if d.x > 0.05 => (wall / d.x, Vec3::new(-1.0, 0.0, 0.0), 0),
                 None => (f32::NAN, Vec3::ZERO, u32::MAX),
             };
         }
         let layer_of = vec![0u32; n];
         let links = Links::compute(&nb, &depth, &EdgeOptions::default());
         let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
-        let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
-        let pixel = std::f64::consts::PI / 128.0;
-        // On the sphere, 5° off its centre direction; on the wall, 40° off.
-        let at = |az: f64| (64 * w) + ((az.to_radians() / std::f64::consts::TAU * w as f64) as usize);
-        let (on_sphere, on_wall) = (at(5.0), at(40.0));
+        let pixel = std::f64::consts::TAU / w as f64;
+        let at = |az: f64| (w / 4 * w) + ((az.to_radians() / pixel) as usize);
+        let (on_sphere, on_wall) = (at(az), at(40.0));
         assert_eq!((surface[on_sphere], surface[on_wall]), (1, 0));
-        let sphere = planar_reach(&cx, 0, on_sphere);
-        eprintln!("sphere reach {:.1} px", sphere / pixel);
-        assert!(sphere > pixel && sphere < 8.0 * pixel, "sphere reach {} px", sphere / pixel);
-        assert_eq!(planar_reach(&cx, 0, on_wall), f64::INFINITY);
+        let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+        let surfaces = Surfaces::new(&cx, 0, &[on_sphere, on_wall]);
+        let sphere = planar_reach(&cx, &surfaces, 0, on_sphere) / pixel;
+        let wall = planar_reach(&cx, &surfaces, 0, on_wall) / pixel;
+        // A seed without a normal of its own (at an object's outline) is limited by the one it borrows.
+        normals[on_sphere] = Vec3::ZERO;
+        let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+        let surfaces = Surfaces::new(&cx, 0, &[on_sphere]);
+        let borrowed = planar_reach(&cx, &surfaces, 0, on_sphere) / pixel;
+        eprintln!("{dist} m: sphere reach {sphere:.1} px, without a normal {borrowed:.1} px; wall {wall} px");
+        (sphere, borrowed, wall)
+    }
+
+    /// The tangent plane of a wall may be continued without limit; a sphere's only about as far
+    /// as it fits the sphere: within the plane tolerance (0.5 m radius, 2 m away: the plane
+    /// leaves it within a few pixels) and while the normals stay within 20° (6 m away, 7 pixels
+    /// in radius: the plane stays within 5 % of the depth for 7 pixels, so the tolerance alone
+    /// let the fill draw the sphere up to twice as wide; the normals turn 20° within 3).
+    #[test]
+    fn a_curved_surface_is_continued_only_as_far_as_its_plane_fits() {
+        for (w, dist, wall, az, most) in [(256, 2.0, 4.0, 5.0, 8.0), (512, 6.0, 8.0, 2.0, 4.0)] {
+            let (sphere, borrowed, wall) = sphere_and_wall_reach(w, dist, wall, az);
+            assert!(sphere > 1.0 && sphere < most, "{dist} m: sphere reach {sphere} px");
+            assert!(borrowed > 1.0 && borrowed < most, "{dist} m: borrowed reach {borrowed} px");
+            assert_eq!(wall, f64::INFINITY);
+        }
     }
 
     /// A wall at 3 m with a nearer layer (1 m) in front of a block of it. Its fill continues the
