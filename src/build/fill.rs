@@ -118,9 +118,16 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
             fold_seeds.push(p);
         }
     }
+    let surfaces = Surfaces::new(cx, k, seeds.iter().chain(&fold_seeds).copied());
+    // A speck without a plane (a few in-between depths on a resized edge) is no surface to
+    // continue: kept, its depth would stand as a wall behind the occluder.
+    let surface_seed = |&s: &usize| {
+        !cx.depth[s].is_finite() || surfaces.normal(cx, s) != Vec3::ZERO || surfaces.size(cx, s) >= SPECK
+    };
+    seeds.retain(surface_seed);
+    fold_seeds.retain(surface_seed);
     let jump_seeds = seeds.len();
     seeds.extend(fold_seeds);
-    let surfaces = Surfaces::new(cx, k, &seeds);
     let reach: HashMap<usize, f64> =
         seeds.par_iter().map(|&s| (s, planar_reach(cx, &surfaces, k, s))).collect();
     // The band search and the rival search are independent.
@@ -559,8 +566,13 @@ struct Surfaces {
     centroid: Vec<Vec3>,
     /// Farthest depth each surface is seen at.
     far: Vec<f32>,
+    /// Pixels of each surface (finite depths).
+    size: Vec<u32>,
     borrowed: HashMap<usize, Vec3>,
 }
+
+/// Surfaces of fewer pixels are specks: without a plane of their own they seed no fill.
+const SPECK: u32 = 32;
 
 /// How much farther than its surface is seen anywhere the fill may continue it.
 const FAR_SEEN: f32 = 1.5;
@@ -571,6 +583,11 @@ const BORROW_STEPS: usize = 3;
 const BORROW_MIN: usize = 3;
 
 impl Surfaces {
+    /// Pixels of the surface of `s` in its layer.
+    fn size(&self, cx: &FillContext, s: usize) -> u32 {
+        self.size.get(cx.surface[s] as usize).copied().unwrap_or(0)
+    }
+
     /// The normal of seed `s`: its own, else the one it borrows, else zero.
     fn normal(&self, cx: &FillContext, s: usize) -> Vec3 {
         match cx.normals[s] {
@@ -580,7 +597,7 @@ impl Surfaces {
     }
 
     /// The surfaces of layer `k` (finite depths only) and the normals `seeds` borrow.
-    fn new(cx: &FillContext, k: u32, seeds: &[usize]) -> Surfaces {
+    fn new(cx: &FillContext, k: u32, seeds: impl Iterator<Item = usize>) -> Surfaces {
         let mut sums: Vec<(Vec3, u32)> = Vec::new();
         let mut far: Vec<f32> = Vec::new();
         for p in 0..cx.nb.len() {
@@ -597,11 +614,11 @@ impl Surfaces {
         }
         let centroid = sums.iter().map(|&(sum, c)| if c > 0 { sum / c as f32 } else { Vec3::NAN }).collect();
         let borrowed = seeds
-            .iter()
-            .filter(|&&s| cx.normals[s] == Vec3::ZERO && cx.depth[s].is_finite())
-            .filter_map(|&s| Some((s, borrow_normal(cx, s)?)))
+            .filter(|&s| cx.normals[s] == Vec3::ZERO && cx.depth[s].is_finite())
+            .filter_map(|s| Some((s, borrow_normal(cx, s)?)))
             .collect();
-        Surfaces { centroid, far, borrowed }
+        let size = sums.iter().map(|&(_, c)| c).collect();
+        Surfaces { centroid, far, size, borrowed }
     }
 }
 
@@ -769,13 +786,13 @@ mod tests {
         let (on_sphere, on_wall) = (at(az), at(40.0));
         assert_eq!((surface[on_sphere], surface[on_wall]), (1, 0));
         let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
-        let surfaces = Surfaces::new(&cx, 0, &[on_sphere, on_wall]);
+        let surfaces = Surfaces::new(&cx, 0, [on_sphere, on_wall].into_iter());
         let sphere = planar_reach(&cx, &surfaces, 0, on_sphere) / pixel;
         let wall = planar_reach(&cx, &surfaces, 0, on_wall) / pixel;
         // A seed without a normal of its own (at an object's outline) is limited by the one it borrows.
         normals[on_sphere] = Vec3::ZERO;
         let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
-        let surfaces = Surfaces::new(&cx, 0, &[on_sphere]);
+        let surfaces = Surfaces::new(&cx, 0, [on_sphere].into_iter());
         let borrowed = planar_reach(&cx, &surfaces, 0, on_sphere) / pixel;
         eprintln!("{dist} m: sphere reach {sphere:.1} px, without a normal {borrowed:.1} px; wall {wall} px");
         (sphere, borrowed, wall)
@@ -835,6 +852,43 @@ mod tests {
         assert!(got.values().all(|&d| d == 3.0), "no pixel keeps the rival's plane");
         let holes = (0..n).filter(|&p| hidden(p) && !moat(p) && !island(p) && !got.contains_key(&p)).count();
         assert_eq!(holes, 0, "the wall's fill has no hole");
+    }
+
+    /// A box at 1 m before a wall at 3 m, its top edge lined with in-between depths (1.3 m, as a
+    /// resized depth edge leaves them): one-pixel surfaces without a normal, in the wall's layer.
+    /// They seed no fill; the wall's fill behind the box is at the wall's depth, not a screen at
+    /// 1.3 m (which a camera moved aside saw as a ghost of the box).
+    #[test]
+    fn specks_without_a_plane_seed_no_fill() {
+        let m = AnyMapping::new(MappingKind::Equirect, 128, 64).unwrap();
+        let (w, n) = (128, 128 * 64);
+        let nb = Neighbours::new(m);
+        let hidden = |p: usize| (52..76).contains(&(p % w)) && (24..40).contains(&(p / w));
+        let speck = |p: usize| (52..76).contains(&(p % w)) && p / w == 23;
+        let depth: Vec<f32> = (0..n)
+            .map(|p| {
+                if hidden(p) {
+                    1.0
+                } else if speck(p) {
+                    1.3
+                } else {
+                    3.0
+                }
+            })
+            .collect();
+        let layer_of: Vec<u32> = (0..n).map(|p| hidden(p) as u32).collect();
+        let surface: Vec<u32> =
+            (0..n).map(|p| if speck(p) { 10 + p as u32 % w as u32 } else { hidden(p) as u32 }).collect();
+        let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+        let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+        let normals = vec![Vec3::ZERO; n];
+        let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
+        let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+        let fill = fill_layer(&cx, 0);
+        let screen = fill.pixels.iter().filter(|f| f.depth < 2.0).count();
+        eprintln!("{} filled, {screen} at the specks' depth", fill.pixels.len());
+        assert!(fill.pixels.len() > 100, "the wall is continued behind the box");
+        assert_eq!(screen, 0, "filled pixels in front of the wall");
     }
 
     #[test]
