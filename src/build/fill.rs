@@ -121,8 +121,12 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     let surfaces = Surfaces::new(cx, k, seeds.iter().chain(&fold_seeds).copied());
     // A speck without a plane (a few in-between depths on a resized edge) is no surface to
     // continue: kept, its depth would stand as a wall behind the occluder.
+    // Pixels of unknown depth (given their neighbour's depth, on no segment) are not specks.
     let surface_seed = |&s: &usize| {
-        !cx.depth[s].is_finite() || surfaces.normal(cx, s) != Vec3::ZERO || surfaces.size(cx, s) >= SPECK
+        cx.surface[s] == u32::MAX
+            || !cx.depth[s].is_finite()
+            || surfaces.normal(cx, s) != Vec3::ZERO
+            || surfaces.size(cx, s) >= SPECK
     };
     seeds.retain(surface_seed);
     fold_seeds.retain(surface_seed);
@@ -176,6 +180,10 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
                                 + cx.margin
                         // The reach is looked up only past its floor (most pixels stay within it).
                         || (angle > 2.0 * cx.margin && angle > reach[&s])
+                        // A seed claims only where its surface continues: one whose plane misses
+                        // (the in-between depths of a resized edge, whose plane runs along the
+                        // ray) leaves the pixel to seeds that can fill it.
+                        || continue_surface(cx, &surfaces, s, q).is_none()
                     {
                         continue;
                     }
@@ -514,12 +522,18 @@ fn trusted_plane(cx: &FillContext, p: usize) -> bool {
 const REACH_STEPS: usize = 48;
 
 /// How far (an angle) the tangent plane at seed `s` may be continued behind an occluder: as far
-/// as it fits the seed's own visible surface (within the plane tolerance, relative), looking along
-/// the 8 directions over the layer's pixels of the same segment. A wall fits its plane all the
-/// way; the tangent plane of a sphere or of a table leg leaves the surface within a few pixels,
-/// and continued far beyond (along a thin pole in front of it) it draws a sliver of the object
-/// where there is none. Unlimited without a normal of its own or when nothing contradicts it.
+/// as it fits the seed's own visible surface (within the plane tolerance, relative, and with
+/// normals within 20° of its own), looking along the 8 directions over the layer's pixels of the
+/// same segment. A wall fits its plane all the way; the tangent plane of a sphere or of a table
+/// leg leaves the surface within a few pixels, and continued far beyond (along a thin pole in
+/// front of it) it draws a sliver of the object where there is none. A seed without a normal
+/// walks with the one it borrows, else its neighbours' mean; unlimited when there is none either
+/// or nothing contradicts it.
 fn planar_reach(cx: &FillContext, surfaces: &Surfaces, k: u32, s: usize) -> f64 {
+    let ds = cx.depth[s];
+    if !ds.is_finite() {
+        return f64::INFINITY;
+    }
     // Without a normal of its own or a borrowed one (the normals around disagree: a curved
     // surface), the mean of its neighbours' stands in.
     let n = match surfaces.normal(cx, s) {
@@ -532,8 +546,7 @@ fn planar_reach(cx: &FillContext, surfaces: &Surfaces, k: u32, s: usize) -> f64 
             .sum::<Vec3>()
             .normalize_or_zero(),
     };
-    let ds = cx.depth[s];
-    if n == Vec3::ZERO || !ds.is_finite() {
+    if n == Vec3::ZERO {
         return f64::INFINITY;
     }
     let mut reach = f64::INFINITY;
@@ -889,6 +902,61 @@ mod tests {
         eprintln!("{} filled, {screen} at the specks' depth", fill.pixels.len());
         assert!(fill.pixels.len() > 100, "the wall is continued behind the box");
         assert_eq!(screen, 0, "filled pixels in front of the wall");
+        // Pixels of unknown depth given the wall's (a depth sensor's shadow beside the box) are on
+        // no segment and have no normal: not specks. Ringing the box, they are its only seeds.
+        let ring = |p: usize| (51..77).contains(&(p % w)) && (23..41).contains(&(p / w)) && !hidden(p);
+        let depth: Vec<f32> = (0..n).map(|p| if hidden(p) { 1.0 } else { 3.0 }).collect();
+        let surface: Vec<u32> = (0..n).map(|p| if ring(p) { u32::MAX } else { hidden(p) as u32 }).collect();
+        let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+        let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+        let unknown = fill_layer(&cx, 0);
+        eprintln!("{} filled from a ring of unknown depth", unknown.pixels.len());
+        assert!(unknown.pixels.len() > 100, "the ring of unknown depth seeds the fill");
+    }
+
+    /// A block hides part of a wall at x = 3 m. Its right edge meets the wall without a jump (fold
+    /// seeds); the wall pixels along its other edges carry a plane the rays behind the block miss
+    /// (as the in-between depths of a resized edge do). Those seeds claim nothing, so the fold
+    /// seeds fill the whole block at the wall's depth; claimed by them, 8 of its 64 pixels stayed
+    /// empty.
+    #[test]
+    fn a_seed_whose_plane_misses_leaves_the_pixel_to_one_whose_plane_meets_it() {
+        let m = AnyMapping::new(MappingKind::Equirect, 128, 64).unwrap();
+        let (w, n) = (128, 128 * 64);
+        let nb = Neighbours::new(m);
+        let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+        let (x, y) = (|p: usize| p % w, |p: usize| p / w);
+        let block = |p: usize| (4..12).contains(&x(p)) && (28..36).contains(&y(p));
+        let wall = |p: usize| 3.0 / dirs[p].x;
+        let bad = |p: usize| !block(p) && (3..12).contains(&x(p)) && (27..37).contains(&y(p));
+        let mut depth = vec![f32::NAN; n];
+        let (mut normals, mut surface) = (vec![Vec3::ZERO; n], vec![u32::MAX; n]);
+        let mut layer_of = vec![u32::MAX; n];
+        for p in (0..n).filter(|&p| dirs[p].x > 0.05) {
+            (depth[p], layer_of[p], surface[p], normals[p]) = if block(p) {
+                // 1 m at its left edge, at the wall's depth (less 1 %) at its right.
+                let t = (x(p) - 4) as f32 / 7.0;
+                (1.0 + t * (0.99 * wall(p) - 1.0), 1, 1, Vec3::new(-1.0, 0.0, 0.0))
+            } else if bad(p) {
+                (wall(p), 0, 5, Vec3::new(1.0, 0.0, 0.0))
+            } else {
+                (wall(p), 0, 0, Vec3::new(-1.0, 0.0, 0.0))
+            };
+        }
+        let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+        let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
+        let mut cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+        // Every part of the block is within the radius: the whole of it may be filled.
+        cx.freedom_radius = 2.95;
+        let fill = fill_layer(&cx, 0);
+        let got: HashMap<usize, f32> = fill.pixels.iter().map(|f| (f.pixel, f.depth)).collect();
+        let hidden: Vec<usize> = (0..n).filter(|&p| block(p)).collect();
+        let filled = hidden
+            .iter()
+            .filter(|&&p| got.get(&p).is_some_and(|&d| (d / wall(p) - 1.0).abs() < 0.01))
+            .count();
+        eprintln!("{filled} of {} hidden pixels filled at the wall", hidden.len());
+        assert_eq!(filled, hidden.len());
     }
 
     #[test]

@@ -91,9 +91,9 @@ pub fn panorama_meshes(
     Ok((meshes, sources, warnings))
 }
 
-/// Half-size of the footprint quads of border pixels, layer pixels: the splat's filter radius, over
-/// ½ so that the quads of neighbouring border pixels (whose extrapolated corners need not
-/// coincide) overlap, and silhouettes grow by ¼ pixel as with the splat's filter.
+/// Half-size of the footprint quads of border pixels, layer pixels: the thesis's splat filter
+/// radius, over ½ so that the quads of neighbouring border pixels (whose extrapolated corners need
+/// not coincide) overlap; silhouettes grow by ¼ layer pixel.
 const FOOTPRINT: f64 = 0.75;
 
 /// What the rasteriser draws of one layer, in the panorama's local frame: the layer's mesh minus
