@@ -1309,7 +1309,7 @@ fn convert_layer_in_bands(
         // Only a source that is one surface wherever it is continuous by the rule is made so again:
         // the breaks of a layer that has some (a plain RGB-D panorama) are its own.
         let cov = o.coverage_channel.map(|a| src.channels[a].data.as_slice());
-        if nearer_of_breaks(&src.channels[z].data, cov, &from_map).is_empty() {
+        if !has_breaks(&src.channels[z].data, cov, &from_map) {
             separate(&mut planes, z, o.coverage_channel, &to_map);
         }
     }
@@ -1331,15 +1331,35 @@ fn layer_mapping(canvas: Canvas, w: usize, h: usize) -> Option<AnyMapping> {
     AnyMapping::new(kind, w, h).ok()
 }
 
+/// Depth of pixel `i` of a layer's planes for the continuity rule: inside is depth > 0 and
+/// coverage > 0.
+fn layer_depth(z: &[f32], cov: Option<&[f32]>, i: usize) -> Option<f64> {
+    (z[i] > 0.0 && cov.map_or(true, |a| a[i] > 0.0)).then_some(z[i] as f64)
+}
+
+/// Whether a layer's depth plane has a 4-neighbour pair that is not one surface
+/// ([`continuity::row_breaks`] at [`continuity::LAYER_JUMP`], what `validate` checks); rows stop
+/// being searched at the first found.
+fn has_breaks(z: &[f32], cov: Option<&[f32]>, mapping: &AnyMapping) -> bool {
+    let nb = crate::mapping::Neighbours::new(*mapping);
+    (0..mapping.height()).into_par_iter().any(|y| {
+        let mut found = false;
+        continuity::row_breaks(
+            &nb,
+            |i| layer_depth(z, cov, i),
+            continuity::LAYER_JUMP,
+            y,
+            |_, _| found = true,
+        );
+        found
+    })
+}
+
 /// The nearer pixel of each 4-neighbour pair of a layer's depth plane that is not one surface
-/// ([`continuity::row_breaks`] at [`continuity::LAYER_JUMP`], what `validate` checks); inside is
-/// depth > 0 and coverage > 0.
+/// ([`continuity::row_breaks`] at [`continuity::LAYER_JUMP`], what `validate` checks).
 fn nearer_of_breaks(z: &[f32], cov: Option<&[f32]>, mapping: &AnyMapping) -> Vec<usize> {
     let nb = crate::mapping::Neighbours::new(*mapping);
-    let depth = |i: usize| {
-        let d = z[i];
-        (d > 0.0 && cov.map_or(true, |a| a[i] > 0.0)).then_some(d as f64)
-    };
+    let depth = |i: usize| layer_depth(z, cov, i);
     (0..mapping.height())
         .into_par_iter()
         .flat_map_iter(|y| {

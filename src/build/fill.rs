@@ -678,13 +678,10 @@ fn continue_surface(cx: &FillContext, surfaces: &Surfaces, s: usize, q: usize) -
     if ds.is_infinite() {
         return Some(f32::INFINITY);
     }
-    if cx.normals[s] != Vec3::ZERO {
-        return plane_hit(cx, surfaces, s, q);
+    match surfaces.normal(cx, s) {
+        Vec3::ZERO => Some(ds.max(cx.depth[q] * 1.0001)),
+        nrm => plane_hit_with(cx, surfaces, s, nrm, q),
     }
-    if let Some(&nrm) = surfaces.borrowed.get(&s) {
-        return plane_hit_with(cx, surfaces, s, nrm, q);
-    }
-    Some(ds.max(cx.depth[q] * 1.0001))
 }
 
 /// Where the ray through `q` meets the tangent plane at `s`, if it does so plausibly: behind
