@@ -8,7 +8,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::edges::{EdgeOptions, Link, Links};
-use crate::mapping::Neighbours;
+use crate::mapping::{opposite, Neighbours};
 
 /// Union-find with path halving and union by size.
 struct Dsu {
@@ -40,6 +40,9 @@ impl Dsu {
         self.size[a as usize] += self.size[b as usize];
     }
 }
+
+/// Each undirected pair once: right, down, down-right, down-left (indices into `OFFSETS`).
+const HALF: [usize; 4] = [0, 2, 4, 5];
 
 /// Pixels not in any segment (unknown depth, or infinitely far content).
 pub const NO_SEGMENT: u32 = u32::MAX;
@@ -81,9 +84,8 @@ pub fn segment(
 ) -> Segments {
     let n = nb.len();
     let finite = |i: usize| depth[i] > 0.0 && depth[i].is_finite();
-    // Each undirected pair once: right, down, down-right, down-left. Links are classified in
-    // parallel (bit i of each mask = HALF[i]); the union-find that follows is a cheap serial pass.
-    const HALF: [usize; 4] = [0, 2, 4, 5];
+    // Links are classified in parallel (bit i of each mask = HALF[i]); the union-find that follows
+    // is a cheap serial pass.
     let masks: Vec<(u8, u8, u8)> = (0..n)
         .into_par_iter()
         .map(|p| {
@@ -114,30 +116,17 @@ pub fn segment(
             }
         }
     }
-    let id = compact(&mut dsu, n, &finite);
-    // A segment that occludes itself (a pole standing on the ground with no fold found between them,
-    // a surface curving behind itself) would put both sides of a jump in one layer. Its *front*
-    // pixels — nearer across a jump than a pixel of the same segment — are cut from the rest of it,
-    // so the near side becomes a segment of its own that occludes the far side.
-    let front: Vec<bool> = (0..n)
-        .into_par_iter()
-        .map(|p| {
-            id[p] != NO_SEGMENT
-                && (0..8).any(|k| {
-                    links.is_jump(p, k) && nb.get(p, k).is_some_and(|q| id[q] == id[p] && depth[q] > depth[p])
-                })
-        })
-        .collect();
-    let mut dsu = Dsu::new(n);
-    for (p, &(smooth, _, _)) in masks.iter().enumerate() {
-        for (i, &k) in HALF.iter().enumerate() {
-            if smooth >> i & 1 == 1 {
-                let q = nb.get(p, k).expect("link implies a neighbour");
-                if front[p] == front[q] {
-                    dsu.union(p as u32, q as u32);
-                }
-            }
-        }
+    let mut id = compact(&mut dsu, n, &finite);
+    // A segment that occludes itself (a box joined to the floor by a crease softened below the fold
+    // angle, a pole standing on the ground with no fold at its foot, a surface curving behind itself)
+    // would put both sides of a jump in one layer: it is split where its surface turns most between
+    // the two sides (spec §7 step 5). Nested cases (a cup on a box on the floor) take a round each.
+    for _ in 0..SPLIT_ROUNDS {
+        let Some(next) = split_self_occluding(nb, depth, links, normals, &masks, &id, o.min_border) else {
+            break;
+        };
+        dsu = next;
+        id = compact(&mut dsu, n, &finite);
     }
     // Compact ids.
     let mut id = vec![NO_SEGMENT; n];
@@ -215,6 +204,161 @@ fn compact(dsu: &mut Dsu, n: usize, finite: &dyn Fn(usize) -> bool) -> Vec<u32> 
             root_to_id[r]
         })
         .collect()
+}
+
+/// How far a seed of [`split_self_occluding`] runs on over a ramp of in-between depths (pixels), and
+/// the relative step per pixel that is still a ramp.
+const SEED_WALK: usize = 8;
+const RAMP_STEP: f32 = 0.02;
+
+/// Whether pixels `p` and `q` of one segment are joined by a path of at most [`GO_ROUND`] depth-
+/// continuous links inside it (breadth-first search).
+fn joined_nearby(nb: &Neighbours, links: &Links, id: &[u32], p: usize, q: usize) -> bool {
+    let mut seen = vec![p];
+    let mut ring = vec![p];
+    for _ in 0..GO_ROUND {
+        let mut next = Vec::new();
+        for &r in &ring {
+            for k in 0..8 {
+                let Some(t) = nb.get(r, k).filter(|&t| id[t] == id[p] && links.continuous(r, k)) else {
+                    continue;
+                };
+                if t == q {
+                    return true;
+                }
+                if !seen.contains(&t) {
+                    seen.push(t);
+                    next.push(t);
+                }
+            }
+        }
+        ring = next;
+    }
+    false
+}
+
+/// Steps within which [`joined_nearby`] looks for a way round a jump.
+const GO_ROUND: usize = 4;
+
+/// Rounds of [`split_self_occluding`]: one per nesting of occluders merged into one segment.
+const SPLIT_ROUNDS: usize = 4;
+
+/// Split every segment that occludes itself (at least `min_border` jumps between its own pixels)
+/// into its near and far sides: a seeded watershed over its smooth links, weighted by the angle
+/// between the normals. The near side's seeds are the pixels nearer across such a jump, the far
+/// side's the pixels behind them; links are joined from the flattest up (Kruskal) unless they would
+/// join the two sides, so the cut runs where the surface turns most between them — a softened
+/// crease, a pole's foot. `None` when no segment occludes itself; else the new union-find.
+fn split_self_occluding(
+    nb: &Neighbours,
+    depth: &[f32],
+    links: &Links,
+    normals: &[Vec3],
+    masks: &[(u8, u8, u8)],
+    id: &[u32],
+    min_border: u32,
+) -> Option<Dsu> {
+    const NEAR: u8 = 1;
+    const FAR: u8 = 2;
+    let n = id.len();
+    let count = id.iter().filter(|&&s| s != NO_SEGMENT).max().map_or(0, |&s| s as usize + 1);
+    let mut inner_jumps = vec![0u32; count];
+    let mut label = vec![0u8; n];
+    for p in 0..n {
+        let s = id[p];
+        if s == NO_SEGMENT {
+            continue;
+        }
+        for k in 0..8 {
+            if !links.is_jump(p, k) {
+                continue;
+            }
+            let Some(q) = nb.get(p, k).filter(|&q| id[q] == s && depth[q] > depth[p]) else { continue };
+            // A jump the surface goes round within a few pixels (a mixed pixel at a grazing
+            // horizon, a notch) is not the surface passing in front of itself, but seeds a
+            // segment that does.
+            if !joined_nearby(nb, links, id, p, q) {
+                inner_jumps[s as usize] += 1;
+            }
+            label[p] |= NEAR;
+            label[q] |= FAR;
+            // A jump spread over a few pixels (resized depth) leaves in-between pixels on either
+            // side, joined to their side only across a steep, sharply turning link: the seeds run
+            // on past them to the first pixel where the surface flattens.
+            for (from, dir, side, nearer) in [(p, opposite(k), NEAR, true), (q, k, FAR, false)] {
+                let mut r = from;
+                for _ in 0..SEED_WALK {
+                    let Some(t) = nb.get(r, dir).filter(|&t| id[t] == s) else { break };
+                    label[t] |= side;
+                    let (a, b) = (depth[r], depth[t]);
+                    let steep = if nearer { b < a * (1.0 - RAMP_STEP) } else { b > a * (1.0 + RAMP_STEP) };
+                    if !steep {
+                        break;
+                    }
+                    r = t;
+                }
+            }
+        }
+    }
+    let split: Vec<bool> = inner_jumps.iter().map(|&c| c >= min_border).collect();
+    if !split.iter().any(|&b| b) {
+        return None;
+    }
+    // A pixel on both sides (a one-pixel sliver between two jumps) seeds neither; segments left
+    // whole have no sides.
+    for (l, &s) in label.iter_mut().zip(id) {
+        if *l == NEAR | FAR || (*l != 0 && !split[s as usize]) {
+            *l = 0;
+        }
+    }
+    let mut dsu = Dsu::new(n);
+    let mut side: Vec<u8> = label;
+    let join = |dsu: &mut Dsu, side: &mut [u8], p: usize, q: usize| {
+        let (a, b) = (dsu.find(p as u32), dsu.find(q as u32));
+        let (la, lb) = (side[a as usize], side[b as usize]);
+        if a == b || (la != 0 && lb != 0 && la != lb) {
+            return;
+        }
+        dsu.union(a, b);
+        let r = dsu.find(a) as usize;
+        side[r] = la | lb;
+    };
+    // Links of whole segments first, and the flat links of split ones (most of them); the rest by
+    // angle, whole degrees (a counting sort).
+    let mut by_angle: Vec<Vec<(u32, u8)>> = vec![Vec::new(); 181];
+    for (p, &(smooth, _, _)) in masks.iter().enumerate() {
+        for (i, &k) in HALF.iter().enumerate() {
+            if smooth >> i & 1 == 0 {
+                continue;
+            }
+            let q = nb.get(p, k).expect("link implies a neighbour");
+            // Sides cut by an earlier round stay cut.
+            if id[p] != id[q] {
+                continue;
+            }
+            // A pixel without a normal (too few continuous neighbours: a sliver, a softened
+            // crease) joins a side last.
+            let angle = if !split[id[p] as usize] {
+                0
+            } else if normals[p] == Vec3::ZERO || normals[q] == Vec3::ZERO {
+                180
+            } else {
+                normals[p].dot(normals[q]).clamp(-1.0, 1.0).acos().to_degrees().round() as usize
+            };
+            if angle == 0 {
+                join(&mut dsu, &mut side, p, q);
+            } else {
+                by_angle[angle].push((p as u32, i as u8));
+            }
+        }
+    }
+    for list in &by_angle {
+        for &(p, i) in list {
+            let q = nb.get(p as usize, HALF[i as usize]).expect("link implies a neighbour");
+            join(&mut dsu, &mut side, p as usize, q);
+        }
+    }
+    Some(dsu)
 }
 
 /// A segment behind another that is over `SPECK` times larger, and smaller than `SPECK_MAX` pixels,
