@@ -114,6 +114,12 @@ impl Links {
         (self.usable[p] & !self.jump[p]) >> k & 1 == 1
     }
 
+    /// The depth jumps between `p` and any of its neighbours.
+    #[inline]
+    pub fn any_jump(&self, p: usize) -> bool {
+        self.jump[p] != 0
+    }
+
     /// The depth jumps between `p` and its neighbour `k`.
     #[inline]
     pub fn is_jump(&self, p: usize, k: usize) -> bool {

@@ -121,12 +121,19 @@ pub fn segment(
     // angle, a pole standing on the ground with no fold at its foot, a surface curving behind itself)
     // would put both sides of a jump in one layer: it is split where its surface turns most between
     // the two sides (spec §7 step 5). Nested cases (a cup on a box on the floor) take a round each.
+    let segments = |id: &[u32]| id.iter().filter(|&&s| s != NO_SEGMENT).max().map_or(0, |&s| s + 1);
     for _ in 0..SPLIT_ROUNDS {
-        let Some(next) = split_self_occluding(nb, depth, links, normals, &masks, &id, o.min_border) else {
+        let Some(mut next) = split_self_occluding(nb, depth, links, normals, &masks, &id, o.min_border)
+        else {
             break;
         };
-        dsu = next;
-        id = compact(&mut dsu, n, &finite);
+        let next_id = compact(&mut next, n, &finite);
+        // A round that cut nothing (its seeds were all slivers) would only repeat itself.
+        let progress = segments(&next_id) > segments(&id);
+        (dsu, id) = (next, next_id);
+        if !progress {
+            break;
+        }
     }
     // Compact ids.
     let mut id = vec![NO_SEGMENT; n];
@@ -206,19 +213,22 @@ fn compact(dsu: &mut Dsu, n: usize, finite: &dyn Fn(usize) -> bool) -> Vec<u32> 
         .collect()
 }
 
-/// How far a seed of [`split_self_occluding`] runs on over a ramp of in-between depths (pixels), and
-/// the relative step per pixel that is still a ramp.
+/// How far a seed of [`split_self_occluding`] runs on over a ramp of in-between depths (pixels).
 const SEED_WALK: usize = 8;
+/// The relative depth step per pixel that is still a ramp.
 const RAMP_STEP: f32 = 0.02;
 
 /// Whether pixels `p` and `q` of one segment are joined by a path of at most [`GO_ROUND`] depth-
-/// continuous links inside it (breadth-first search).
+/// continuous links inside it (breadth-first search; the pixels found are their own queue, at most
+/// the 9 × 9 around `p`).
 fn joined_nearby(nb: &Neighbours, links: &Links, id: &[u32], p: usize, q: usize) -> bool {
-    let mut seen = vec![p];
-    let mut ring = vec![p];
+    const CAP: usize = (2 * GO_ROUND + 1) * (2 * GO_ROUND + 1);
+    let mut seen = [p; CAP];
+    let (mut start, mut end) = (0, 1);
     for _ in 0..GO_ROUND {
-        let mut next = Vec::new();
-        for &r in &ring {
+        let mut len = end;
+        for i in start..end {
+            let r = seen[i];
             for k in 0..8 {
                 let Some(t) = nb.get(r, k).filter(|&t| id[t] == id[p] && links.continuous(r, k)) else {
                     continue;
@@ -226,13 +236,13 @@ fn joined_nearby(nb: &Neighbours, links: &Links, id: &[u32], p: usize, q: usize)
                 if t == q {
                     return true;
                 }
-                if !seen.contains(&t) {
-                    seen.push(t);
-                    next.push(t);
+                if len < CAP && !seen[..len].contains(&t) {
+                    seen[len] = t;
+                    len += 1;
                 }
             }
         }
-        ring = next;
+        (start, end) = (end, len);
     }
     false
 }
@@ -243,8 +253,8 @@ const GO_ROUND: usize = 4;
 /// Rounds of [`split_self_occluding`]: one per nesting of occluders merged into one segment.
 const SPLIT_ROUNDS: usize = 4;
 
-/// Split every segment that occludes itself (at least `min_border` jumps between its own pixels)
-/// into its near and far sides: a seeded watershed over its smooth links, weighted by the angle
+/// Split every segment that occludes itself (at least `min_border` jumps between its own pixels
+/// that it does not go round nearby, [`joined_nearby`]) into its near and far sides: a seeded watershed over its smooth links, weighted by the angle
 /// between the normals. The near side's seeds are the pixels nearer across such a jump, the far
 /// side's the pixels behind them; links are joined from the flattest up (Kruskal) unless they would
 /// join the two sides, so the cut runs where the surface turns most between them — a softened
@@ -262,41 +272,43 @@ fn split_self_occluding(
     const FAR: u8 = 2;
     let n = id.len();
     let count = id.iter().filter(|&&s| s != NO_SEGMENT).max().map_or(0, |&s| s as usize + 1);
+    // Jumps between two pixels of one segment (found in parallel; few).
+    let jumps: Vec<(usize, usize, usize)> = (0..n)
+        .into_par_iter()
+        .filter(|&p| id[p] != NO_SEGMENT && links.any_jump(p))
+        .flat_map_iter(|p| {
+            (0..8).filter(move |&k| links.is_jump(p, k)).filter_map(move |k| {
+                let q = nb.get(p, k).filter(|&q| id[q] == id[p] && depth[q] > depth[p])?;
+                Some((p, k, q))
+            })
+        })
+        .collect();
     let mut inner_jumps = vec![0u32; count];
     let mut label = vec![0u8; n];
-    for p in 0..n {
+    for &(p, k, q) in &jumps {
         let s = id[p];
-        if s == NO_SEGMENT {
-            continue;
+        // A jump the surface goes round within a few pixels (a mixed pixel at a grazing horizon, a
+        // notch) is not the surface passing in front of itself; it still seeds when its segment
+        // is split for other jumps. Counted only up to what decides.
+        if inner_jumps[s as usize] < min_border && !joined_nearby(nb, links, id, p, q) {
+            inner_jumps[s as usize] += 1;
         }
-        for k in 0..8 {
-            if !links.is_jump(p, k) {
-                continue;
-            }
-            let Some(q) = nb.get(p, k).filter(|&q| id[q] == s && depth[q] > depth[p]) else { continue };
-            // A jump the surface goes round within a few pixels (a mixed pixel at a grazing
-            // horizon, a notch) is not the surface passing in front of itself, but seeds a
-            // segment that does.
-            if !joined_nearby(nb, links, id, p, q) {
-                inner_jumps[s as usize] += 1;
-            }
-            label[p] |= NEAR;
-            label[q] |= FAR;
-            // A jump spread over a few pixels (resized depth) leaves in-between pixels on either
-            // side, joined to their side only across a steep, sharply turning link: the seeds run
-            // on past them to the first pixel where the surface flattens.
-            for (from, dir, side, nearer) in [(p, opposite(k), NEAR, true), (q, k, FAR, false)] {
-                let mut r = from;
-                for _ in 0..SEED_WALK {
-                    let Some(t) = nb.get(r, dir).filter(|&t| id[t] == s) else { break };
-                    label[t] |= side;
-                    let (a, b) = (depth[r], depth[t]);
-                    let steep = if nearer { b < a * (1.0 - RAMP_STEP) } else { b > a * (1.0 + RAMP_STEP) };
-                    if !steep {
-                        break;
-                    }
-                    r = t;
+        label[p] |= NEAR;
+        label[q] |= FAR;
+        // A jump spread over a few pixels (resized depth) leaves in-between pixels on either
+        // side, joined to their side only across a steep, sharply turning link: the seeds run
+        // on past them to the first pixel where the surface flattens.
+        for (from, dir, side, nearer) in [(p, opposite(k), NEAR, true), (q, k, FAR, false)] {
+            let mut r = from;
+            for _ in 0..SEED_WALK {
+                let Some(t) = nb.get(r, dir).filter(|&t| id[t] == s) else { break };
+                label[t] |= side;
+                let (a, b) = (depth[r], depth[t]);
+                let steep = if nearer { b < a * (1.0 - RAMP_STEP) } else { b > a * (1.0 + RAMP_STEP) };
+                if !steep {
+                    break;
                 }
+                r = t;
             }
         }
     }
@@ -305,13 +317,26 @@ fn split_self_occluding(
         return None;
     }
     // A pixel on both sides (a one-pixel sliver between two jumps) seeds neither; segments left
-    // whole have no sides.
+    // whole have no sides (only segment pixels carry labels).
     for (l, &s) in label.iter_mut().zip(id) {
         if *l == NEAR | FAR || (*l != 0 && !split[s as usize]) {
             *l = 0;
         }
     }
+    // Segments left whole keep their pixels together as they are: one root each.
     let mut dsu = Dsu::new(n);
+    let mut root = vec![NO_SEGMENT; count];
+    for (p, &s) in id.iter().enumerate() {
+        if s == NO_SEGMENT || split[s as usize] {
+            continue;
+        }
+        if root[s as usize] == NO_SEGMENT {
+            root[s as usize] = p as u32;
+        } else {
+            dsu.parent[p] = root[s as usize];
+            dsu.size[root[s as usize] as usize] += 1;
+        }
+    }
     let mut side: Vec<u8> = label;
     let join = |dsu: &mut Dsu, side: &mut [u8], p: usize, q: usize| {
         let (a, b) = (dsu.find(p as u32), dsu.find(q as u32));
@@ -323,32 +348,59 @@ fn split_self_occluding(
         let r = dsu.find(a) as usize;
         side[r] = la | lb;
     };
-    // Links of whole segments first, and the flat links of split ones (most of them); the rest by
-    // angle, whole degrees (a counting sort).
-    let mut by_angle: Vec<Vec<(u32, u8)>> = vec![Vec::new(); 181];
-    for (p, &(smooth, _, _)) in masks.iter().enumerate() {
-        for (i, &k) in HALF.iter().enumerate() {
-            if smooth >> i & 1 == 0 {
-                continue;
-            }
-            let q = nb.get(p, k).expect("link implies a neighbour");
-            // Sides cut by an earlier round stay cut.
-            if id[p] != id[q] {
-                continue;
-            }
-            // A pixel without a normal (too few continuous neighbours: a sliver, a softened
-            // crease) joins a side last.
-            let angle = if !split[id[p] as usize] {
-                0
-            } else if normals[p] == Vec3::ZERO || normals[q] == Vec3::ZERO {
-                180
-            } else {
-                normals[p].dot(normals[q]).clamp(-1.0, 1.0).acos().to_degrees().round() as usize
-            };
-            if angle == 0 {
-                join(&mut dsu, &mut side, p, q);
-            } else {
-                by_angle[angle].push((p as u32, i as u8));
+    // The flat links of split segments first (most of them), the rest by angle, whole degrees (a
+    // counting sort). Angles in parallel, `SKIP` where there is nothing to join.
+    const SKIP: u8 = u8::MAX;
+    const NO_NORMAL: u8 = 181;
+    let flat = 0.5f32.to_radians().cos();
+    let members: Vec<u32> = (0..n as u32)
+        .into_par_iter()
+        .filter(|&p| id[p as usize] != NO_SEGMENT && split[id[p as usize] as usize])
+        .collect();
+    let angles: Vec<[u8; 4]> = members
+        .par_iter()
+        .map(|&p| {
+            let (p, smooth) = (p as usize, masks[p as usize].0);
+            std::array::from_fn(|i| {
+                if smooth >> i & 1 == 0 {
+                    return SKIP;
+                }
+                let q = nb.get(p, HALF[i]).expect("link implies a neighbour");
+                // Sides cut by an earlier round stay cut.
+                if id[p] != id[q] {
+                    return SKIP;
+                }
+                // A pixel without a normal (too few continuous neighbours: a sliver, a softened
+                // crease) joins a side last.
+                let (a, b) = (normals[p], normals[q]);
+                if a == Vec3::ZERO || b == Vec3::ZERO {
+                    return NO_NORMAL;
+                }
+                let cos = a.dot(b);
+                if cos >= flat {
+                    0
+                } else {
+                    cos.clamp(-1.0, 1.0).acos().to_degrees().round() as u8
+                }
+            })
+        })
+        .collect();
+    // Exact sizes: on a canvas that is one split, curved segment this is most of its links.
+    let mut sizes = [0usize; NO_NORMAL as usize + 1];
+    for a in angles.iter().flatten().filter(|&&a| a != SKIP && a != 0) {
+        sizes[*a as usize] += 1;
+    }
+    let mut by_angle: Vec<Vec<(u32, u8)>> = sizes.iter().map(|&c| Vec::with_capacity(c)).collect();
+    for (&p, a) in members.iter().zip(&angles) {
+        let p = p as usize;
+        for (i, &angle) in a.iter().enumerate() {
+            match angle {
+                SKIP => {}
+                0 => {
+                    let q = nb.get(p, HALF[i]).expect("link implies a neighbour");
+                    join(&mut dsu, &mut side, p, q);
+                }
+                _ => by_angle[angle as usize].push((p as u32, i as u8)),
             }
         }
     }

@@ -570,3 +570,28 @@ fn a_resized_room_keeps_its_objects_in_front() {
         b.report.layers
     );
 }
+
+/// A pole 6 cm wide standing on the floor, built without the fold test: pole, floor and walls are
+/// one segment, which occludes itself along the pole's sides. It is split at the pole's foot,
+/// where the surface turns, so the whole pole is an object; the rule before cut off only the
+/// pixels along its outline (the pole's middle stayed in the background).
+#[test]
+fn a_pole_joined_to_the_floor_is_split_at_its_foot() {
+    let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
+    let mut scene = Scene::room();
+    scene.objects =
+        vec![Shape::Box(Aabb { min: DVec3::new(1.5, -0.03, -1.2), max: DVec3::new(1.56, 0.03, 0.8) })];
+    let r = render_on(&scene, &m);
+    let mut o = BuildOptions::default();
+    o.segment.edges.fold_deg = None;
+    let b = build::build(&rgbd_input(&r, m, false), &o, &|_| {}).unwrap();
+    let pole = (0..m.width() * m.height()).filter(|&p| r.first_hit.object[p] != 0).count();
+    let kept = (0..m.width() * m.height()).filter(|&p| r.first_hit.object[p] != 0 && front(&b, p)).count();
+    let floor_up =
+        (0..m.width() * m.height()).filter(|&p| r.first_hit.object[p] == 0 && front(&b, p)).count();
+    assert!(
+        kept as f64 >= 0.95 * pole as f64 && floor_up < pole / 10,
+        "pole pixels in object layers {kept} of {pole}; other pixels there {floor_up}; {:?}",
+        b.report.layers
+    );
+}
