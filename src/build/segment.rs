@@ -285,6 +285,8 @@ fn split_self_occluding(
         .collect();
     let mut inner_jumps = vec![0u32; count];
     let mut label = vec![0u8; n];
+    // Pixels nearer across a jump inside their segment.
+    let mut front = vec![false; n];
     for &(p, k, q) in &jumps {
         let s = id[p];
         // A jump the surface goes round within a few pixels (a mixed pixel at a grazing horizon, a
@@ -295,6 +297,7 @@ fn split_self_occluding(
         }
         label[p] |= NEAR;
         label[q] |= FAR;
+        front[p] = true;
         // A jump spread over a few pixels (resized depth) leaves in-between pixels on either
         // side, joined to their side only across a steep, sharply turning link: the seeds run
         // on past them to the first pixel where the surface flattens.
@@ -337,6 +340,7 @@ fn split_self_occluding(
             dsu.size[root[s as usize] as usize] += 1;
         }
     }
+    let seeded: Vec<bool> = label.iter().map(|&l| l != 0).collect();
     let mut side: Vec<u8> = label;
     let join = |dsu: &mut Dsu, side: &mut [u8], p: usize, q: usize| {
         let (a, b) = (dsu.find(p as u32), dsu.find(q as u32));
@@ -410,7 +414,48 @@ fn split_self_occluding(
             join(&mut dsu, &mut side, p as usize, q);
         }
     }
-    Some(dsu)
+    // A cut through flat surface away from every seed is not a crease but the order ties were
+    // joined in (near and far seeds on one flat surface: the blurred limb of an object the centre
+    // almost touches, merged with the ground). Such a segment keeps the old cut: its front pixels.
+    let (mut cut, mut flat_cut) = (vec![0u32; count], vec![0u32; count]);
+    for (&p, a) in members.iter().zip(&angles) {
+        let p = p as usize;
+        for (i, &angle) in a.iter().enumerate() {
+            if angle == SKIP {
+                continue;
+            }
+            let q = nb.get(p, HALF[i]).expect("link implies a neighbour");
+            if dsu.find(p as u32) != dsu.find(q as u32) {
+                cut[id[p] as usize] += 1;
+                flat_cut[id[p] as usize] += (angle == 0 && !seeded[p] && !seeded[q]) as u32;
+            }
+        }
+    }
+    let flat: Vec<bool> = (0..count).map(|s| 4 * flat_cut[s] > cut[s]).collect();
+    if !flat.iter().any(|&f| f) {
+        return Some(dsu);
+    }
+    let mut kept = Dsu::new(n);
+    for p in 0..n {
+        if id[p] != NO_SEGMENT && !flat[id[p] as usize] {
+            kept.parent[p] = dsu.find(p as u32);
+        }
+    }
+    for &p in &members {
+        let p = p as usize;
+        if !flat[id[p] as usize] {
+            continue;
+        }
+        for (i, &k) in HALF.iter().enumerate() {
+            if masks[p].0 >> i & 1 == 1 {
+                let q = nb.get(p, k).expect("link implies a neighbour");
+                if id[q] == id[p] && front[p] == front[q] {
+                    kept.union(p as u32, q as u32);
+                }
+            }
+        }
+    }
+    Some(kept)
 }
 
 /// A segment behind another that is over `SPECK` times larger, and smaller than `SPECK_MAX` pixels,
@@ -611,5 +656,41 @@ mod speck_tests {
         let level = levels(3, &mean, &size, &[(0, 1, 5), (2, 0, 40)], &HashMap::new());
         assert_eq!(level[0], 0);
         assert_eq!(level[2], 1);
+    }
+}
+
+#[cfg(test)]
+mod split_tests {
+    use super::*;
+    use crate::mapping::{AnyMapping, MappingKind};
+
+    /// One flat surface (every normal alike) whose left half is 1 m away and right half 2 m: a
+    /// smooth ramp joins them in the top rows, a jump parts them below. The segment occludes
+    /// itself, but its sides meet only across flat surface, where a watershed cut would follow the
+    /// order ties are joined in: only its front pixels (along the jump) are cut off.
+    #[test]
+    fn a_cut_through_flat_surface_is_not_made() {
+        let (w, h) = (64usize, 32usize);
+        let m = AnyMapping::new(MappingKind::Equirect, w, h).unwrap();
+        let nb = Neighbours::new(m);
+        let depth: Vec<f32> = (0..w * h)
+            .map(|p| {
+                let (x, y) = (p % w, p / w);
+                if y < h / 2 {
+                    1.0 + ((x as f32 - 16.0) / 32.0).clamp(0.0, 1.0)
+                } else if x < w / 2 {
+                    1.0
+                } else {
+                    2.0
+                }
+            })
+            .collect();
+        let o = SegmentOptions::default();
+        let links = Links::compute(&nb, &depth, &o.edges);
+        let normals = vec![Vec3::X; w * h];
+        let seg = segment(&nb, &depth, &links, &normals, &o);
+        let at = |x: usize, y: usize| seg.id[y * w + x];
+        assert_eq!(at(10, 28), at(50, 28), "the two sides stay one surface");
+        assert_ne!(at(31, 28), at(10, 28), "the front pixels along the jump are cut off");
     }
 }
