@@ -254,11 +254,13 @@ const GO_ROUND: usize = 4;
 const SPLIT_ROUNDS: usize = 4;
 
 /// Split every segment that occludes itself (at least `min_border` jumps between its own pixels
-/// that it does not go round nearby, [`joined_nearby`]) into its near and far sides: a seeded watershed over its smooth links, weighted by the angle
-/// between the normals. The near side's seeds are the pixels nearer across such a jump, the far
-/// side's the pixels behind them; links are joined from the flattest up (Kruskal) unless they would
-/// join the two sides, so the cut runs where the surface turns most between them — a softened
-/// crease, a pole's foot. `None` when no segment occludes itself; else the new union-find.
+/// that it does not go round nearby, [`joined_nearby`]) into its near and far sides: a seeded
+/// watershed over its smooth links, weighted by the angle between the normals. The near side's
+/// seeds are the pixels nearer across its jumps, the far side's the pixels behind them; links are
+/// joined from the flattest up (Kruskal) unless they would join the two sides, so the cut runs
+/// where the surface turns most between them — a softened crease, a pole's foot. A segment whose
+/// cut would run through flat surface is cut along its front pixels instead. `None` when no
+/// segment occludes itself; else the new union-find.
 fn split_self_occluding(
     nb: &Neighbours,
     depth: &[f32],
@@ -356,7 +358,7 @@ fn split_self_occluding(
     // counting sort). Angles in parallel, `SKIP` where there is nothing to join.
     const SKIP: u8 = u8::MAX;
     const NO_NORMAL: u8 = 181;
-    let flat = 0.5f32.to_radians().cos();
+    let flat_cos = 0.5f32.to_radians().cos();
     let members: Vec<u32> = (0..n as u32)
         .into_par_iter()
         .filter(|&p| id[p as usize] != NO_SEGMENT && split[id[p as usize] as usize])
@@ -381,7 +383,7 @@ fn split_self_occluding(
                     return NO_NORMAL;
                 }
                 let cos = a.dot(b);
-                if cos >= flat {
+                if cos >= flat_cos {
                     0
                 } else {
                     cos.clamp(-1.0, 1.0).acos().to_degrees().round() as u8
@@ -417,6 +419,10 @@ fn split_self_occluding(
     // A cut through flat surface away from every seed is not a crease but the order ties were
     // joined in (near and far seeds on one flat surface: the blurred limb of an object the centre
     // almost touches, merged with the ground). Such a segment keeps the old cut: its front pixels.
+    let mut side_of = vec![NO_SEGMENT; n];
+    for &p in &members {
+        side_of[p as usize] = dsu.find(p);
+    }
     let (mut cut, mut flat_cut) = (vec![0u32; count], vec![0u32; count]);
     for (&p, a) in members.iter().zip(&angles) {
         let p = p as usize;
@@ -425,25 +431,25 @@ fn split_self_occluding(
                 continue;
             }
             let q = nb.get(p, HALF[i]).expect("link implies a neighbour");
-            if dsu.find(p as u32) != dsu.find(q as u32) {
+            if side_of[p] != side_of[q] {
                 cut[id[p] as usize] += 1;
                 flat_cut[id[p] as usize] += (angle == 0 && !seeded[p] && !seeded[q]) as u32;
             }
         }
     }
-    let flat: Vec<bool> = (0..count).map(|s| 4 * flat_cut[s] > cut[s]).collect();
-    if !flat.iter().any(|&f| f) {
+    let through_flat: Vec<bool> = (0..count).map(|s| 4 * flat_cut[s] > cut[s]).collect();
+    if !through_flat.iter().any(|&f| f) {
         return Some(dsu);
     }
     let mut kept = Dsu::new(n);
     for p in 0..n {
-        if id[p] != NO_SEGMENT && !flat[id[p] as usize] {
+        if id[p] != NO_SEGMENT && !through_flat[id[p] as usize] {
             kept.parent[p] = dsu.find(p as u32);
         }
     }
     for &p in &members {
         let p = p as usize;
-        if !flat[id[p] as usize] {
+        if !through_flat[id[p] as usize] {
             continue;
         }
         for (i, &k) in HALF.iter().enumerate() {
