@@ -8,6 +8,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::edges::{EdgeOptions, Link, Links};
+use crate::continuity::LAYER_JUMP;
 use crate::mapping::{opposite, Neighbours};
 
 /// Union-find with path halving and union by size.
@@ -133,6 +134,35 @@ pub fn segment(
         (dsu, id) = (next, next_id);
         if !progress {
             break;
+        }
+    }
+    // What still holds a step `validate` would report (a jump the surface goes round nearby, left
+    // whole above, that is also a step of over 50 %) is cut between its front pixels — nearer
+    // across such a step than a pixel of the same segment — and the rest.
+    let front: Vec<bool> = (0..n)
+        .into_par_iter()
+        .map(|p| {
+            id[p] != NO_SEGMENT
+                && links.any_jump(p)
+                && (0..8).any(|k| {
+                    links.is_jump(p, k)
+                        && nb.get(p, k).is_some_and(|q| {
+                            id[q] == id[p] && depth[q] - depth[p] > LAYER_JUMP as f32 * depth[p]
+                        })
+                })
+        })
+        .collect();
+    if front.iter().any(|&f| f) {
+        dsu = Dsu::new(n);
+        for (p, &(smooth, _, _)) in masks.iter().enumerate() {
+            for (i, &k) in HALF.iter().enumerate() {
+                if smooth >> i & 1 == 1 {
+                    let q = nb.get(p, k).expect("link implies a neighbour");
+                    if id[p] == id[q] && front[p] == front[q] {
+                        dsu.union(p as u32, q as u32);
+                    }
+                }
+            }
         }
     }
     // Compact ids.
