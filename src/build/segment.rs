@@ -153,17 +153,34 @@ pub fn segment(
         })
         .collect();
     if front.iter().any(|&f| f) {
-        dsu = Dsu::new(n);
+        // Only the segments with front pixels are joined again; the others keep their roots.
+        let count = segments(&id) as usize;
+        let mut cut = vec![false; count];
+        for (p, &f) in front.iter().enumerate() {
+            if f {
+                cut[id[p] as usize] = true;
+            }
+        }
+        let mut next = Dsu::new(n);
+        for p in 0..n {
+            if id[p] != NO_SEGMENT && !cut[id[p] as usize] {
+                next.parent[p] = dsu.find(p as u32);
+            }
+        }
         for (p, &(smooth, _, _)) in masks.iter().enumerate() {
+            if smooth == 0 || id[p] == NO_SEGMENT || !cut[id[p] as usize] {
+                continue;
+            }
             for (i, &k) in HALF.iter().enumerate() {
                 if smooth >> i & 1 == 1 {
                     let q = nb.get(p, k).expect("link implies a neighbour");
                     if id[p] == id[q] && front[p] == front[q] {
-                        dsu.union(p as u32, q as u32);
+                        next.union(p as u32, q as u32);
                     }
                 }
             }
         }
+        dsu = next;
     }
     // Compact ids.
     let mut id = vec![NO_SEGMENT; n];
