@@ -154,33 +154,13 @@ pub fn segment(
         .collect();
     if front.iter().any(|&f| f) {
         // Only the segments with front pixels are joined again; the others keep their roots.
-        let count = segments(&id) as usize;
-        let mut cut = vec![false; count];
+        let mut recut = vec![false; segments(&id) as usize];
         for (p, &f) in front.iter().enumerate() {
             if f {
-                cut[id[p] as usize] = true;
+                recut[id[p] as usize] = true;
             }
         }
-        let mut next = Dsu::new(n);
-        for p in 0..n {
-            if id[p] != NO_SEGMENT && !cut[id[p] as usize] {
-                next.parent[p] = dsu.find(p as u32);
-            }
-        }
-        for (p, &(smooth, _, _)) in masks.iter().enumerate() {
-            if smooth == 0 || id[p] == NO_SEGMENT || !cut[id[p] as usize] {
-                continue;
-            }
-            for (i, &k) in HALF.iter().enumerate() {
-                if smooth >> i & 1 == 1 {
-                    let q = nb.get(p, k).expect("link implies a neighbour");
-                    if id[p] == id[q] && front[p] == front[q] {
-                        next.union(p as u32, q as u32);
-                    }
-                }
-            }
-        }
-        dsu = next;
+        dsu = cut_fronts(nb, &masks, &id, &mut dsu, &front, &recut);
     }
     // Compact ids.
     let mut id = vec![NO_SEGMENT; n];
@@ -488,27 +468,39 @@ fn split_self_occluding(
     if !through_flat.iter().any(|&f| f) {
         return Some(dsu);
     }
-    let mut kept = Dsu::new(n);
-    for p in 0..n {
-        if id[p] != NO_SEGMENT && !through_flat[id[p] as usize] {
-            kept.parent[p] = dsu.find(p as u32);
+    Some(cut_fronts(nb, masks, id, &mut dsu, &front, &through_flat))
+}
+
+/// The partition of `dsu` over segments `id`, except that each segment marked in `recut` is joined
+/// again along its smooth links with its `front` pixels apart from the rest.
+fn cut_fronts(
+    nb: &Neighbours,
+    masks: &[(u8, u8, u8)],
+    id: &[u32],
+    dsu: &mut Dsu,
+    front: &[bool],
+    recut: &[bool],
+) -> Dsu {
+    let mut next = Dsu::new(id.len());
+    for (p, &s) in id.iter().enumerate() {
+        if s != NO_SEGMENT && !recut[s as usize] {
+            next.parent[p] = dsu.find(p as u32);
         }
     }
-    for &p in &members {
-        let p = p as usize;
-        if !through_flat[id[p] as usize] {
+    for (p, &(smooth, _, _)) in masks.iter().enumerate() {
+        if smooth == 0 || id[p] == NO_SEGMENT || !recut[id[p] as usize] {
             continue;
         }
         for (i, &k) in HALF.iter().enumerate() {
-            if masks[p].0 >> i & 1 == 1 {
+            if smooth >> i & 1 == 1 {
                 let q = nb.get(p, k).expect("link implies a neighbour");
-                if id[q] == id[p] && front[p] == front[q] {
-                    kept.union(p as u32, q as u32);
+                if id[p] == id[q] && front[p] == front[q] {
+                    next.union(p as u32, q as u32);
                 }
             }
         }
     }
-    Some(kept)
+    next
 }
 
 /// A segment behind another that is over `SPECK` times larger, and smaller than `SPECK_MAX` pixels,
