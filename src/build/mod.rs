@@ -10,6 +10,7 @@ pub(crate) mod edges;
 pub(crate) mod fill;
 pub mod input;
 pub(crate) mod segment;
+pub(crate) mod shadow;
 pub(crate) mod texture;
 
 use std::time::Instant;

@@ -10,6 +10,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::fill::{Fill, FillContext, FillPixel, SAME_PLANE_COS};
+use super::shadow::{self, Shadow};
 use crate::mapping::{Mapping, Neighbours};
 
 /// How the fill is coloured.
@@ -88,7 +89,7 @@ impl FillContext<'_> {
     }
 
     #[inline]
-    fn pixel(&self, y: Vec3) -> usize {
+    pub(super) fn pixel(&self, y: Vec3) -> usize {
         let (i, j) = self.nb.mapping().pixel_of(y.as_dvec3());
         j * self.nb.width() + i
     }
@@ -169,10 +170,18 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
     shading.dedup_by_key(|e| e.0);
     // The copy brings its source's lighting: the ratio between the ring and its copy (a shadow,
     // a lamp's glow) is carried smoothly across the hole.
-    let log_ratio =
+    let mut log_ratio =
         diffuse(tx, fill, &slot, vec![Vec3::ZERO; fill.pixels.len()], &copied, Sources::SameSurface, |r| {
             shading.binary_search_by_key(&r, |e| e.0).ok().map(|i| shading[i].1)
         });
+    // Behind the occluder, the shadow fitted to the ring's penumbra.
+    for c in &copies {
+        if let Some(s) = &c.shadow {
+            for &(i, p) in &c.sources {
+                log_ratio[i as usize] += Vec3::splat(s.transfer(tx, fill.pixels[i as usize].pixel, p));
+            }
+        }
+    }
     for ((f, g), _) in fill.pixels.iter_mut().zip(log_ratio).zip(&copied).filter(|(_, &c)| c) {
         let g = g.clamp(Vec3::splat(-MAX_LOG_RATIO), Vec3::splat(MAX_LOG_RATIO));
         f.rgb = (Vec3::from(f.rgb) * g.exp()).to_array();
@@ -283,6 +292,9 @@ const RATIO_EPS: f32 = 0.02;
 struct Transfer {
     sources: Vec<(u32, usize)>,
     shading: Vec<(usize, Vec3)>,
+    /// The occluders' shadow fitted to the ring, when one explains its shading: the shading
+    /// above is what is left of it.
+    shadow: Option<Shadow>,
 }
 
 /// Up to `count` items spread evenly over `items`.
@@ -293,7 +305,7 @@ fn spread<T: Copy>(items: &[T], count: usize) -> impl Iterator<Item = T> + '_ {
 
 /// Offsets for one part of the fill on one surface, and the source each pixel takes.
 fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u32], alpha: f32) -> Transfer {
-    let none = Transfer { sources: Vec::new(), shading: Vec::new() };
+    let none = Transfer { sources: Vec::new(), shading: Vec::new(), shadow: None };
     let first = fill.pixels[group[0] as usize];
     let plane = Plane::new(tx, first.pixel, first.depth, first.surface);
     let surface = tx.surface[first.surface];
@@ -446,38 +458,87 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
         .filter_map(|(&i, &x)| offsets.iter().map(|&t| tx.pixel(x + t)).find(|&p| valid(p)).map(|p| (i, p)))
         .collect();
     let rgb = |p: usize| tx.colour(p).max(Vec3::ZERO) + Vec3::splat(RATIO_EPS);
-    let raw: std::collections::HashMap<usize, Vec3> = match offsets.first() {
-        Some(&t) => ring_pixels
-            .iter()
-            .filter_map(|&r| {
-                let p = tx.pixel(tx.point(r, tx.depth[r]) + t);
-                valid(p).then(|| (r, (rgb(r) / rgb(p)).ln()))
-            })
-            .collect(),
-        None => Default::default(),
+    // Each pixel's copy by the first offset, and the log ratio of their colours.
+    let ratios = |pixels: &[usize]| -> std::collections::HashMap<usize, (usize, Vec3)> {
+        match offsets.first() {
+            Some(&t) => pixels
+                .iter()
+                .filter_map(|&r| {
+                    let p = tx.pixel(tx.point(r, tx.depth[r]) + t);
+                    valid(p).then(|| (r, (p, (rgb(r) / rgb(p)).ln())))
+                })
+                .collect(),
+            None => Default::default(),
+        }
     };
     // Near an edge, a copy a fraction of a pixel off reads as a false ratio as large as the
-    // edge's contrast: each ring pixel takes the median of the ratios around it (1 and 2 steps),
+    // edge's contrast: each pixel takes the median of the ratios around it (1 and 2 steps),
     // which a line of such pixels across the ring does not move.
+    let median = |raw: &std::collections::HashMap<usize, (usize, Vec3)>, r: usize| {
+        let (x, y) = (r % w, r / w);
+        let mut near: Vec<Vec3> = std::iter::once(Some(r))
+            .chain((0..8).flat_map(|j| [tx.nb.get_at(x, y, j), tx.nb.get2_at(x, y, j)]))
+            .flatten()
+            .filter_map(|q| raw.get(&q).map(|e| e.1))
+            .collect();
+        let median = |c: usize, near: &mut Vec<Vec3>| {
+            near.sort_unstable_by(|a, b| a[c].total_cmp(&b[c]));
+            near[near.len() / 2][c]
+        };
+        Vec3::new(median(0, &mut near), median(1, &mut near), median(2, &mut near))
+    };
+    // The occluders' shadow, from the shading of the surface a few pixels around the hole (a
+    // penumbra spreads there).
+    let hole_pixels: Vec<usize> = group.iter().map(|&i| fill.pixels[i as usize].pixel).collect();
+    let around = around(tx, &hole_pixels, &valid);
+    let picked: Vec<usize> = spread(&around, shadow::MAX_SAMPLES).collect();
+    // Their medians read the ratios of their neighbours too.
+    let mut near = picked.clone();
+    for &r in &picked {
+        let (x, y) = (r % w, r / w);
+        near.extend((0..8).flat_map(|j| [tx.nb.get_at(x, y, j), tx.nb.get2_at(x, y, j)]).flatten());
+    }
+    near.sort_unstable();
+    near.dedup();
+    near.retain(|&q| valid(q));
+    let raw = ratios(&near);
+    let samples: Vec<(usize, usize, f32)> = picked
+        .iter()
+        .filter_map(|&r| raw.get(&r).map(|e| (r, e.0, median(&raw, r).element_sum() / 3.0)))
+        .collect();
+    let shadow = shadow::fit(tx, k, &hole_pixels, &samples, alpha);
     // In the ring's order (a hash map's varies from run to run; the build is deterministic).
+    let raw = ratios(&ring_pixels);
     let shading = ring_pixels
         .iter()
-        .filter(|r| raw.contains_key(r))
-        .map(|&r| {
-            let (x, y) = (r % w, r / w);
-            let mut near: Vec<Vec3> = std::iter::once(Some(r))
-                .chain((0..8).flat_map(|j| [tx.nb.get_at(x, y, j), tx.nb.get2_at(x, y, j)]))
-                .flatten()
-                .filter_map(|q| raw.get(&q).copied())
-                .collect();
-            let median = |c: usize, near: &mut Vec<Vec3>| {
-                near.sort_unstable_by(|a, b| a[c].total_cmp(&b[c]));
-                near[near.len() / 2][c]
-            };
-            (r, Vec3::new(median(0, &mut near), median(1, &mut near), median(2, &mut near)))
+        .filter_map(|&r| raw.get(&r).map(|e| (r, e.0)))
+        .map(|(r, p)| {
+            (r, median(&raw, r) - Vec3::splat(shadow.as_ref().map_or(0.0, |s| s.transfer(tx, r, p))))
         })
         .collect();
-    Transfer { sources, shading }
+    Transfer { sources, shading, shadow }
+}
+
+/// The pixels of the surface (`valid`) within a few steps of a hole: its radius over 2, 4 to
+/// 24 pixels; in breadth-first order.
+fn around(tx: &FillContext, hole: &[usize], valid: &(impl Fn(usize) -> bool + Sync)) -> Vec<usize> {
+    let w = tx.nb.width();
+    let depth = ((hole.len() as f32 / std::f32::consts::PI).sqrt() * 0.5).clamp(4.0, 24.0) as usize;
+    let mut seen: std::collections::HashSet<usize> = hole.iter().copied().collect();
+    let (mut frontier, mut around) = (hole.to_vec(), Vec::new());
+    for _ in 0..depth {
+        let mut next = Vec::new();
+        for &q in &frontier {
+            for r in (0..8).filter_map(|j| tx.nb.get_at(q % w, q / w, j)) {
+                if valid(r) && seen.insert(r) {
+                    next.push(r);
+                }
+            }
+        }
+        around.extend(&next);
+        frontier = next;
+    }
+    around
 }
 
 /// A source must lie on the plane being continued (elsewhere the surface curves away).

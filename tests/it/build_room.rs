@@ -595,3 +595,87 @@ fn a_pole_joined_to_the_floor_is_split_at_its_foot() {
         b.report.layers
     );
 }
+
+/// A ball before a checker wall, lit from a lamp a little above and beside the camera: the
+/// ball's shadow lies mostly behind it, only its edge in sight. The fill behind the ball must
+/// carry the shadow on (the fitted silhouette), not the lit wall around it: with the wall around
+/// copied and relit from its visible ring alone, 0.178 of the core's filled pixels were right.
+/// The same wall without the shadow must not get one.
+#[test]
+fn the_fill_carries_an_occluders_shadow_behind_it() {
+    let (centre, radius) = (DVec3::new(3.0, 0.2, 0.3), 0.35);
+    let scene = Scene { room: Scene::room().room, objects: vec![Shape::Sphere { centre, radius }] };
+    // Share of an area lamp (a disc of 12 cm about (0, 0.35, 0.45)) the ball hides from `p`.
+    let shadow = |p: DVec3| {
+        let mut lamps = Vec::new();
+        for i in -3..=3 {
+            for j in -3..=3 {
+                if i * i + j * j <= 9 {
+                    lamps.push(DVec3::new(0.0, 0.35 + 0.04 * i as f64, 0.45 + 0.04 * j as f64));
+                }
+            }
+        }
+        let hidden = lamps
+            .iter()
+            .filter(|&&l| {
+                // The segment from p to the lamp passes within `radius` of the ball's centre.
+                let d = l - p;
+                let t = ((centre - p).dot(d) / d.length_squared()).clamp(0.0, 1.0);
+                (p + d * t - centre).length() < radius
+            })
+            .count();
+        hidden as f64 / lamps.len() as f64
+    };
+    let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
+    let r = render_on(&scene, &m);
+    let wall = |d: DVec3, shadowed: bool| {
+        let p = d * scene.room_hit(DVec3::ZERO, d).unwrap().t;
+        let q = (p / 0.25).floor();
+        // (The wall's own x is rounding noise: the ball hides only the wall at x = 4.)
+        let tint = if ((q.y + q.z) as i64).rem_euclid(2) == 0 { [0.8, 0.7, 0.6] } else { [0.2, 0.25, 0.3] };
+        let light = if shadowed { 1.0 - 0.6 * shadow(p) } else { 1.0 } as f32;
+        (tint.map(|c| c * light), shadow(p))
+    };
+    let run = |shadowed: bool| {
+        let mut input = rgbd_input(&r, m, false);
+        for p in (0..m.width() * m.height()).filter(|&p| r.first_hit.object[p] == 0) {
+            let (c, _) = wall(m.pixel_dir(p % m.width(), p / m.width()), shadowed);
+            (0..3).for_each(|i| input.rgb[i][p] = c[i]);
+        }
+        let b = build::build(&input, &BuildOptions::default(), &|_| {}).unwrap();
+        let bg = &b.layers[0].image;
+        // Filled wall pixels: right (within 15 % per channel), and right in the shadow's core.
+        let (mut right, mut filled, mut core_right, mut core) = (0, 0, 0, 0);
+        for p in 0..bg.width * bg.height {
+            let Sample::Surface(z) = bg.sample(p) else { continue };
+            let d = m.pixel_dir(p % m.width(), p / m.width());
+            let t = scene.room_hit(DVec3::ZERO, d).unwrap().t;
+            if r.first_hit.object[p] == 0 || (z as f64 - t).abs() > 0.01 * t {
+                continue;
+            }
+            let c: Vec<f32> = ["R", "G", "B"].iter().map(|ch| bg.channel(ch).unwrap().data[p]).collect();
+            let (truth, s) = wall(d, shadowed);
+            let ok = (0..3).all(|i| (c[i] - truth[i]).abs() <= 0.15 * truth[i]);
+            filled += 1;
+            right += ok as usize;
+            if s > 0.9 {
+                core += 1;
+                core_right += ok as usize;
+            }
+        }
+        let (share, core_share) = (right as f64 / filled as f64, core_right as f64 / core.max(1) as f64);
+        eprintln!(
+            "shadowed={shadowed}: filled right {share:.3} of {filled}; in the core {core_share:.3} of {core}"
+        );
+        (share, filled, core_share, core)
+    };
+    let (share, filled, core_share, core) = run(true);
+    assert!(filled > 500 && core > 200, "{filled} filled wall pixels, {core} in the shadow's core");
+    assert!(core_share >= 0.8, "the shadow's core is right in {core_share:.3} of its filled pixels");
+    assert!(share >= 0.8, "the wall behind the ball is right in {share:.3} of its filled pixels");
+    let (share, _, core_share, _) = run(false);
+    assert!(
+        share >= 0.9 && core_share >= 0.9,
+        "unshadowed wall right in {share:.3} ({core_share:.3} where the shadow would be)"
+    );
+}

@@ -1,0 +1,342 @@
+//! An occluder's shadow on the surface behind it (spec §7.2 step 7). The fill corrects its copied
+//! texture's lighting from the visible ring around the hole, but the core of an occluder's shadow
+//! lies behind the occluder: only its penumbra shows at the border. Lit from near the camera (a
+//! lamp above it, a flash, the sun behind it), the shadow is the occluders' own silhouette moved
+//! a little and blurred, so that shape is fitted to the ring's shading and continued into the
+//! hole; a ring it does not explain keeps the plain interpolation.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::fill::FillContext;
+
+/// Widest a hole may be for its local frame (cosine from its centre).
+const MIN_COS: f32 = 0.5;
+/// Most cells a side of the local grid.
+const GRID_MAX: f32 = 256.0;
+/// Blur radii tried, as shares of the hole's radius (at least half a cell).
+const SIGMAS: [f32; 5] = [0.03, 0.07, 0.15, 0.3, 0.5];
+/// Shifts tried: up to this share of the hole's radius each way.
+const SHIFT: f32 = 0.6;
+/// Share of the ring's shading variance the fit must explain.
+const EXPLAINED: f32 = 0.5;
+/// The ring's shading must vary at least this much (standard deviation of the ratio).
+const MIN_SPREAD: f32 = 0.03;
+/// Ring samples the shadow must reach (coverage over a quarter) for its darkness to be measured.
+const MIN_SHADOWED: usize = 8;
+const MIN_SAMPLES: usize = 32;
+/// Most ring samples a fit reads.
+pub(super) const MAX_SAMPLES: usize = 512;
+
+/// A gnomonic grid about a hole's centre direction: cell `(i, j)`'s centre is the direction of
+/// `c + (u0 + i·h)·e1 + (v0 + j·h)·e2`.
+struct Frame {
+    c: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    u0: f32,
+    v0: f32,
+    h: f32,
+    w: usize,
+    ht: usize,
+}
+
+impl Frame {
+    /// Continuous cell coordinates of direction `d` (integers at cell centres).
+    fn coords(&self, d: Vec3) -> Option<(f32, f32)> {
+        let z = d.dot(self.c);
+        (z >= MIN_COS)
+            .then(|| ((d.dot(self.e1) / z - self.u0) / self.h, (d.dot(self.e2) / z - self.v0) / self.h))
+    }
+
+    fn dir(&self, i: usize, j: usize) -> Vec3 {
+        (self.c + self.e1 * (self.u0 + i as f32 * self.h) + self.e2 * (self.v0 + j as f32 * self.h))
+            .normalize()
+    }
+
+    /// Bilinear value of `grid` at `(x, y)`; 0 outside.
+    fn sample(&self, grid: &[f32], x: f32, y: f32) -> f32 {
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let at = |i: f32, j: f32| {
+            if i < 0.0 || j < 0.0 || i >= self.w as f32 || j >= self.ht as f32 {
+                0.0
+            } else {
+                grid[j as usize * self.w + i as usize]
+            }
+        };
+        let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1.0, y0) * fx;
+        let bottom = at(x0, y0 + 1.0) * (1.0 - fx) + at(x0 + 1.0, y0 + 1.0) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+}
+
+/// A fitted shadow: `ln(1 − k·S)` per cell, `S` the occluders' silhouette blurred and shifted.
+pub(super) struct Shadow {
+    frame: Frame,
+    log: Vec<f32>,
+}
+
+impl Shadow {
+    /// Log of the light left at direction `d` (0 off the grid).
+    fn log_at(&self, d: Vec3) -> f32 {
+        self.frame.coords(d).map_or(0.0, |(x, y)| self.frame.sample(&self.log, x, y))
+    }
+
+    /// Log ratio of the light at pixel `p` to that at `source`, the pixel it copies.
+    pub(super) fn transfer(&self, tx: &FillContext, p: usize, source: usize) -> f32 {
+        self.log_at(tx.dirs[p]) - self.log_at(tx.dirs[source])
+    }
+}
+
+/// Gaussian blur of a `w × ht` grid (zero outside), approximated by three box blurs each way
+/// (running sums: the cost does not grow with `sigma`).
+fn blur(grid: &[f32], w: usize, ht: usize, sigma: f32) -> Vec<f32> {
+    // Three boxes of odd width d have variance 3(d² − 1)/12.
+    let r = ((((4.0 * sigma * sigma + 1.0).sqrt() - 1.0) / 2.0).round() as usize).max(1);
+    let box_pass =
+        |src: &[f32], out: &mut [f32], len: usize, lines: usize, at: &dyn Fn(usize, usize) -> usize| {
+            let norm = 1.0 / (2 * r + 1) as f32;
+            for line in 0..lines {
+                let mut sum: f32 = (0..=r.min(len - 1)).map(|i| src[at(line, i)]).sum();
+                for i in 0..len {
+                    out[at(line, i)] = sum * norm;
+                    if i + r + 1 < len {
+                        sum += src[at(line, i + r + 1)];
+                    }
+                    if i >= r {
+                        sum -= src[at(line, i - r)];
+                    }
+                }
+            }
+        };
+    let (mut a, mut b) = (grid.to_vec(), vec![0.0; grid.len()]);
+    for _ in 0..3 {
+        box_pass(&a, &mut b, w, ht, &|line, i| line * w + i);
+        box_pass(&b, &mut a, ht, w, &|line, i| i * w + line);
+    }
+    a
+}
+
+/// Darkenings tried (share of the light blocked).
+const KS: [f32; 8] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.75];
+/// Those of [`KS`] the coarse search of shifts tries.
+const COARSE_KS: [usize; 3] = [1, 4, 7];
+
+/// One ring sample in cells: where it is, where its copy comes from, its shading (log ratio).
+#[derive(Clone, Copy)]
+struct Sample {
+    at: (f32, f32),
+    source: (f32, f32),
+    y: f32,
+}
+
+/// Residual sum of squares of `e` after the best plane `a + b·x + c·y` over the samples'
+/// positions (`gram`: the inverse of their Gram matrix): the ring's own smooth lighting.
+fn plane_residual(samples: &[Sample], e: impl Iterator<Item = f32>, gram: &[[f32; 3]; 3]) -> f32 {
+    let (mut sq, mut xe) = (0.0, [0.0f32; 3]);
+    for (s, e) in samples.iter().zip(e) {
+        sq += e * e;
+        xe[0] += e;
+        xe[1] += e * s.at.0;
+        xe[2] += e * s.at.1;
+    }
+    let mut fitted = 0.0;
+    for i in 0..3 {
+        for j in 0..3 {
+            fitted += xe[i] * gram[i][j] * xe[j];
+        }
+    }
+    (sq - fitted).max(0.0)
+}
+
+/// How well a shadow (blurred silhouette `b` moved by `shift`) explains the samples' shading
+/// beside a smooth plane: the residual sum of squares, and the darkening, for the best `k`.
+fn score(
+    frame: &Frame,
+    b: &[f32],
+    samples: &[Sample],
+    shift: (f32, f32),
+    gram: &[[f32; 3]; 3],
+    logs: &LogTable,
+    ks: &[usize],
+) -> Option<(f32, f32)> {
+    let cover: Vec<(f32, f32)> = samples
+        .iter()
+        .map(|s| {
+            let at = |p: (f32, f32)| frame.sample(b, p.0 - shift.0, p.1 - shift.1);
+            (at(s.at), at(s.source))
+        })
+        .collect();
+    if cover.iter().filter(|c| c.0.max(c.1) > 0.25).count() < MIN_SHADOWED {
+        return None;
+    }
+    ks.iter()
+        .map(|&ki| {
+            let e = samples.iter().zip(&cover).map(|(s, c)| s.y - (logs.at(ki, c.0) - logs.at(ki, c.1)));
+            (plane_residual(samples, e, gram), KS[ki])
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+/// `ln(1 − k·c)` for each of [`KS`] over `c` in [0, 1], tabulated (the fit evaluates it for
+/// every sample, shift and `k`).
+struct LogTable(Vec<[f32; LOG_STEPS + 1]>);
+
+const LOG_STEPS: usize = 256;
+
+impl LogTable {
+    fn new() -> LogTable {
+        LogTable(
+            KS.iter()
+                .map(|k| std::array::from_fn(|i| (1.0 - k * i as f32 / LOG_STEPS as f32).ln()))
+                .collect(),
+        )
+    }
+
+    #[inline]
+    fn at(&self, ki: usize, c: f32) -> f32 {
+        let x = c.clamp(0.0, 1.0) * LOG_STEPS as f32;
+        let i = (x as usize).min(LOG_STEPS - 1);
+        let t = &self.0[ki];
+        t[i] + (t[i + 1] - t[i]) * (x - i as f32)
+    }
+}
+
+/// A shadow's fit for one blur: the residual, the darkening and the shift (cells).
+#[derive(Clone, Copy)]
+struct Candidate {
+    sse: f32,
+    k: f32,
+    shift: (f32, f32),
+}
+
+/// Inverse of a symmetric 3 × 3 matrix (`None` when singular).
+fn inverse(m: [[f32; 3]; 3]) -> Option<[[f32; 3]; 3]> {
+    let m = glam::Mat3::from_cols_array_2d(&m);
+    let det = m.determinant();
+    (det.abs() > 1e-12).then(|| m.inverse().to_cols_array_2d())
+}
+
+/// The shadow of the occluders (pixels of layers nearer than `k`) over one part of layer `k`'s
+/// fill (`hole`, canvas pixels), fitted to `samples`: visible pixels of the surface around it,
+/// the pixel each copies from and their shading (log ratio of the luma to the copy's). `None`
+/// unless a shadow explains the ring's shading clearly. `alpha`: a pixel's mean angle.
+pub(super) fn fit(
+    tx: &FillContext,
+    k: u32,
+    hole: &[usize],
+    samples: &[(usize, usize, f32)],
+    alpha: f32,
+) -> Option<Shadow> {
+    if samples.len() < MIN_SAMPLES || hole.is_empty() {
+        return None;
+    }
+    let c = hole.iter().map(|&p| tx.dirs[p]).sum::<Vec3>().normalize_or_zero();
+    let (e1, e2) = c.any_orthonormal_pair();
+    let tangent = |d: Vec3| {
+        let z = d.dot(c);
+        (z >= MIN_COS).then(|| (d.dot(e1) / z, d.dot(e2) / z))
+    };
+    let points: Option<Vec<(f32, f32)>> =
+        hole.iter().chain(samples.iter().map(|s| &s.0)).map(|&p| tangent(tx.dirs[p])).collect();
+    let points = points?;
+    let radius = alpha * (hole.len() as f32 / std::f32::consts::PI).sqrt();
+    let margin = SHIFT * radius + 3.0 * SIGMAS[SIGMAS.len() - 1] * radius + 2.0 * alpha;
+    let (mut lo, mut hi) = ((f32::MAX, f32::MAX), (f32::MIN, f32::MIN));
+    for &(u, v) in &points {
+        lo = (lo.0.min(u), lo.1.min(v));
+        hi = (hi.0.max(u), hi.1.max(v));
+    }
+    let (u0, v0) = (lo.0 - margin, lo.1 - margin);
+    let h = alpha.max(((hi.0 - lo.0).max(hi.1 - lo.1) + 2.0 * margin) / GRID_MAX);
+    let w = ((hi.0 + margin - u0) / h).ceil() as usize + 1;
+    let ht = ((hi.1 + margin - v0) / h).ceil() as usize + 1;
+    let frame = Frame { c, e1, e2, u0, v0, h, w, ht };
+    // The occluders' silhouette: cells whose pixel a nearer layer holds.
+    let mut mask = vec![0.0f32; w * ht];
+    for j in 0..ht {
+        for i in 0..w {
+            let l = tx.layer_of[tx.pixel(frame.dir(i, j))];
+            mask[j * w + i] = (l != u32::MAX && l > k) as u8 as f32;
+        }
+    }
+    // A source off the frame (a copy from far away) is taken as unshadowed.
+    let far = (f32::MAX, f32::MAX);
+    let samples: Vec<Sample> = samples
+        .iter()
+        .filter_map(|&(p, q, y)| {
+            let at = frame.coords(tx.dirs[p])?;
+            Some(Sample { at, source: frame.coords(tx.dirs[q]).unwrap_or(far), y })
+        })
+        .collect();
+    if samples.len() < MIN_SAMPLES {
+        return None;
+    }
+    let n = samples.len() as f32;
+    let mut g = [[0.0f32; 3]; 3];
+    for s in &samples {
+        let x = [1.0, s.at.0, s.at.1];
+        for i in 0..3 {
+            for j in 0..3 {
+                g[i][j] += x[i] * x[j];
+            }
+        }
+    }
+    let gram = inverse(g)?;
+    // What a smooth plane of light leaves unexplained: the shadow must explain most of it.
+    let total = plane_residual(&samples, samples.iter().map(|s| s.y), &gram);
+    if total < n * MIN_SPREAD * MIN_SPREAD {
+        return None;
+    }
+    let r_cells = radius / h;
+    let logs = LogTable::new();
+    let reach = SHIFT * r_cells;
+    // Per blur (in parallel), the best fit: a coarse grid of shifts with a few darkenings,
+    // refined by halving with all of them.
+    let all: Vec<usize> = (0..KS.len()).collect();
+    let fits: Vec<(Candidate, Vec<f32>)> = SIGMAS
+        .par_iter()
+        .filter_map(|f| {
+            let b = blur(&mask, w, ht, (f * r_cells).max(0.5));
+            let mut best: Option<Candidate> = None;
+            let mut consider = |shift: (f32, f32), ks: &[usize]| {
+                if let Some((sse, k)) = score(&frame, &b, &samples, shift, &gram, &logs, ks) {
+                    if best.map_or(true, |c| sse < c.sse) {
+                        best = Some(Candidate { sse, k, shift });
+                    }
+                }
+                best
+            };
+            let mut step = (reach / 4.0).max(1.0);
+            let cells = (reach / step).ceil() as i32;
+            let mut coarse = None;
+            for a in -cells..=cells {
+                for bb in -cells..=cells {
+                    coarse = consider((a as f32 * step, bb as f32 * step), &COARSE_KS);
+                }
+            }
+            let mut at = consider(coarse?.shift, &all)?.shift;
+            while step > 0.5 {
+                step *= 0.5;
+                let centre = at;
+                for (a, bb) in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)] {
+                    at = consider((centre.0 + a as f32 * step, centre.1 + bb as f32 * step), &all)?.shift;
+                }
+            }
+            best.map(|c| (c, b))
+        })
+        .collect();
+    let (best, b) = fits.into_iter().min_by(|a, b| a.0.sse.total_cmp(&b.0.sse))?;
+    if best.sse > (1.0 - EXPLAINED) * total {
+        return None;
+    }
+    let (kk, shift) = (best.k, best.shift);
+    let mut log = vec![0.0f32; w * ht];
+    for j in 0..ht {
+        for i in 0..w {
+            log[j * w + i] = (1.0 - kk * frame.sample(&b, i as f32 - shift.0, j as f32 - shift.1)).ln();
+        }
+    }
+    Some(Shadow { frame, log })
+}
