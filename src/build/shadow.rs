@@ -19,7 +19,7 @@ const SIGMAS: [f32; 5] = [0.03, 0.07, 0.15, 0.3, 0.5];
 /// Shifts tried: up to this share of the hole's radius each way.
 const SHIFT: f32 = 0.6;
 /// Share of the ring's shading variance the fit must explain.
-const EXPLAINED: f32 = 0.5;
+const EXPLAINED: f32 = 0.6;
 /// The ring's shading must vary at least this much (standard deviation of the ratio).
 const MIN_SPREAD: f32 = 0.03;
 /// Ring samples the shadow must reach (coverage over a quarter) for its darkness to be measured.
@@ -90,30 +90,43 @@ impl Shadow {
 }
 
 /// Gaussian blur of a `w × ht` grid (zero outside), approximated by three box blurs each way
-/// (running sums: the cost does not grow with `sigma`).
+/// (running sums: the cost does not grow with `sigma`). The boxes' odd widths are picked so that
+/// their variances add up to `sigma²` (Kovesi, "Fast almost-Gaussian filtering", 2010).
 fn blur(grid: &[f32], w: usize, ht: usize, sigma: f32) -> Vec<f32> {
-    // Three boxes of odd width d have variance 3(d² − 1)/12.
-    let r = ((((4.0 * sigma * sigma + 1.0).sqrt() - 1.0) / 2.0).round() as usize).max(1);
-    let box_pass =
-        |src: &[f32], out: &mut [f32], len: usize, lines: usize, at: &dyn Fn(usize, usize) -> usize| {
-            let norm = 1.0 / (2 * r + 1) as f32;
-            for line in 0..lines {
-                let mut sum: f32 = (0..=r.min(len - 1)).map(|i| src[at(line, i)]).sum();
-                for i in 0..len {
-                    out[at(line, i)] = sum * norm;
-                    if i + r + 1 < len {
-                        sum += src[at(line, i + r + 1)];
-                    }
-                    if i >= r {
-                        sum -= src[at(line, i - r)];
-                    }
+    let var = sigma * sigma;
+    // A box of odd width d has variance (d² − 1)/12: `m` boxes of width `lo`, the rest `lo + 2`.
+    let ideal = (4.0 * var + 1.0).sqrt();
+    let lo = (ideal.floor() as usize).saturating_sub(1 - ideal.floor() as usize % 2).max(1);
+    let l = lo as f32;
+    let m = ((12.0 * var - 3.0 * l * l - 12.0 * l - 9.0) / (-4.0 * l - 4.0)).round().clamp(0.0, 3.0) as usize;
+    let box_pass = |src: &[f32],
+                    out: &mut [f32],
+                    r: usize,
+                    len: usize,
+                    lines: usize,
+                    at: &dyn Fn(usize, usize) -> usize| {
+        let norm = 1.0 / (2 * r + 1) as f32;
+        for line in 0..lines {
+            let mut sum: f32 = (0..=r.min(len - 1)).map(|i| src[at(line, i)]).sum();
+            for i in 0..len {
+                out[at(line, i)] = sum * norm;
+                if i + r + 1 < len {
+                    sum += src[at(line, i + r + 1)];
+                }
+                if i >= r {
+                    sum -= src[at(line, i - r)];
                 }
             }
-        };
+        }
+    };
     let (mut a, mut b) = (grid.to_vec(), vec![0.0; grid.len()]);
-    for _ in 0..3 {
-        box_pass(&a, &mut b, w, ht, &|line, i| line * w + i);
-        box_pass(&b, &mut a, ht, w, &|line, i| i * w + line);
+    for pass in 0..3 {
+        let r = if pass < m { lo / 2 } else { lo / 2 + 1 };
+        if r == 0 {
+            continue;
+        }
+        box_pass(&a, &mut b, r, w, ht, &|line, i| line * w + i);
+        box_pass(&b, &mut a, r, ht, w, &|line, i| i * w + line);
     }
     a
 }
@@ -339,4 +352,39 @@ pub(super) fn fit(
         }
     }
     Some(Shadow { frame, log })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_blur_keeps_mass_and_spreads_by_sigma() {
+        let (w, ht) = (101, 101);
+        for sigma in [0.5f32, 2.0, 6.0, 15.0] {
+            let mut grid = vec![0.0; w * ht];
+            grid[50 * w + 50] = 1.0;
+            let b = blur(&grid, w, ht, sigma);
+            let mass: f32 = b.iter().sum();
+            let var: f32 = (0..w * ht).map(|p| b[p] * ((p % w) as f32 - 50.0).powi(2)).sum::<f32>() / mass;
+            assert!((mass - 1.0).abs() < 1e-4, "sigma {sigma}: mass {mass}");
+            let expect = sigma * sigma;
+            assert!(
+                (var - expect).abs() <= 0.1 * expect + 0.3,
+                "sigma {sigma}: variance {var}, not {expect}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_log_table_matches_ln() {
+        let t = LogTable::new();
+        for (ki, k) in KS.iter().enumerate() {
+            for i in 0..=1000 {
+                let c = i as f32 / 1000.0;
+                let err = (t.at(ki, c) - (1.0 - k * c).ln()).abs();
+                assert!(err < 1e-3, "k {k} c {c}: off by {err}");
+            }
+        }
+    }
 }
