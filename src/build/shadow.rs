@@ -21,8 +21,9 @@ const SHIFT: f32 = 0.6;
 /// Share of the ring's shading variance the fit must explain.
 const EXPLAINED: f32 = 0.6;
 /// The ring's shading must vary at least this much (standard deviation of the ratio).
-const MIN_SPREAD: f32 = 0.03;
-/// Ring samples the shadow must reach (coverage over a quarter) for its darkness to be measured.
+const MIN_SPREAD: f32 = 0.1;
+/// Ring pixels the shadow must reach (coverage over a quarter) for its darkness to be measured;
+/// a quarter of them at least must be out of it (coverage under 0.05).
 const MIN_SHADOWED: usize = 8;
 const MIN_SAMPLES: usize = 32;
 /// Most ring samples a fit reads.
@@ -75,6 +76,9 @@ impl Frame {
 pub(super) struct Shadow {
     frame: Frame,
     log: Vec<f32>,
+    /// The brightest shading seen around the hole (log ratio): what the shadow leaves in the
+    /// hole never exceeds it (a fit that is wrong must not brighten the fill past its ring).
+    pub(super) brightest: f32,
 }
 
 impl Shadow {
@@ -181,7 +185,11 @@ fn score(
             (at(s.at), at(s.source))
         })
         .collect();
-    if cover.iter().filter(|c| c.0.max(c.1) > 0.25).count() < MIN_SHADOWED {
+    // The shadow's edge must be in sight: some of the ring in it, and much of the ring out of it
+    // (a shadow over the whole ring is a change of light the plane takes as well).
+    let shadowed = cover.iter().filter(|c| c.0 > 0.25).count();
+    let lit = cover.iter().filter(|c| c.0 < 0.05).count();
+    if shadowed < MIN_SHADOWED || lit * 4 < samples.len() {
         return None;
     }
     ks.iter()
@@ -351,7 +359,8 @@ pub(super) fn fit(
             log[j * w + i] = (1.0 - kk * frame.sample(&b, i as f32 - shift.0, j as f32 - shift.1)).ln();
         }
     }
-    Some(Shadow { frame, log })
+    let brightest = samples.iter().map(|s| s.y).fold(f32::MIN, f32::max);
+    Some(Shadow { frame, log, brightest })
 }
 
 #[cfg(test)]

@@ -178,7 +178,8 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
     for c in &copies {
         if let Some(s) = &c.shadow {
             for &(i, p) in &c.sources {
-                log_ratio[i as usize] += Vec3::splat(s.transfer(tx, fill.pixels[i as usize].pixel, p));
+                let g = log_ratio[i as usize] + Vec3::splat(s.transfer(tx, fill.pixels[i as usize].pixel, p));
+                log_ratio[i as usize] = g.min(Vec3::splat(s.brightest));
             }
         }
     }
