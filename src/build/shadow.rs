@@ -14,7 +14,8 @@ use super::fill::FillContext;
 const MIN_COS: f32 = 0.5;
 /// Most cells a side of the local grid.
 const GRID_MAX: f32 = 256.0;
-/// Blur radii tried, as shares of the hole's radius (at least half a cell).
+/// Blur radii tried, as shares of the hole's radius (at least half a cell: under about 0.6 cells
+/// the silhouette stays sharp).
 const SIGMAS: [f32; 5] = [0.03, 0.07, 0.15, 0.3, 0.5];
 /// Shifts tried: up to this share of the hole's radius each way.
 const SHIFT: f32 = 0.6;
@@ -100,7 +101,8 @@ fn blur(grid: &[f32], w: usize, ht: usize, sigma: f32) -> Vec<f32> {
     let var = sigma * sigma;
     // A box of odd width d has variance (d² − 1)/12: `m` boxes of width `lo`, the rest `lo + 2`.
     let ideal = (4.0 * var + 1.0).sqrt();
-    let lo = (ideal.floor() as usize).saturating_sub(1 - ideal.floor() as usize % 2).max(1);
+    let f = ideal.floor() as usize;
+    let lo = if f % 2 == 0 { f.saturating_sub(1) } else { f }.max(1);
     let l = lo as f32;
     let m = ((12.0 * var - 3.0 * l * l - 12.0 * l - 9.0) / (-4.0 * l - 4.0)).round().clamp(0.0, 3.0) as usize;
     let box_pass = |src: &[f32],
@@ -148,23 +150,60 @@ struct Sample {
     y: f32,
 }
 
-/// Residual sum of squares of `e` after the best plane `a + b·x + c·y` over the samples'
-/// positions (`gram`: the inverse of their Gram matrix): the ring's own smooth lighting.
-fn plane_residual(samples: &[Sample], e: impl Iterator<Item = f32>, gram: &[[f32; 3]; 3]) -> f32 {
-    let (mut sq, mut xe) = (0.0, [0.0f32; 3]);
-    for (s, e) in samples.iter().zip(e) {
-        sq += e * e;
-        xe[0] += e;
-        xe[1] += e * s.at.0;
-        xe[2] += e * s.at.1;
+/// The ring's own smooth light: least squares of a plane `a + b·x + c·y` over the samples'
+/// positions, taken about their mean (far from the grid's origin the normal equations lose
+/// their precision in f32).
+struct LightPlane {
+    mean: (f32, f32),
+    /// Inverse of the centred positions' Gram matrix.
+    inverse: [[f32; 3]; 3],
+}
+
+impl LightPlane {
+    /// `None` when the samples lie (nearly) on a line: no plane is fitted to them.
+    fn new(samples: &[Sample]) -> Option<LightPlane> {
+        let n = samples.len() as f64;
+        let mean = samples.iter().fold((0.0, 0.0), |m, s| (m.0 + s.at.0 as f64 / n, m.1 + s.at.1 as f64 / n));
+        let mut g = [[0.0f64; 3]; 3];
+        for s in samples {
+            let x = [1.0, s.at.0 as f64 - mean.0, s.at.1 as f64 - mean.1];
+            for i in 0..3 {
+                for j in 0..3 {
+                    g[i][j] += x[i] * x[j];
+                }
+            }
+        }
+        let m = glam::DMat3::from_cols_array_2d(&g);
+        let det = m.determinant();
+        (det > 1e-6 * g[0][0] * g[1][1] * g[2][2]).then(|| {
+            let inv = m.inverse().to_cols_array_2d().map(|row| row.map(|v| v as f32));
+            LightPlane { mean: (mean.0 as f32, mean.1 as f32), inverse: inv }
+        })
     }
-    let mut fitted = 0.0;
-    for i in 0..3 {
-        for j in 0..3 {
-            fitted += xe[i] * gram[i][j] * xe[j];
+
+    /// Residual sum of squares of `e` (one value per sample) after the plane.
+    fn residual(&self, samples: &[Sample], e: impl Iterator<Item = f32>) -> f32 {
+        let (mut sq, mut xe) = (0.0, [0.0f32; 3]);
+        for (s, e) in samples.iter().zip(e) {
+            sq += e * e;
+            xe[0] += e;
+            xe[1] += e * (s.at.0 - self.mean.0);
+            xe[2] += e * (s.at.1 - self.mean.1);
+        }
+        let mut fitted = 0.0;
+        for i in 0..3 {
+            for j in 0..3 {
+                fitted += xe[i] * self.inverse[i][j] * xe[j];
+            }
+        }
+        let r = (sq - fitted).max(0.0);
+        // A residual that is not a number must never read as a perfect fit.
+        if r.is_finite() {
+            r
+        } else {
+            f32::INFINITY
         }
     }
-    (sq - fitted).max(0.0)
 }
 
 /// How well a shadow (blurred silhouette `b` moved by `shift`) explains the samples' shading
@@ -174,7 +213,7 @@ fn score(
     b: &[f32],
     samples: &[Sample],
     shift: (f32, f32),
-    gram: &[[f32; 3]; 3],
+    plane: &LightPlane,
     logs: &LogTable,
     ks: &[usize],
 ) -> Option<(f32, f32)> {
@@ -195,7 +234,7 @@ fn score(
     ks.iter()
         .map(|&ki| {
             let e = samples.iter().zip(&cover).map(|(s, c)| s.y - (logs.at(ki, c.0) - logs.at(ki, c.1)));
-            (plane_residual(samples, e, gram), KS[ki])
+            (plane.residual(samples, e), KS[ki])
         })
         .min_by(|a, b| a.0.total_cmp(&b.0))
 }
@@ -232,13 +271,6 @@ struct Candidate {
     shift: (f32, f32),
 }
 
-/// Inverse of a symmetric 3 × 3 matrix (`None` when singular).
-fn inverse(m: [[f32; 3]; 3]) -> Option<[[f32; 3]; 3]> {
-    let m = glam::Mat3::from_cols_array_2d(&m);
-    let det = m.determinant();
-    (det.abs() > 1e-12).then(|| m.inverse().to_cols_array_2d())
-}
-
 /// The shadow of the occluders (pixels of layers nearer than `k`) over one part of layer `k`'s
 /// fill (`hole`, canvas pixels), fitted to `samples`: visible pixels of the surface around it,
 /// the pixel each copies from and their shading (log ratio of the luma to the copy's). `None`
@@ -253,35 +285,8 @@ pub(super) fn fit(
     if samples.len() < MIN_SAMPLES || hole.is_empty() {
         return None;
     }
-    let c = hole.iter().map(|&p| tx.dirs[p]).sum::<Vec3>().normalize_or_zero();
-    let (e1, e2) = c.any_orthonormal_pair();
-    let tangent = |d: Vec3| {
-        let z = d.dot(c);
-        (z >= MIN_COS).then(|| (d.dot(e1) / z, d.dot(e2) / z))
-    };
-    let points: Option<Vec<(f32, f32)>> =
-        hole.iter().chain(samples.iter().map(|s| &s.0)).map(|&p| tangent(tx.dirs[p])).collect();
-    let points = points?;
     let radius = alpha * (hole.len() as f32 / std::f32::consts::PI).sqrt();
-    let margin = SHIFT * radius + 3.0 * SIGMAS[SIGMAS.len() - 1] * radius + 2.0 * alpha;
-    let (mut lo, mut hi) = ((f32::MAX, f32::MAX), (f32::MIN, f32::MIN));
-    for &(u, v) in &points {
-        lo = (lo.0.min(u), lo.1.min(v));
-        hi = (hi.0.max(u), hi.1.max(v));
-    }
-    let (u0, v0) = (lo.0 - margin, lo.1 - margin);
-    let h = alpha.max(((hi.0 - lo.0).max(hi.1 - lo.1) + 2.0 * margin) / GRID_MAX);
-    let w = ((hi.0 + margin - u0) / h).ceil() as usize + 1;
-    let ht = ((hi.1 + margin - v0) / h).ceil() as usize + 1;
-    let frame = Frame { c, e1, e2, u0, v0, h, w, ht };
-    // The occluders' silhouette: cells whose pixel a nearer layer holds.
-    let mut mask = vec![0.0f32; w * ht];
-    for j in 0..ht {
-        for i in 0..w {
-            let l = tx.layer_of[tx.pixel(frame.dir(i, j))];
-            mask[j * w + i] = (l != u32::MAX && l > k) as u8 as f32;
-        }
-    }
+    let frame = frame_about(tx, hole, samples, radius, alpha)?;
     // A source off the frame (a copy from far away) is taken as unshadowed.
     let far = (f32::MAX, f32::MAX);
     let samples: Vec<Sample> = samples
@@ -291,76 +296,117 @@ pub(super) fn fit(
             Some(Sample { at, source: frame.coords(tx.dirs[q]).unwrap_or(far), y })
         })
         .collect();
-    if samples.len() < MIN_SAMPLES {
+    let plane = LightPlane::new(&samples)?;
+    // What a smooth plane of light leaves unexplained: the shadow must explain most of it.
+    let total = plane.residual(&samples, samples.iter().map(|s| s.y));
+    if !(total >= samples.len() as f32 * MIN_SPREAD * MIN_SPREAD && total.is_finite()) {
         return None;
     }
-    let n = samples.len() as f32;
-    let mut g = [[0.0f32; 3]; 3];
-    for s in &samples {
-        let x = [1.0, s.at.0, s.at.1];
-        for i in 0..3 {
-            for j in 0..3 {
-                g[i][j] += x[i] * x[j];
-            }
+    let mask = silhouette(tx, k, &frame);
+    let (best, b) = search(&frame, &mask, &samples, &plane, radius / frame.h)?;
+    if best.sse > (1.0 - EXPLAINED) * total {
+        return None;
+    }
+    let (w, ht) = (frame.w, frame.ht);
+    let mut log = vec![0.0f32; w * ht];
+    for j in 0..ht {
+        for i in 0..w {
+            log[j * w + i] =
+                (1.0 - best.k * frame.sample(&b, i as f32 - best.shift.0, j as f32 - best.shift.1)).ln();
         }
     }
-    let gram = inverse(g)?;
-    // What a smooth plane of light leaves unexplained: the shadow must explain most of it.
-    let total = plane_residual(&samples, samples.iter().map(|s| s.y), &gram);
-    if total < n * MIN_SPREAD * MIN_SPREAD {
-        return None;
+    let brightest = samples.iter().map(|s| s.y).fold(f32::MIN, f32::max);
+    Some(Shadow { frame, log, brightest })
+}
+
+/// A grid about the hole's centre direction holding the hole, the samples and room to shift
+/// and blur the silhouette: a pixel's mean angle a cell, or coarser to keep [`GRID_MAX`] cells
+/// a side. `None` when the hole or a sample lies more than 60° from the centre.
+fn frame_about(
+    tx: &FillContext,
+    hole: &[usize],
+    samples: &[(usize, usize, f32)],
+    radius: f32,
+    alpha: f32,
+) -> Option<Frame> {
+    let c = hole.iter().map(|&p| tx.dirs[p]).sum::<Vec3>().normalize_or_zero();
+    let (e1, e2) = c.any_orthonormal_pair();
+    let (mut lo, mut hi) = ((f32::MAX, f32::MAX), (f32::MIN, f32::MIN));
+    for &p in hole.iter().chain(samples.iter().map(|s| &s.0)) {
+        let d = tx.dirs[p];
+        let z = d.dot(c);
+        if z < MIN_COS {
+            return None;
+        }
+        let (u, v) = (d.dot(e1) / z, d.dot(e2) / z);
+        lo = (lo.0.min(u), lo.1.min(v));
+        hi = (hi.0.max(u), hi.1.max(v));
     }
-    let r_cells = radius / h;
+    let margin = SHIFT * radius + 3.0 * SIGMAS[SIGMAS.len() - 1] * radius + 2.0 * alpha;
+    let (u0, v0) = (lo.0 - margin, lo.1 - margin);
+    let h = alpha.max(((hi.0 - lo.0).max(hi.1 - lo.1) + 2.0 * margin) / GRID_MAX);
+    let w = ((hi.0 + margin - u0) / h).ceil() as usize + 1;
+    let ht = ((hi.1 + margin - v0) / h).ceil() as usize + 1;
+    Some(Frame { c, e1, e2, u0, v0, h, w, ht })
+}
+
+/// The occluders' silhouette on the frame: 1 where a layer nearer than `k` holds the cell's pixel.
+fn silhouette(tx: &FillContext, k: u32, frame: &Frame) -> Vec<f32> {
+    let mut mask = vec![0.0f32; frame.w * frame.ht];
+    for j in 0..frame.ht {
+        for i in 0..frame.w {
+            let l = tx.layer_of[tx.pixel(frame.dir(i, j))];
+            mask[j * frame.w + i] = (l != u32::MAX && l > k) as u8 as f32;
+        }
+    }
+    mask
+}
+
+/// The best shadow over the blurs (in parallel; `r_cells` the hole's radius in cells): per blur,
+/// a coarse grid of shifts with a few darkenings, the best refined by halving steps with all of
+/// them. The fit and its blurred silhouette.
+fn search(
+    frame: &Frame,
+    mask: &[f32],
+    samples: &[Sample],
+    plane: &LightPlane,
+    r_cells: f32,
+) -> Option<(Candidate, Vec<f32>)> {
     let logs = LogTable::new();
     let reach = SHIFT * r_cells;
-    // Per blur (in parallel), the best fit: a coarse grid of shifts with a few darkenings,
-    // refined by halving with all of them.
     let all: Vec<usize> = (0..KS.len()).collect();
     let fits: Vec<(Candidate, Vec<f32>)> = SIGMAS
         .par_iter()
         .filter_map(|f| {
-            let b = blur(&mask, w, ht, (f * r_cells).max(0.5));
+            // Under about 0.6 cells the three boxes are 1 wide: the silhouette stays sharp.
+            let b = blur(mask, frame.w, frame.ht, (f * r_cells).max(0.5));
             let mut best: Option<Candidate> = None;
-            let mut consider = |shift: (f32, f32), ks: &[usize]| {
-                if let Some((sse, k)) = score(&frame, &b, &samples, shift, &gram, &logs, ks) {
+            let consider = |shift: (f32, f32), ks: &[usize], best: &mut Option<Candidate>| {
+                if let Some((sse, k)) = score(frame, &b, samples, shift, plane, &logs, ks) {
                     if best.map_or(true, |c| sse < c.sse) {
-                        best = Some(Candidate { sse, k, shift });
+                        *best = Some(Candidate { sse, k, shift });
                     }
                 }
-                best
             };
             let mut step = (reach / 4.0).max(1.0);
             let cells = (reach / step).ceil() as i32;
-            let mut coarse = None;
             for a in -cells..=cells {
                 for bb in -cells..=cells {
-                    coarse = consider((a as f32 * step, bb as f32 * step), &COARSE_KS);
+                    consider((a as f32 * step, bb as f32 * step), &COARSE_KS, &mut best);
                 }
             }
-            let mut at = consider(coarse?.shift, &all)?.shift;
+            consider(best?.shift, &all, &mut best);
             while step > 0.5 {
                 step *= 0.5;
-                let centre = at;
+                let centre = best?.shift;
                 for (a, bb) in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)] {
-                    at = consider((centre.0 + a as f32 * step, centre.1 + bb as f32 * step), &all)?.shift;
+                    consider((centre.0 + a as f32 * step, centre.1 + bb as f32 * step), &all, &mut best);
                 }
             }
             best.map(|c| (c, b))
         })
         .collect();
-    let (best, b) = fits.into_iter().min_by(|a, b| a.0.sse.total_cmp(&b.0.sse))?;
-    if best.sse > (1.0 - EXPLAINED) * total {
-        return None;
-    }
-    let (kk, shift) = (best.k, best.shift);
-    let mut log = vec![0.0f32; w * ht];
-    for j in 0..ht {
-        for i in 0..w {
-            log[j * w + i] = (1.0 - kk * frame.sample(&b, i as f32 - shift.0, j as f32 - shift.1)).ln();
-        }
-    }
-    let brightest = samples.iter().map(|s| s.y).fold(f32::MIN, f32::max);
-    Some(Shadow { frame, log, brightest })
+    fits.into_iter().min_by(|a, b| a.0.sse.total_cmp(&b.0.sse))
 }
 
 #[cfg(test)]

@@ -325,10 +325,7 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
         .map(|&i| fill.pixels[i as usize].pixel)
         // Only pixels on the hole's border reach visible surface within two steps.
         .filter(|&q| (0..8).any(|j| tx.nb.get_at(q % w, q / w, j).is_some_and(|r| tx.layer_of[r] == k)))
-        .flat_map_iter(|q| {
-            let (x, y) = (q % w, q / w);
-            (0..8).flat_map(move |j| [tx.nb.get_at(x, y, j), tx.nb.get2_at(x, y, j)]).flatten()
-        })
+        .flat_map_iter(|q| within_two(tx.nb, q))
         .filter(|&r| valid(r))
         .collect();
     ring.sort_unstable();
@@ -458,79 +455,80 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
         .zip(&hole)
         .filter_map(|(&i, &x)| offsets.iter().map(|&t| tx.pixel(x + t)).find(|&p| valid(p)).map(|p| (i, p)))
         .collect();
-    let rgb = |p: usize| tx.colour(p).max(Vec3::ZERO) + Vec3::splat(RATIO_EPS);
-    // Each pixel's copy by the first offset, and the log ratio of their colours.
-    let ratios = |pixels: &[usize]| -> std::collections::HashMap<usize, (usize, Vec3)> {
-        match offsets.first() {
-            Some(&t) => pixels
-                .iter()
-                .filter_map(|&r| {
-                    let p = tx.pixel(tx.point(r, tx.depth[r]) + t);
-                    valid(p).then(|| (r, (p, (rgb(r) / rgb(p)).ln())))
-                })
-                .collect(),
-            None => Default::default(),
-        }
-    };
-    // Near an edge, a copy a fraction of a pixel off reads as a false ratio as large as the
-    // edge's contrast: each pixel takes the median of the ratios around it (1 and 2 steps),
-    // which a line of such pixels across the ring does not move.
-    let median = |raw: &std::collections::HashMap<usize, (usize, Vec3)>, r: usize| {
-        let (x, y) = (r % w, r / w);
-        let mut near: Vec<Vec3> = std::iter::once(Some(r))
-            .chain((0..8).flat_map(|j| [tx.nb.get_at(x, y, j), tx.nb.get2_at(x, y, j)]))
-            .flatten()
-            .filter_map(|q| raw.get(&q).map(|e| e.1))
-            .collect();
-        let median = |c: usize, near: &mut Vec<Vec3>| {
-            near.sort_unstable_by(|a, b| a[c].total_cmp(&b[c]));
-            near[near.len() / 2][c]
-        };
-        Vec3::new(median(0, &mut near), median(1, &mut near), median(2, &mut near))
-    };
-    // The occluders' shadow, from the shading of the surface a few pixels around the hole (a
-    // penumbra spreads there).
+    let first = offsets.first().copied();
+    // The occluders' shadow, from the shading of the surface a few pixels around the hole.
     let hole_pixels: Vec<usize> = group.iter().map(|&i| fill.pixels[i as usize].pixel).collect();
-    let around = around(tx, &hole_pixels, &valid);
-    let picked: Vec<usize> = spread(&around, shadow::MAX_SAMPLES).collect();
-    // Their medians read the ratios of their neighbours too.
-    let mut near = picked.clone();
-    for &r in &picked {
-        let (x, y) = (r % w, r / w);
-        near.extend((0..8).flat_map(|j| [tx.nb.get_at(x, y, j), tx.nb.get2_at(x, y, j)]).flatten());
-    }
-    near.sort_unstable();
-    near.dedup();
-    near.retain(|&q| valid(q));
-    let raw = ratios(&near);
-    let samples: Vec<(usize, usize, f32)> = picked
-        .iter()
-        .filter_map(|&r| raw.get(&r).map(|e| (r, e.0, median(&raw, r).element_sum() / 3.0)))
-        .collect();
-    let shadow = shadow::fit(tx, k, &hole_pixels, &samples, alpha);
+    let shadow = first.and_then(|t| {
+        let samples = shadow_samples(tx, &hole_pixels, &valid, t);
+        shadow::fit(tx, k, &hole_pixels, &samples, alpha)
+    });
     // In the ring's order (a hash map's varies from run to run; the build is deterministic).
-    let raw = ratios(&ring_pixels);
+    let raw = first.map(|t| ratios(tx, &ring_pixels, &valid, t)).unwrap_or_default();
     let shading = ring_pixels
         .iter()
         .filter_map(|&r| raw.get(&r).map(|e| (r, e.0)))
         .map(|(r, p)| {
-            (r, median(&raw, r) - Vec3::splat(shadow.as_ref().map_or(0.0, |s| s.transfer(tx, r, p))))
+            (
+                r,
+                median_ratio(tx, &raw, r)
+                    - Vec3::splat(shadow.as_ref().map_or(0.0, |s| s.transfer(tx, r, p))),
+            )
         })
         .collect();
     Transfer { sources, shading, shadow }
 }
 
-/// The pixels of the surface (`valid`) within a few steps of a hole: its radius over 2, 4 to
-/// 24 pixels; in breadth-first order.
-fn around(tx: &FillContext, hole: &[usize], valid: &(impl Fn(usize) -> bool + Sync)) -> Vec<usize> {
-    let w = tx.nb.width();
+/// The pixels one and two steps from `r` along the 8 directions.
+fn within_two(nb: &Neighbours, r: usize) -> impl Iterator<Item = usize> + '_ {
+    let (x, y) = (r % nb.width(), r / nb.width());
+    (0..8).flat_map(move |j| [nb.get_at(x, y, j), nb.get2_at(x, y, j)]).flatten()
+}
+
+/// Per pixel, its copy by offset `t` (where that lands on the surface) and the log ratio of
+/// their colours.
+type Ratios = std::collections::HashMap<usize, (usize, Vec3)>;
+
+fn ratios(tx: &FillContext, pixels: &[usize], valid: &impl Fn(usize) -> bool, t: Vec3) -> Ratios {
+    let rgb = |p: usize| tx.colour(p).max(Vec3::ZERO) + Vec3::splat(RATIO_EPS);
+    pixels
+        .iter()
+        .filter_map(|&r| {
+            let p = tx.pixel(tx.point(r, tx.depth[r]) + t);
+            valid(p).then(|| (r, (p, (rgb(r) / rgb(p)).ln())))
+        })
+        .collect()
+}
+
+/// Per channel, the median of the ratios at `r` and within two steps of it. Near an edge, a copy
+/// a fraction of a pixel off reads as a false ratio as large as the edge's contrast, which a line
+/// of such pixels across the ring does not move.
+fn median_ratio(tx: &FillContext, raw: &Ratios, r: usize) -> Vec3 {
+    let mut near: Vec<Vec3> =
+        std::iter::once(r).chain(within_two(tx.nb, r)).filter_map(|q| raw.get(&q).map(|e| e.1)).collect();
+    let channel = |c: usize, near: &mut Vec<Vec3>| {
+        near.sort_unstable_by(|a, b| a[c].total_cmp(&b[c]));
+        near[near.len() / 2][c]
+    };
+    Vec3::new(channel(0, &mut near), channel(1, &mut near), channel(2, &mut near))
+}
+
+/// What a shadow is fitted to: pixels of the surface (`valid`) within a few steps of the hole
+/// (its radius over 2, 4 to 24 pixels; up to [`shadow::MAX_SAMPLES`] spread evenly), each with its
+/// copy by offset `t` and the luma of its median ratio. The walk out starts through the hole's
+/// own border band (the layer's pixels beside the occluder, in the fill for their colour).
+fn shadow_samples(
+    tx: &FillContext,
+    hole: &[usize],
+    valid: &impl Fn(usize) -> bool,
+    t: Vec3,
+) -> Vec<(usize, usize, f32)> {
     let depth = ((hole.len() as f32 / std::f32::consts::PI).sqrt() * 0.5).clamp(4.0, 24.0) as usize;
     let mut seen: std::collections::HashSet<usize> = hole.iter().copied().collect();
     let (mut frontier, mut around) = (hole.to_vec(), Vec::new());
     for _ in 0..depth {
         let mut next = Vec::new();
         for &q in &frontier {
-            for r in (0..8).filter_map(|j| tx.nb.get_at(q % w, q / w, j)) {
+            for r in (0..8).filter_map(|j| tx.nb.get(q, j)) {
                 if valid(r) && seen.insert(r) {
                     next.push(r);
                 }
@@ -539,7 +537,18 @@ fn around(tx: &FillContext, hole: &[usize], valid: &(impl Fn(usize) -> bool + Sy
         around.extend(&next);
         frontier = next;
     }
-    around
+    let picked: Vec<usize> = spread(&around, shadow::MAX_SAMPLES).collect();
+    // Their medians read the ratios of their neighbours too.
+    let mut near: Vec<usize> =
+        picked.iter().flat_map(|&r| std::iter::once(r).chain(within_two(tx.nb, r))).collect();
+    near.sort_unstable();
+    near.dedup();
+    near.retain(|&q| valid(q));
+    let raw = ratios(tx, &near, valid, t);
+    picked
+        .iter()
+        .filter_map(|&r| raw.get(&r).map(|e| (r, e.0, median_ratio(tx, &raw, r).element_sum() / 3.0)))
+        .collect()
 }
 
 /// A source must lie on the plane being continued (elsewhere the surface curves away).
