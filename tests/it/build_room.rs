@@ -290,6 +290,23 @@ fn the_fill_continues_the_hidden_texture() {
     assert!(exemplar >= nearest + 0.3, "exemplar {exemplar:.3} vs nearest {nearest:.3}");
 }
 
+/// The background layer's pixels hidden from the centre (filled) that lie on the true room
+/// surface (depth within 1 %): their direction and linear colour.
+fn filled_room(b: &Built, scene: &Scene, r: &Rendered, m: AnyMapping) -> Vec<(DVec3, Vec<f32>)> {
+    let bg = &b.layers[0].image;
+    (0..bg.width * bg.height)
+        .filter_map(|p| {
+            let Sample::Surface(z) = bg.sample(p) else { return None };
+            let d = m.pixel_dir(p % m.width(), p / m.width());
+            let t = scene.room_hit(DVec3::ZERO, d).unwrap().t;
+            if r.first_hit.object[p] == 0 || (z as f64 - t).abs() > 0.01 * t {
+                return None;
+            }
+            Some((d, ["R", "G", "B"].iter().map(|ch| bg.channel(ch).unwrap().data[p]).collect()))
+        })
+        .collect()
+}
+
 /// A picture frame 0.7 m before a wall of contrasting 25 cm squares, lit unevenly (the light
 /// falls off almost fivefold along the wall, 1.4-fold across the frame). The wall seen through the
 /// frame's window is cut off from the rest of the wall, and a copy from elsewhere on the wall is
@@ -326,16 +343,8 @@ fn the_fill_continues_a_wall_seen_through_a_frame_under_uneven_light() {
         (0..3).for_each(|i| input.rgb[i][p] = c[i]);
     }
     let b = build::build(&input, &BuildOptions::default(), &|_| {}).unwrap();
-    let bg = &b.layers[0].image;
     let (mut right, mut filled) = (0, 0);
-    for p in 0..bg.width * bg.height {
-        let Sample::Surface(z) = bg.sample(p) else { continue };
-        let d = m.pixel_dir(p % m.width(), p / m.width());
-        let t = scene.room_hit(DVec3::ZERO, d).unwrap().t;
-        if r.first_hit.object[p] == 0 || (z as f64 - t).abs() > 0.01 * t {
-            continue;
-        }
-        let c: Vec<f32> = ["R", "G", "B"].iter().map(|ch| bg.channel(ch).unwrap().data[p]).collect();
+    for (d, c) in filled_room(&b, &scene, &r, m) {
         let truth = wall(d);
         filled += 1;
         right += (0..3).all(|i| (c[i] - truth[i]).abs() <= 0.15 * truth[i]) as usize;
@@ -643,17 +652,9 @@ fn the_fill_carries_an_occluders_shadow_behind_it() {
             (0..3).for_each(|i| input.rgb[i][p] = c[i]);
         }
         let b = build::build(&input, &BuildOptions::default(), &|_| {}).unwrap();
-        let bg = &b.layers[0].image;
         // Filled wall pixels: right (within 15 % per channel), and right in the shadow's core.
         let (mut right, mut filled, mut core_right, mut core) = (0, 0, 0, 0);
-        for p in 0..bg.width * bg.height {
-            let Sample::Surface(z) = bg.sample(p) else { continue };
-            let d = m.pixel_dir(p % m.width(), p / m.width());
-            let t = scene.room_hit(DVec3::ZERO, d).unwrap().t;
-            if r.first_hit.object[p] == 0 || (z as f64 - t).abs() > 0.01 * t {
-                continue;
-            }
-            let c: Vec<f32> = ["R", "G", "B"].iter().map(|ch| bg.channel(ch).unwrap().data[p]).collect();
+        for (d, c) in filled_room(&b, &scene, &r, m) {
             let (truth, s) = wall(d, shadowed);
             let ok = (0..3).all(|i| (c[i] - truth[i]).abs() <= 0.15 * truth[i]);
             filled += 1;
