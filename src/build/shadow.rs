@@ -19,13 +19,15 @@ const GRID_MAX: f32 = 256.0;
 const SIGMAS: [f32; 5] = [0.03, 0.07, 0.15, 0.3, 0.5];
 /// Shifts tried: up to this share of the hole's radius each way.
 const SHIFT: f32 = 0.6;
-/// Share of the ring's shading variance the fit must explain.
+/// Share of what the plane of light leaves of the ring's shading that the shadow must explain.
 const EXPLAINED: f32 = 0.6;
-/// The ring's shading must vary at least this much (standard deviation of the ratio).
+/// The ring's shading must vary at least this much after the plane (standard deviation of the
+/// log ratio): a fainter pattern is as likely a copy out of phase as a penumbra.
 const MIN_SPREAD: f32 = 0.1;
 /// Ring pixels the shadow must reach (coverage over a quarter) for its darkness to be measured;
 /// a quarter of them at least must be out of it (coverage under 0.05).
 const MIN_SHADOWED: usize = 8;
+/// Fewest ring samples a fit takes.
 const MIN_SAMPLES: usize = 32;
 /// Most ring samples a fit reads.
 pub(super) const MAX_SAMPLES: usize = 512;
