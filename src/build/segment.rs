@@ -122,7 +122,6 @@ pub fn segment(
     // angle, a pole standing on the ground with no fold at its foot, a surface curving behind itself)
     // would put both sides of a jump in one layer: it is split where its surface turns most between
     // the two sides (spec §7 step 5). Nested cases (a cup on a box on the floor) take a round each.
-    let segments = |id: &[u32]| id.iter().filter(|&&s| s != NO_SEGMENT).max().map_or(0, |&s| s + 1);
     for _ in 0..SPLIT_ROUNDS {
         let Some(mut next) = split_self_occluding(nb, depth, links, normals, &masks, &id, o.min_border)
         else {
@@ -130,7 +129,7 @@ pub fn segment(
         };
         let next_id = compact(&mut next, n, &finite);
         // A round that cut nothing (its seeds were all slivers) would only repeat itself.
-        let progress = segments(&next_id) > segments(&id);
+        let progress = segment_count(&next_id) > segment_count(&id);
         (dsu, id) = (next, next_id);
         if !progress {
             break;
@@ -154,7 +153,7 @@ pub fn segment(
         .collect();
     if front.iter().any(|&f| f) {
         // Only the segments with front pixels are joined again; the others keep their roots.
-        let mut recut = vec![false; segments(&id) as usize];
+        let mut recut = vec![false; segment_count(&id)];
         for (p, &f) in front.iter().enumerate() {
             if f {
                 recut[id[p] as usize] = true;
@@ -219,6 +218,11 @@ pub fn segment(
     occludes.sort_unstable();
     let level = levels(count, &mean, &size, &occludes, &folds);
     Segments { id, level, size }
+}
+
+/// How many segment ids `id` uses (ids are compact: 0 to the largest).
+fn segment_count(id: &[u32]) -> usize {
+    id.iter().filter(|&&s| s != NO_SEGMENT).max().map_or(0, |&s| s as usize + 1)
 }
 
 /// Segment id per finite pixel from a union-find over the continuous links (ids in pixel order).
@@ -300,7 +304,7 @@ fn split_self_occluding(
     const NEAR: u8 = 1;
     const FAR: u8 = 2;
     let n = id.len();
-    let count = id.iter().filter(|&&s| s != NO_SEGMENT).max().map_or(0, |&s| s as usize + 1);
+    let count = segment_count(id);
     // Jumps between two pixels of one segment (found in parallel; few).
     let jumps: Vec<(usize, usize, usize)> = (0..n)
         .into_par_iter()

@@ -81,7 +81,7 @@ pub(super) struct Shadow {
     log: Vec<f32>,
     /// The brightest shading seen around the hole (log ratio): what the shadow leaves in the
     /// hole never exceeds it (a fit that is wrong must not brighten the fill past its ring).
-    pub(super) brightest: f32,
+    brightest: f32,
 }
 
 impl Shadow {
@@ -93,6 +93,12 @@ impl Shadow {
     /// Log ratio of the light at pixel `p` to that at `source`, the pixel it copies.
     pub(super) fn transfer(&self, tx: &FillContext, p: usize, source: usize) -> f32 {
         self.log_at(tx.dirs[p]) - self.log_at(tx.dirs[source])
+    }
+
+    /// The shading `g` (log ratio, interpolated from the ring less the shadow) of filled pixel `p`
+    /// copied from `source`, with the shadow put back.
+    pub(super) fn relight(&self, tx: &FillContext, g: Vec3, p: usize, source: usize) -> Vec3 {
+        (g + Vec3::splat(self.transfer(tx, p, source))).min(Vec3::splat(self.brightest))
     }
 }
 
@@ -143,6 +149,8 @@ fn blur(grid: &[f32], w: usize, ht: usize, sigma: f32) -> Vec<f32> {
 const KS: [f32; 8] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.75];
 /// Those of [`KS`] the coarse search of shifts tries.
 const COARSE_KS: [usize; 3] = [1, 4, 7];
+/// All of [`KS`], by index.
+const ALL_KS: [usize; KS.len()] = [0, 1, 2, 3, 4, 5, 6, 7];
 
 /// One ring sample in cells: where it is, where its copy comes from, its shading (log ratio).
 #[derive(Clone, Copy)]
@@ -376,7 +384,6 @@ fn search(
 ) -> Option<(Candidate, Vec<f32>)> {
     let logs = LogTable::new();
     let reach = SHIFT * r_cells;
-    let all: Vec<usize> = (0..KS.len()).collect();
     let fits: Vec<(Candidate, Vec<f32>)> = SIGMAS
         .par_iter()
         .filter_map(|f| {
@@ -397,12 +404,12 @@ fn search(
                     consider((a as f32 * step, bb as f32 * step), &COARSE_KS, &mut best);
                 }
             }
-            consider(best?.shift, &all, &mut best);
+            consider(best?.shift, &ALL_KS, &mut best);
             while step > 0.5 {
                 step *= 0.5;
                 let centre = best?.shift;
                 for (a, bb) in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)] {
-                    consider((centre.0 + a as f32 * step, centre.1 + bb as f32 * step), &all, &mut best);
+                    consider((centre.0 + a as f32 * step, centre.1 + bb as f32 * step), &ALL_KS, &mut best);
                 }
             }
             best.map(|c| (c, b))

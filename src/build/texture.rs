@@ -178,8 +178,8 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
     for c in &copies {
         if let Some(s) = &c.shadow {
             for &(i, p) in &c.sources {
-                let g = log_ratio[i as usize] + Vec3::splat(s.transfer(tx, fill.pixels[i as usize].pixel, p));
-                log_ratio[i as usize] = g.min(Vec3::splat(s.brightest));
+                let i = i as usize;
+                log_ratio[i] = s.relight(tx, log_ratio[i], fill.pixels[i].pixel, p);
             }
         }
     }
