@@ -27,6 +27,9 @@ pub enum Error {
     /// Loading or checking the build inputs failed.
     #[error(transparent)]
     Input(#[from] crate::build::input::InputError),
+    /// Preparing the input depth failed (what it is, its unit, its shape).
+    #[error(transparent)]
+    Prepare(#[from] crate::prepare::PrepareError),
     /// Meshing, or reading or writing a stored mesh, failed.
     #[error(transparent)]
     Mesh(#[from] crate::mesh::MeshError),
@@ -58,6 +61,7 @@ impl Error {
             Error::Panorama(e) => e.code(),
             Error::Build(e) => e.code(),
             Error::Input(e) => e.code(),
+            Error::Prepare(e) => e.code(),
             Error::Mesh(e) => e.code(),
             Error::Render(e) => e.code(),
             Error::Image(e) => e.code(),

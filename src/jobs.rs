@@ -15,6 +15,7 @@ use crate::manifest::{Manifest, Transform};
 use crate::mapping::AnyMapping;
 use crate::mesh::{self, MeshParams};
 use crate::panorama::{self, Panorama, SaveOptions};
+use crate::prepare::{self, DepthSamples, PrepareReport, PrepareSettings, PreparedDepth, SampleFormat};
 use crate::render::{self, rasterize, Camera, Frame, MeshOptions, RenderLayer, SplatOptions, Stage};
 
 /// Everything `pomc build` takes besides its input and output paths.
@@ -22,8 +23,11 @@ use crate::render::{self, rasterize, Camera, Frame, MeshOptions, RenderLayer, Sp
 pub struct BuildSettings {
     /// Encoding of 8/16-bit colour (`--colour-space`).
     pub colour_space: ColourSpace,
-    /// How depth is stored (`--preset`, `--depth-scale`, `--depth-invalid`, `--depth-kind`).
+    /// How depth is stored (`--preset`, `--depth-scale`, `--depth-invalid`, `--depth-kind`,
+    /// `--depth-range`, `--camera-height`).
     pub depth: DepthEncoding,
+    /// How the depth is prepared for layering (`--refine`, `--unknown-depth`).
+    pub prepare: PrepareSettings,
     /// Normals image (`--normals-in`).
     pub normals_in: Option<PathBuf>,
     /// Azimuth convention of the input (`--convention`).
@@ -43,8 +47,10 @@ pub struct BuildSettings {
 pub struct BuildSummary {
     /// The manifest as written (canvas sizes and packing filled in).
     pub manifest: Manifest,
-    /// Per-layer figures of the build.
+    /// Per-layer figures of the build (its `stages` start with `prepare`).
     pub report: BuildReport,
+    /// What the depth preparation found and did.
+    pub prepare: PrepareReport,
     /// Seconds spent reading the input images (colour, depth, normals).
     pub read_s: f64,
     /// Seconds spent building the layers in memory.
@@ -73,8 +79,11 @@ pub fn build_panorama(
     build_panorama_with_progress(colour, depth, output, s, &|_| {})
 }
 
-/// [`build_panorama`], calling `progress` with each stage's name as it starts (the build's
-/// stages, then `writing`).
+/// The name of the depth preparation stage in progress and timings.
+pub const PREPARE_STAGE: &str = "prepare";
+
+/// [`build_panorama`], calling `progress` with each stage's name as it starts (`prepare`, the
+/// build's stages, then `writing`).
 pub fn build_panorama_with_progress(
     colour: &Path,
     depth: &Path,
@@ -83,16 +92,46 @@ pub fn build_panorama_with_progress(
     progress: &dyn Fn(&str),
 ) -> crate::Result<BuildSummary> {
     let t = Instant::now();
-    let rgbd = input::load(colour, s.colour_space, depth, s.normals_in.as_deref(), &s.depth, &s.limits)?;
+    let files = input::read(colour, s.colour_space, depth, s.normals_in.as_deref(), &s.limits)?;
     let read_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let built = build_rgbd(&rgbd, s, progress)?;
+    progress(PREPARE_STAGE);
+    let (rgbd, prepare) = files.prepare(depth, &s.depth, &s.prepare)?;
+    let prepare_s = t.elapsed().as_secs_f64();
+    let mut built = build_rgbd(&rgbd, s, progress)?;
+    built.report.stages.insert(0, (PREPARE_STAGE, prepare_s));
     let build_s = t.elapsed().as_secs_f64();
     progress("writing");
     let t = Instant::now();
     let manifest = panorama::write_panorama(output, &built.manifest, &built.layers, &s.save)?;
     let write_s = t.elapsed().as_secs_f64();
-    Ok(BuildSummary { manifest, report: built.report, read_s, build_s, write_s })
+    Ok(BuildSummary { manifest, report: built.report, prepare, read_s, build_s, write_s })
+}
+
+/// Read `colour` and `depth` and prepare the depth as `pomc build` does before layering
+/// (`pomc prepare`): metres along the ray on the colour's grid, with what was found and done.
+///
+/// ```no_run
+/// use pomc::prelude::*;
+/// let mut settings = BuildSettings::default();
+/// settings.depth.kind = DepthKind::Inverse;
+/// settings.depth.camera_height = Some(1.6);
+/// let prepared = prepare_depth_files("colour.jpg".as_ref(), "depth.png".as_ref(), &settings)?;
+/// println!("{} px snapped", prepared.report.snapped_pixels);
+/// # Ok::<(), pomc::Error>(())
+/// ```
+pub fn prepare_depth_files(colour: &Path, depth: &Path, s: &BuildSettings) -> crate::Result<PreparedDepth> {
+    let files = input::read(colour, s.colour_space, depth, None, &s.limits)?;
+    let prepared =
+        prepare::prepare_depth(depth, &files.mapping, &files.rgb, &files.depth, &s.depth, &s.prepare)?;
+    Ok(prepared)
+}
+
+/// Write prepared depth as a one-channel (`Z`, float) OpenEXR of the colour's size, atomically.
+pub fn write_depth(path: &Path, width: usize, height: usize, depth: &[f32]) -> crate::Result<()> {
+    let mut img = LayerImage::new(width, height);
+    img.set_channel("Z", crate::layer::SampleType::F32, depth.to_vec());
+    crate::layer_io::write_exr(path, &img, &crate::layer_io::WriteOptions::default())
 }
 
 /// A panorama built in memory: its manifest (without canvas sizes or packing yet) and full-canvas
@@ -159,20 +198,27 @@ pub fn build_arrays(
         limit,
     })?;
     let mapping = input::mapping_for(name, width, height)?;
-    let mut depth = input::depth_from_raw(depth.to_vec(), s.depth.scale.unwrap_or(1.0), s.depth.invalid);
-    if s.depth.kind == input::DepthKind::Z {
-        if mapping.kind() == crate::mapping::MappingKind::Equirect {
-            return Err(input::InputError::ZDepthOnEquirect { path: name.into() }.into());
-        }
-        input::z_to_ray(&mapping, &mut depth);
-    }
     let rgb = input::colour_planes(colour, s.colour_space);
     let normals = s
         .normals_in
         .as_deref()
         .map(|p| input::read_normals(p, name, width, height, &s.limits))
         .transpose()?;
-    build_rgbd(&build::RgbdInput { mapping, rgb, depth, normals }, s, progress)
+    let samples = DepthSamples {
+        width,
+        height,
+        values: depth.to_vec(),
+        format: SampleFormat::F32,
+        colour_channels: false,
+    };
+    let files = input::RgbdFiles { mapping, rgb, depth: samples, normals };
+    progress(PREPARE_STAGE);
+    let t = Instant::now();
+    let (rgbd, _) = files.prepare(name, &s.depth, &s.prepare)?;
+    let prepare_s = t.elapsed().as_secs_f64();
+    let mut built = build_rgbd(&rgbd, s, progress)?;
+    built.report.stages.insert(0, (PREPARE_STAGE, prepare_s));
+    Ok(built)
 }
 
 /// How [`Renderer`] draws a view (`pomc render --method`).

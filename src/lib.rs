@@ -13,6 +13,7 @@
 //! - [`pack`]: patch-packed compression (patch table + atlas);
 //! - [`panorama`]: a whole panorama directory (manifest + layers), written as a whole;
 //! - [`validate`] and [`codes`]: the validator and its stable codes;
+//! - [`prepare`]: the depth people have to the depth layering needs (spec §7.1);
 //! - [`build`]: layers from a plain RGB-D panorama (spec §7);
 //! - [`mesh`]: adaptive quadtree meshes and their export (spec §8);
 //! - [`render`]: views from a displaced camera, by point splatting or mesh rasterisation (spec §9);
@@ -42,6 +43,7 @@ pub mod mesh;
 pub mod pack;
 pub mod panorama;
 pub mod prelude;
+pub mod prepare;
 pub mod raster;
 pub mod render;
 pub mod resample;

@@ -41,7 +41,8 @@ pub use crate::build::{BuildOptions, BuildReport};
 pub use crate::colour::ColourSpace;
 pub use crate::error::{Error, Result};
 pub use crate::jobs::{
-    build_panorama, build_panorama_with_progress, BuildSettings, BuildSummary, RenderMethod, Renderer, View,
+    build_panorama, build_panorama_with_progress, prepare_depth_files, write_depth, BuildSettings,
+    BuildSummary, RenderMethod, Renderer, View,
 };
 pub use crate::layer::{LayerImage, Sample};
 pub use crate::layer_io::ReadLimits;
@@ -49,6 +50,7 @@ pub use crate::manifest::Manifest;
 pub use crate::mapping::{layout::CubeLayout, AnyMapping, MappingKind};
 pub use crate::mesh::{mesh_layer, MeshParams};
 pub use crate::panorama::{write_panorama, Panorama, SaveOptions};
+pub use crate::prepare::{DepthKind, PrepareReport, PrepareSettings, PreparedDepth, Refine, UnknownDepth};
 pub use crate::render::{Camera, EquirectCamera, Frame, Perspective};
 pub use crate::resample::{convert_layer, Canvas, Filter, SampleOptions};
 pub use crate::validate::{validate, Report, Severity, ValidateOptions};

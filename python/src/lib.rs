@@ -25,6 +25,7 @@ use pomc::manifest::Manifest;
 use pomc::mesh::normals::NormalWeighting;
 use pomc::mesh::{MeshParams, MeshSettings};
 use pomc::panorama::{Panorama, SaveOptions};
+use pomc::prepare::{Refine, UnknownDepth};
 use pomc::render::{Camera, Perspective};
 
 create_exception!(_pomc, PomcError, PyException, "A pomc failure; `.code` is its stable code.");
@@ -454,7 +455,34 @@ fn settings(o: &Bound<'_, PyDict>) -> PyResult<BuildSettings> {
         s.depth.invalid = Some(v.extract()?);
     }
     if let Some(v) = get("depth_kind")? {
-        s.depth.kind = if v.extract::<String>()? == "z" { DepthKind::Z } else { DepthKind::Ray };
+        s.depth.kind = match v.extract::<String>()?.as_str() {
+            "ray" => DepthKind::Ray,
+            "z" => DepthKind::Z,
+            "inverse" => DepthKind::Inverse,
+            "nearness" => DepthKind::Nearness,
+            other => return Err(usage(format!("depth_kind `{other}`: use ray, z, inverse or nearness"))),
+        };
+    }
+    if let Some(v) = get("depth_range")? {
+        s.depth.range = Some(v.extract()?);
+    }
+    if let Some(v) = get("camera_height")? {
+        s.depth.camera_height = Some(v.extract()?);
+    }
+    if let Some(v) = get("refine")? {
+        s.prepare.refine = match v.extract::<String>()?.as_str() {
+            "auto" => Refine::Auto,
+            "on" => Refine::On,
+            "off" => Refine::Off,
+            other => return Err(usage(format!("refine `{other}`: use auto, on or off"))),
+        };
+    }
+    if let Some(v) = get("unknown_depth")? {
+        s.prepare.unknown = match v.extract::<String>()?.as_str() {
+            "complete" => UnknownDepth::Complete,
+            "sky" => UnknownDepth::Sky,
+            other => return Err(usage(format!("unknown_depth `{other}`: use complete or sky"))),
+        };
     }
     if let Some(v) = get("jump")? {
         s.options.segment.edges.jump = v.extract()?;

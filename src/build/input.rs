@@ -11,72 +11,10 @@ use super::RgbdInput;
 use crate::colour::{srgb_to_linear, ColourSpace};
 use crate::layer_io::{self, ReadLimits};
 use crate::manifest::Transform;
-use crate::mapping::{AnyMapping, Mapping, MappingKind};
+use crate::mapping::{AnyMapping, MappingKind};
+use crate::prepare::{self, DepthSamples, PrepareError, PrepareReport, PrepareSettings, SampleFormat};
 
-/// How depth values are stored.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DepthEncoding {
-    /// Metres per stored unit; `None`: float EXR depth is in metres, and integer (PNG) depth is
-    /// refused, as its unit cannot be guessed.
-    pub scale: Option<f64>,
-    /// Stored value meaning "no depth" (besides 0, NaN and negatives, which always do).
-    pub invalid: Option<f64>,
-    /// Distance along the ray, or planar z-depth (cube faces: along the face axis).
-    pub kind: DepthKind,
-}
-
-impl Default for DepthEncoding {
-    fn default() -> Self {
-        DepthEncoding { scale: None, invalid: None, kind: DepthKind::Ray }
-    }
-}
-
-/// Ray distance or planar depth.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum DepthKind {
-    /// Euclidean distance from the centre along the pixel's ray (the default).
-    Ray,
-    /// Planar depth along a cube face's axis; converted to ray distance (cube maps only).
-    Z,
-}
-
-/// Dataset presets (each documented in spec/07-build.md with its source).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum Preset {
-    /// Matterport3D: uint16 PNG, metres = value / 4000, 0 invalid.
-    #[cfg_attr(feature = "clap", value(help = "uint16 PNG, metres = value / 4000, 0 invalid"))]
-    Matterport3d,
-    /// Stanford 2D-3D-S equirect panoramas: uint16 PNG, value / 512, 65535 invalid, Euclidean.
-    #[cfg_attr(feature = "clap", value(help = "uint16 PNG, value / 512, 65535 invalid, Euclidean"))]
-    Stanford2d3ds,
-    /// Structured3D: uint16 PNG in millimetres, 0 invalid.
-    #[cfg_attr(feature = "clap", value(help = "uint16 PNG in millimetres, 0 invalid"))]
-    Structured3d,
-    /// Pano3D / 3D60: float EXR in metres.
-    #[cfg_attr(feature = "clap", value(help = "float EXR in metres"))]
-    Pano3d,
-}
-
-impl Preset {
-    /// The preset's depth scale, invalid value and kind (all ray distance).
-    pub fn encoding(self) -> DepthEncoding {
-        let ray = DepthKind::Ray;
-        match self {
-            Preset::Matterport3d => {
-                DepthEncoding { scale: Some(1.0 / 4000.0), invalid: Some(0.0), kind: ray }
-            }
-            Preset::Stanford2d3ds => {
-                DepthEncoding { scale: Some(1.0 / 512.0), invalid: Some(65535.0), kind: ray }
-            }
-            Preset::Structured3d => {
-                DepthEncoding { scale: Some(1.0 / 1000.0), invalid: Some(0.0), kind: ray }
-            }
-            Preset::Pano3d => DepthEncoding { scale: Some(1.0), invalid: None, kind: ray },
-        }
-    }
-}
+pub use crate::prepare::{DepthEncoding, DepthKind, Preset};
 
 /// Azimuth conventions of the tools panoramas come from, as the LocalToWorld operations that
 /// map our (the thesis's) local frame onto theirs. Pixels are never resampled.
@@ -177,22 +115,6 @@ pub enum InputError {
         /// Depth (or normals) height, pixels.
         dh: usize,
     },
-    /// [`DepthKind::Z`] was asked for an equirect input; `INPUT_Z_DEPTH_EQUIRECT`.
-    #[error("{path}: z-depth needs a cube-map input (an equirect has no image plane); use --depth-kind ray")]
-    ZDepthOnEquirect {
-        /// The depth file (or `<array>`).
-        path: PathBuf,
-    },
-    /// Integer (PNG) depth was given without [`DepthEncoding::scale`]; `INPUT_DEPTH_SCALE_NEEDED`.
-    #[error(
-        "{path}: integer depth has no unit; give --depth-scale (metres per stored unit, e.g. 0.001 for \
-         millimetres) or a dataset --preset (matterport3d, stanford2d3ds, structured3d), or store float \
-         metres in an OpenEXR"
-    )]
-    DepthScaleNeeded {
-        /// The depth file.
-        path: PathBuf,
-    },
 }
 
 impl InputError {
@@ -205,8 +127,6 @@ impl InputError {
             InputError::NoDepthChannel { .. } => "INPUT_NO_DEPTH",
             InputError::NotAPanorama { .. } => "INPUT_NOT_PANORAMA",
             InputError::SizeMismatch { .. } => "INPUT_SIZE_MISMATCH",
-            InputError::ZDepthOnEquirect { .. } => "INPUT_Z_DEPTH_EQUIRECT",
-            InputError::DepthScaleNeeded { .. } => "INPUT_DEPTH_SCALE_NEEDED",
         }
     }
 }
@@ -346,44 +266,49 @@ pub fn read_colour(
     Ok((w, h, [plane(0), plane(1), plane(2)]))
 }
 
-/// Depth in metres along the stored convention (before z → ray conversion): unknown = NaN.
-pub fn read_depth(
-    path: &Path,
-    enc: &DepthEncoding,
-    limits: &ReadLimits,
-) -> Result<(usize, usize, Vec<f32>), InputError> {
-    let (w, h, raw, scale) = if is_exr(path) {
+/// Depth samples as stored, before any unit or kind is applied ([`crate::prepare`] does that):
+/// float EXR (channel `Z`, `Y`, `R`, `depth`, `D` or the only one), or an 8/16-bit image.
+pub fn read_depth_samples(path: &Path, limits: &ReadLimits) -> Result<DepthSamples, InputError> {
+    if is_exr(path) {
         let layer = layer_io::read_exr(path, limits)?;
-        let ch = ["Z", "Y", "R", "depth", "D"]
-            .iter()
-            .find_map(|n| layer.channel(n))
+        let named = ["Z", "Y", "depth", "D"].iter().find_map(|n| layer.channel(n));
+        let ch = named
+            .or_else(|| layer.channel("R"))
             .or_else(|| (layer.channels.len() == 1).then(|| &layer.channels[0]))
             .ok_or_else(|| InputError::NoDepthChannel { path: path.to_path_buf() })?;
-        (layer.width, layer.height, ch.data.clone(), enc.scale.unwrap_or(1.0))
-    } else {
-        // Integer depth has a dataset-specific unit: read without one it builds silently into
-        // garbage (millimetres taken for metres put everything beyond d_dirmin).
-        let scale = enc.scale.ok_or_else(|| InputError::DepthScaleNeeded { path: path.to_path_buf() })?;
-        let img = open_image(path, limits)?.to_luma16();
-        let (w, h) = (img.width() as usize, img.height() as usize);
-        (w, h, img.into_raw().into_iter().map(f32::from).collect(), scale)
+        // R, G and B that differ, with no depth channel named: a colour image.
+        let colour_channels = named.is_none()
+            && match (layer.channel("R"), layer.channel("G"), layer.channel("B")) {
+                (Some(r), Some(g), Some(b)) => differ(&r.data, &g.data, &b.data, 1e-3),
+                _ => false,
+            };
+        return Ok(DepthSamples {
+            width: layer.width,
+            height: layer.height,
+            values: ch.data.clone(),
+            format: SampleFormat::F32,
+            colour_channels,
+        });
+    }
+    let img = open_image(path, limits)?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let colour_channels = img.color().has_color() && {
+        let rgb = img.to_rgb32f();
+        let plane = |c: usize| rgb.as_raw().iter().skip(c).step_by(3).copied().collect::<Vec<f32>>();
+        differ(&plane(0), &plane(1), &plane(2), 2.5 / 255.0)
     };
-    Ok((w, h, depth_from_raw(raw, scale, enc.invalid)))
+    let (values, format) = match img.color().bits_per_pixel() / u16::from(img.color().channel_count()) {
+        8 => (img.to_luma8().into_raw().into_iter().map(f32::from).collect(), SampleFormat::U8),
+        16 => (img.to_luma16().into_raw().into_iter().map(f32::from).collect(), SampleFormat::U16),
+        _ => (img.to_luma32f().into_raw(), SampleFormat::F32),
+    };
+    Ok(DepthSamples { width: w, height: h, values, format, colour_channels })
 }
 
-/// Stored depth values to metres along the ray: `scale` metres per unit; NaN, zero, negative and
-/// `invalid` values become unknown (NaN); `+inf` stays infinitely far.
-pub fn depth_from_raw(raw: Vec<f32>, scale: f64, invalid: Option<f64>) -> Vec<f32> {
-    raw.into_iter()
-        .map(|v| {
-            let unknown = v.is_nan() || v <= 0.0 || invalid.is_some_and(|i| v as f64 == i);
-            if unknown {
-                f32::NAN
-            } else {
-                (v as f64 * scale) as f32
-            }
-        })
-        .collect()
+/// Whether more than 1 % of the pixels have channels apart by more than `tol`.
+fn differ(r: &[f32], g: &[f32], b: &[f32], tol: f32) -> bool {
+    let apart = (0..r.len()).filter(|&i| (r[i] - g[i]).abs() > tol || (g[i] - b[i]).abs() > tol).count();
+    apart * 100 > r.len()
 }
 
 /// Interleaved RGB samples of an image in memory, row-major.
@@ -419,53 +344,66 @@ pub fn colour_planes(samples: ColourSamples, space: ColourSpace) -> [Vec<f32>; 3
     rgb
 }
 
-/// Planar z-depth on a cube map to distance along the ray: `ray = z / max(|x|,|y|,|z|)` of the
-/// unit direction (the face axis component).
-pub fn z_to_ray(m: &AnyMapping, depth: &mut [f32]) {
-    for (p, d) in depth.iter_mut().enumerate() {
-        let dir = m.pixel_dir(p % m.width(), p / m.width());
-        let axis = dir.x.abs().max(dir.y.abs()).max(dir.z.abs());
-        *d = (*d as f64 / axis) as f32;
+/// Colour, stored depth samples and normals as read, before the depth is prepared.
+#[derive(Clone, Debug)]
+pub struct RgbdFiles {
+    /// The colour canvas's mapping.
+    pub mapping: AnyMapping,
+    /// Linear RGB, planar.
+    pub rgb: [Vec<f32>; 3],
+    /// The depth file's samples (any resolution).
+    pub depth: DepthSamples,
+    /// Unit normals, if given.
+    pub normals: Option<Vec<Vec3>>,
+}
+
+impl RgbdFiles {
+    /// Prepare the depth ([`prepare::prepare_depth`]; `depth` names the file in messages) into the
+    /// build's input.
+    pub fn prepare(
+        self,
+        depth: &Path,
+        enc: &DepthEncoding,
+        s: &PrepareSettings,
+    ) -> Result<(RgbdInput, PrepareReport), PrepareError> {
+        let prepared = prepare::prepare_depth(depth, &self.mapping, &self.rgb, &self.depth, enc, s)?;
+        let input =
+            RgbdInput { mapping: self.mapping, rgb: self.rgb, depth: prepared.depth, normals: self.normals };
+        Ok((input, prepared.report))
     }
 }
 
-/// Colour and depth must have one size.
-fn same_size(
+/// Read colour, depth samples (+ optional normals EXR); the depth may have any resolution.
+pub fn read(
     colour: &Path,
-    (cw, ch): (usize, usize),
+    space: ColourSpace,
     depth: &Path,
-    (dw, dh): (usize, usize),
-) -> Result<(), InputError> {
-    if (cw, ch) == (dw, dh) {
-        return Ok(());
-    }
-    Err(InputError::SizeMismatch { colour: colour.to_path_buf(), cw, ch, depth: depth.to_path_buf(), dw, dh })
+    normals: Option<&Path>,
+    limits: &ReadLimits,
+) -> Result<RgbdFiles, InputError> {
+    // Sizes from the headers first: a small file declaring a huge canvas, or a colour canvas that
+    // is no panorama, are refused before either is decoded (4 planes: colour and depth).
+    let (cw, ch) = header_size(colour, 4, limits)?;
+    mapping_for(colour, cw, ch)?;
+    header_size(depth, 4, limits)?;
+    let (cw, ch, rgb) = read_colour(colour, space, limits)?;
+    let mapping = mapping_for(colour, cw, ch)?;
+    let samples = read_depth_samples(depth, limits)?;
+    let normals = normals.map(|p| read_normals(p, colour, cw, ch, limits)).transpose()?;
+    Ok(RgbdFiles { mapping, rgb, depth: samples, normals })
 }
 
-/// Load colour + depth (+ optional normals EXR) into an [`RgbdInput`].
+/// Read and prepare colour + depth (+ optional normals EXR) into an [`RgbdInput`].
 pub fn load(
     colour: &Path,
     space: ColourSpace,
     depth: &Path,
     normals: Option<&Path>,
     enc: &DepthEncoding,
+    prep: &PrepareSettings,
     limits: &ReadLimits,
-) -> Result<RgbdInput, InputError> {
-    // Sizes from the headers first: a small file declaring a huge canvas, or two files of different
-    // sizes, are refused before either is decoded (4 planes: colour and depth).
-    same_size(colour, header_size(colour, 4, limits)?, depth, header_size(depth, 4, limits)?)?;
-    let (cw, ch, rgb) = read_colour(colour, space, limits)?;
-    let (dw, dh, mut d) = read_depth(depth, enc, limits)?;
-    same_size(colour, (cw, ch), depth, (dw, dh))?;
-    let mapping = mapping_for(colour, cw, ch)?;
-    if enc.kind == DepthKind::Z {
-        if mapping.kind() == MappingKind::Equirect {
-            return Err(InputError::ZDepthOnEquirect { path: depth.to_path_buf() });
-        }
-        z_to_ray(&mapping, &mut d);
-    }
-    let normals = normals.map(|p| read_normals(p, colour, cw, ch, limits)).transpose()?;
-    Ok(RgbdInput { mapping, rgb, depth: d, normals })
+) -> crate::Result<(RgbdInput, PrepareReport)> {
+    Ok(read(colour, space, depth, normals, limits)?.prepare(depth, enc, prep)?)
 }
 
 /// The normals image `path` (`N.X N.Y N.Z`, or `R G B`) of a `cw` × `ch` colour image `colour`.
@@ -524,21 +462,26 @@ mod tests {
         assert!(err.to_string().contains("truncated"), "{err}");
     }
 
-    /// 16-bit PNG depth without a unit is refused with the fix; with one it is read in metres.
+    /// 16-bit PNG depth is read as stored (its unit is applied by the preparation), 8-bit as
+    /// 8-bit, and a colour image is flagged.
     #[test]
-    fn integer_depth_needs_a_unit() {
-        let path = std::env::temp_dir().join(format!("pomc-depth16-{}.png", std::process::id()));
-        let img =
-            image::ImageBuffer::<image::Luma<u16>, _>::from_fn(8, 4, |x, _| image::Luma([1000 + x as u16]));
-        img.save(&path).unwrap();
+    fn depth_samples_keep_their_format() {
+        let dir = tempfile::tempdir().unwrap();
         let limits = ReadLimits::default();
-        let err = read_depth(&path, &DepthEncoding::default(), &limits).unwrap_err();
-        assert_eq!(err.code(), "INPUT_DEPTH_SCALE_NEEDED");
-        assert!(err.to_string().contains("--depth-scale") && err.to_string().contains("--preset"), "{err}");
-        let mm = DepthEncoding { scale: Some(0.001), ..DepthEncoding::default() };
-        let (w, h, d) = read_depth(&path, &mm, &limits).unwrap();
-        assert_eq!((w, h), (8, 4));
-        assert_eq!(d[3], 1.003);
-        std::fs::remove_file(&path).ok();
+        let path = dir.path().join("d16.png");
+        image::ImageBuffer::<image::Luma<u16>, _>::from_fn(8, 4, |x, _| image::Luma([1000 + x as u16]))
+            .save(&path)
+            .unwrap();
+        let s = read_depth_samples(&path, &limits).unwrap();
+        assert_eq!((s.width, s.height, s.format, s.colour_channels), (8, 4, SampleFormat::U16, false));
+        assert_eq!(s.values[3], 1003.0);
+        let path = dir.path().join("d8.png");
+        image::GrayImage::from_fn(8, 4, |x, _| image::Luma([x as u8])).save(&path).unwrap();
+        assert_eq!(read_depth_samples(&path, &limits).unwrap().format, SampleFormat::U8);
+        let path = dir.path().join("rgb.png");
+        image::RgbImage::from_fn(8, 4, |x, y| image::Rgb([(x * 30) as u8, (y * 60) as u8, 7]))
+            .save(&path)
+            .unwrap();
+        assert!(read_depth_samples(&path, &limits).unwrap().colour_channels);
     }
 }

@@ -16,6 +16,7 @@ mod mesh_figures;
 mod mesh_robust;
 mod mesh_room;
 mod pack_roundtrip;
+mod prepare_depth;
 mod render_mesh;
 mod render_room;
 mod validate_codes;

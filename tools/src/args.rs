@@ -16,6 +16,19 @@ pub fn parse_vec3(s: &str) -> Result<DVec3, String> {
     }
 }
 
+/// `NEAR,FAR` distances (m): two finite numbers with `0 < NEAR < FAR`.
+pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected two distances NEAR,FAR in metres, got `{s}`"))?;
+    match v.as_slice() {
+        [near, far] if *near > 0.0 && far > near && far.is_finite() => Ok((*near, *far)),
+        _ => Err(format!("expected NEAR,FAR in metres with 0 < NEAR < FAR, got `{s}`")),
+    }
+}
+
 /// The domain of a number option: `lo < x` (or `lo <= x` when `lo_closed`), `x < hi` (or `<=`).
 /// NaN and infinities are never in a domain.
 #[derive(Clone, Copy, Debug)]

@@ -10,29 +10,26 @@ use pomc::colour::ColourSpace;
 use pomc::jobs::{self, BuildSettings};
 use pomc::layer_io::ReadLimits;
 use pomc::panorama::SaveOptions;
+use pomc::prepare::{PrepareSettings, Refine, UnknownDepth};
 
-use crate::args::{parse_vec3, Range};
+use crate::args::{parse_range, parse_vec3, Range};
 use crate::output::Output;
 use crate::Failure;
 
+/// The colour and depth inputs and how the depth is read and prepared (`build` and `prepare`).
 #[derive(clap::Args, Debug)]
-pub struct Args {
+pub struct InputArgs {
     /// Colour panorama (PNG, JPEG, EXR, HDR), equirect 2:1 or 3×2 cube map.
     #[arg(long)]
-    colour: PathBuf,
+    pub colour: PathBuf,
     /// Encoding of an 8/16-bit colour image: auto (sRGB for PNG/JPEG, linear for EXR/HDR), srgb or
     /// linear. Layers are linear; sRGB is decoded on read.
     #[arg(long, value_enum, default_value = "auto")]
     colour_space: ColourSpace,
-    /// Depth panorama: float EXR (channel Z, or any single channel) or 16-bit PNG.
+    /// Depth panorama: float EXR (channel Z, or any single channel), 16-bit PNG, or with a relative
+    /// --depth-kind an 8/16-bit PNG or JPEG; any resolution (upsampled onto the colour's grid).
     #[arg(long)]
-    depth: PathBuf,
-    /// Normals EXR (N.X,N.Y,N.Z or R,G,B, panorama frame); estimated from depth when absent.
-    #[arg(long)]
-    normals_in: Option<PathBuf>,
-    /// Output panorama directory.
-    #[arg(short, long)]
-    output: PathBuf,
+    pub depth: PathBuf,
     /// Dataset preset for the depth encoding.
     #[arg(long, value_enum)]
     preset: Option<Preset>,
@@ -42,9 +39,62 @@ pub struct Args {
     /// Stored depth value meaning "unknown" (0, NaN and negatives always are).
     #[arg(long, value_parser = Range::FINITE.parser())]
     depth_invalid: Option<f64>,
-    /// Depth is distance along the ray (ray) or planar depth per cube face (z).
+    /// What the depth values are: metric (ray, z) or relative (inverse, nearness: give
+    /// --camera-height or --depth-range).
     #[arg(long, value_enum, default_value = "ray")]
     depth_kind: DepthKind,
+    /// Nearest and farthest distance (m) of relative depth: NEAR,FAR.
+    #[arg(long, value_name = "NEAR,FAR", value_parser = parse_range, allow_hyphen_values = true)]
+    depth_range: Option<(f64, f64)>,
+    /// Camera height above a level floor (m): relative depth is made metric by fitting the floor.
+    #[arg(long, value_name = "H", value_parser = Range::POSITIVE.parser())]
+    camera_height: Option<f64>,
+    /// Snap soft depth edges onto colour edges and smooth depth noise: auto (when measured soft,
+    /// noisy, resized or completed), on, off.
+    #[arg(long, value_enum, default_value = "auto")]
+    refine: Refine,
+    /// What unknown depth means: complete (a surface, completed from around it) or sky (nothing there).
+    #[arg(long, value_enum, default_value = "complete")]
+    unknown_depth: UnknownDepth,
+    /// Largest input accepted, in pixels (width × height), checked from the file headers before
+    /// decoding; the default, 268435456 (2^28), takes a 16384 × 8192 equirect.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1 << 34))]
+    max_pixels: Option<u64>,
+}
+
+impl InputArgs {
+    /// The library settings these arguments stand for (the rest default).
+    pub fn settings(&self) -> BuildSettings {
+        let mut enc = self.preset.map(Preset::encoding).unwrap_or_default();
+        if let Some(s) = self.depth_scale {
+            enc.scale = Some(s);
+        }
+        if let Some(i) = self.depth_invalid {
+            enc.invalid = Some(i);
+        }
+        enc.kind = self.depth_kind;
+        enc.range = self.depth_range;
+        enc.camera_height = self.camera_height;
+        BuildSettings {
+            colour_space: self.colour_space,
+            depth: enc,
+            prepare: PrepareSettings { refine: self.refine, unknown: self.unknown_depth },
+            limits: self.max_pixels.map(ReadLimits::with_max_pixels).unwrap_or_default(),
+            ..BuildSettings::default()
+        }
+    }
+}
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(flatten)]
+    input: InputArgs,
+    /// Normals EXR (N.X,N.Y,N.Z or R,G,B, panorama frame); estimated from depth when absent.
+    #[arg(long)]
+    normals_in: Option<PathBuf>,
+    /// Output panorama directory.
+    #[arg(short, long)]
+    output: PathBuf,
     /// Azimuth convention of the input, recorded in the manifest's LocalToWorld.
     #[arg(long, value_enum, default_value = "thesis")]
     convention: Convention,
@@ -93,10 +143,6 @@ pub struct Args {
     /// Store every layer as a full canvas (no patch packing).
     #[arg(long)]
     no_pack: bool,
-    /// Largest input accepted, in pixels (width × height), checked from the file headers before
-    /// decoding; the default, 268435456 (2^28), takes a 16384 × 8192 equirect.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1 << 34))]
-    max_pixels: Option<u64>,
     /// Also write the JSON report to this file.
     #[arg(long)]
     report: Option<PathBuf>,
@@ -123,37 +169,36 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         check_report_path(p)?;
     }
     let start = Instant::now();
-    let mut enc = args.preset.map(Preset::encoding).unwrap_or_default();
-    if let Some(s) = args.depth_scale {
-        enc.scale = Some(s);
-    }
-    if let Some(i) = args.depth_invalid {
-        enc.invalid = Some(i);
-    }
-    enc.kind = args.depth_kind;
     let settings = BuildSettings {
-        colour_space: args.colour_space,
-        depth: enc,
         normals_in: args.normals_in.clone(),
         convention: args.convention,
         center: args.center,
         options: build_options(&args),
         save: SaveOptions { pack: !args.no_pack, ..SaveOptions::default() },
-        limits: args.max_pixels.map(ReadLimits::with_max_pixels).unwrap_or_default(),
+        ..args.input.settings()
     };
-    // Reading, the build's stages (`fill colour` unless nearest), writing: a bar with an ETA.
-    let stages = 9 - (args.fill_colour == FillColour::Nearest) as u64;
+    // Reading, preparing, the build's stages (`fill colour` unless nearest), writing: a bar with an ETA.
+    let stages = 10 - (args.fill_colour == FillColour::Nearest) as u64;
     let bar = out.progress(stages, "reading");
     let progress = |stage: &str| {
         bar.set_message(stage.to_string());
         bar.inc(1);
     };
-    let built =
-        jobs::build_panorama_with_progress(&args.colour, &args.depth, &args.output, &settings, &progress)?;
+    let built = jobs::build_panorama_with_progress(
+        &args.input.colour,
+        &args.input.depth,
+        &args.output,
+        &settings,
+        &progress,
+    )?;
     bar.finish_and_clear();
+    for w in &built.prepare.warnings {
+        out.warn(w.code, &w.message);
+    }
 
     let mut report = serde_json::to_value(&built.report).expect("report serialises");
     report["output"] = serde_json::json!(args.output);
+    report["prepare"] = serde_json::to_value(&built.prepare).expect("report serialises");
     report["read_s"] = serde_json::json!(built.read_s);
     report["write_s"] = serde_json::json!(built.write_s);
     report["total_s"] = serde_json::json!(start.elapsed().as_secs_f64());

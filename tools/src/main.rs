@@ -11,6 +11,7 @@ mod cmd_convert;
 mod cmd_info;
 mod cmd_mesh;
 mod cmd_pack;
+mod cmd_prepare;
 mod cmd_render;
 mod cmd_validate;
 mod cmd_view;
@@ -49,6 +50,9 @@ enum Command {
     Convert(cmd_convert::Args),
     /// Build a layered POMC from a plain RGB-D panorama (colour + depth).
     Build(cmd_build::Args),
+    /// Prepare a depth panorama as `build` does (kinds, resolution, holes, noise, soft edges) and
+    /// write it as a float EXR on the colour's grid, to inspect.
+    Prepare(cmd_prepare::Args),
     /// Patch-pack the sparse layers of a panorama (atlas + patch table).
     Pack(cmd_pack::PackArgs),
     /// Restore full canvases of packed layers.
@@ -108,6 +112,7 @@ fn main() -> ExitCode {
         Command::Info(a) => cmd_info::run(a, out),
         Command::Convert(a) => cmd_convert::run(a, out),
         Command::Build(a) => cmd_build::run(a, out),
+        Command::Prepare(a) => cmd_prepare::run(a, out),
         Command::Pack(a) => cmd_pack::run_pack(a, out),
         Command::Unpack(a) => cmd_pack::run_unpack(a, out),
         Command::Mesh(a) => cmd_mesh::run(a, out),

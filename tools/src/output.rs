@@ -64,6 +64,14 @@ impl Output {
         }
     }
 
+    /// Print a warning to stderr (`warning[CODE]: message`) unless quiet; with `--json` it is in
+    /// the report instead.
+    pub fn warn(&self, code: &str, message: &str) {
+        if !self.quiet && !self.json {
+            eprintln!("warning[{code}]: {message}");
+        }
+    }
+
     /// Print a JSON value (pretty) to stdout when `--json` is set.
     pub fn json(&self, value: &serde_json::Value) {
         if self.json {

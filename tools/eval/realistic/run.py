@@ -29,7 +29,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.abspath(os.path.join(HERE, "..", "..", ".."))
 TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
 VENV = os.path.join(TARGET, "bpy-venv")
-PYDEPS = ["bpy==5.0.1", "numpy<2", "OpenEXR==3.5.3"]
+PYDEPS = ["bpy==5.0.1", "numpy<2", "OpenEXR==3.5.3", "Pillow==11.3.0"]
 RADIUS = 0.9
 
 
@@ -44,7 +44,7 @@ def has(py, mods):
 def bpy_python():
     """A Python with bpy, numpy and OpenEXR: $BPY_PYTHON, this one, or a venv under the target dir."""
     for py in (os.environ.get("BPY_PYTHON"), sys.executable, os.path.join(VENV, "bin", "python")):
-        if py and os.path.exists(py) and has(py, "bpy, numpy, OpenEXR"):
+        if py and os.path.exists(py) and has(py, "bpy, numpy, OpenEXR, PIL"):
             return py
     base = shutil.which("python3.11") or "python3"  # the bpy 5.0 wheels are for CPython 3.11
     log(f"creating {VENV} ({base}) with {' '.join(PYDEPS)}")
@@ -227,26 +227,117 @@ def upsample2(img):
     return np.where(np.isfinite(a) & np.isfinite(b) & np.isfinite(c) & np.isfinite(d), out, near)
 
 
-def degrade(src, work, kind):
-    """The scene's input as many users have it: `upsample2` (colour and depth resized ×2, soft depth
-    edges), `blurN` (depth blurred with σ = N px, as from a depth network; colour sharp). Returns the
-    colour and depth paths."""
+CAMERA_HEIGHT = {"room": 1.4, "outdoor": 1.6, "extreme": 1.6}  # the floor below the camera, m (scenes.py)
+DEGRADES = ("upsample2", "blurN", "low2", "low4", "low8", "mono", "relinv", "scanner", "lidar", "nearness8")
+
+
+def inverse(depth):
+    with np.errstate(divide="ignore"):
+        return np.where(np.isfinite(depth) & (depth > 0), 1.0 / depth, 0.0)
+
+
+def block_down(inv, f):
+    """Block mean of inverse depth over f x f pixels: what a lower-resolution sensor or network sees."""
+    h, w = inv.shape
+    return inv[: h // f * f, : w // f * f].reshape(h // f, f, w // f, f).mean(axis=(1, 3))
+
+
+def from_inverse(inv):
+    with np.errstate(divide="ignore"):
+        return np.where(inv > 1e-9, 1.0 / np.maximum(inv, 1e-9), np.inf)
+
+
+def drift(shape, amount, seed):
+    """A smooth multiplicative error field in [1 - amount, 1 + amount] (scale drift over the sphere)."""
+    h, w = shape
+    rng = np.random.default_rng(seed)
+    phi = (np.arange(w) + 0.5) / w * 2 * np.pi
+    th = (np.arange(h) + 0.5) / h * np.pi
+    field = np.zeros(shape)
+    for k in range(3):
+        a, b, c = rng.uniform(0, 2 * np.pi, 3)
+        field += np.sin((k + 1) * phi[None, :] + a) * np.sin((k + 1) * th[:, None] + b) + 0.5 * np.cos(th[:, None] * (k + 1) + c)
+    return 1 + amount * field / np.abs(field).max()
+
+
+def mono_inverse(depth):
+    """Inverse depth as a monocular network gives it: at 1/4 resolution, smoothed."""
+    return gaussian(block_down(inverse(depth), 4), 1.5)
+
+
+def edge_shadows(depth, width):
+    """Pixels on the far side of a depth step (> 8 %) within `width` pixels: a scanner's shadows."""
+    out = np.zeros(depth.shape, bool)
+    fin = np.where(np.isfinite(depth), depth, 1e9)
+    for axis in (0, 1):
+        for sgn in (1, -1):
+            nb = np.roll(fin, sgn, axis=axis)
+            far = fin > 1.08 * nb
+            m = far.copy()
+            for k in range(1, width):
+                m |= np.roll(far, sgn * k, axis=axis)
+            out |= m
+    return out
+
+
+def write_png(path, values, bits):
+    from PIL import Image
+    if bits == 8:
+        Image.fromarray(values.astype(np.uint8), "L").save(path, quality=90)
+    else:
+        Image.fromarray(values.astype(np.uint16)).save(path)
+
+
+def degrade(src, work, kind, scene):
+    """The scene's input as users have it (colour exact unless resized); see DEGRADES and
+    docs/evaluation.md. Returns the colour and depth paths and the `pomc build` options they need."""
     colour, depth = read_channels(os.path.join(src, "colour.exr")), read_channels(os.path.join(src, "depth.exr"))
+    z = depth["Z"]
+    rng = np.random.default_rng(31)
+    args, out_depth = [], None
+    os.makedirs(work, exist_ok=True)
     if kind == "upsample2":
         colour = {k: upsample2(v) for k, v in colour.items()}
         depth = {k: upsample2(v) for k, v in depth.items()}
     elif kind.startswith("blur"):
         depth = {k: gaussian(v, float(kind[4:])) for k, v in depth.items()}
+    elif kind.startswith("low"):
+        depth = {"Z": from_inverse(block_down(inverse(z), int(kind[3:])))}
+    elif kind == "mono":
+        inv = mono_inverse(z)
+        depth = {"Z": from_inverse(inv) * drift(inv.shape, 0.03, 7)}
+    elif kind == "relinv":
+        out_depth = {"Z": 7.3 * mono_inverse(z) + 0.21}
+        args = ["--depth-kind", "inverse", "--camera-height", str(CAMERA_HEIGHT[scene])]
+    elif kind in ("scanner", "lidar"):
+        d = np.where(np.isfinite(z), z + rng.normal(0, 1, z.shape) * 0.0015 * z ** 2, 0)
+        bad = edge_shadows(z, 3) | (rng.random(z.shape) < 0.01) | (d > 65.0)
+        if kind == "lidar":
+            rows = np.arange(z.shape[0]) % 10
+            bad |= ~np.isin(rows, (0, 3, 6))[:, None]
+        mm = np.where(bad, 0, np.round(d * 1000))
+        path = os.path.join(work, f"input-{kind}-depth.png")
+        write_png(path, mm, 16)
+        args = ["--depth-scale", "0.001", "--unknown-depth", "sky"]
+        return os.path.join(src, "colour.exr"), path, args
+    elif kind == "nearness8":
+        fin = z[np.isfinite(z)]
+        near, far = float(np.percentile(fin, 1)), float(np.percentile(fin, 99))
+        small = from_inverse(block_down(inverse(z), 4))
+        v = np.clip((far - np.where(np.isfinite(small), small, far)) / (far - near), 0, 1)
+        path = os.path.join(work, f"input-{kind}-depth.jpg")
+        write_png(path, np.round(255 * v), 8)
+        args = ["--depth-kind", "nearness", f"--depth-range={near:.3f},{far:.3f}"]
+        return os.path.join(src, "colour.exr"), path, args
     else:
-        sys.exit(f"unknown --degrade {kind} (upsample2, blurN)")
-    os.makedirs(work, exist_ok=True)
+        sys.exit(f"unknown --degrade {kind} ({', '.join(DEGRADES)})")
     paths = []
-    for name, ch in (("colour", colour), ("depth", depth)):
+    for name, ch in (("colour", colour), ("depth", out_depth or depth)):
         path = os.path.join(work, f"input-{kind}-{name}.exr")
         OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
                      {k: np.ascontiguousarray(v, np.float32) for k, v in ch.items()}).write(path)
         paths.append(path)
-    return paths
+    return paths[0], paths[1], args
 
 
 def build(pomc, colour, depth, out, extra=()):
@@ -256,7 +347,7 @@ def build(pomc, colour, depth, out, extra=()):
     rep = json.loads(p.stdout)
     layers = rep.get("layers")
     return dict(seconds=round(dt, 3), layers=len(layers) if isinstance(layers, list) else layers,
-                stages=rep.get("stages"))
+                stages=rep.get("stages"), prepare=rep.get("prepare"))
 
 
 def render(pomc, pano, out, cam, method):
@@ -280,7 +371,8 @@ def run_scene(name, src, work, pomc, fix, gltf, build_args=(), degraded=None):
     pano, ref = os.path.join(work, "pano"), os.path.join(work, "reference")
     colour, depth = os.path.join(src, "colour.exr"), os.path.join(src, "depth.exr")
     if degraded:
-        colour, depth = degrade(src, work, degraded)
+        colour, depth, extra = degrade(src, work, degraded, name)
+        build_args = [*extra, *build_args]
     res["build"] = build(pomc, colour, depth, pano, build_args)
     res["validate"] = validate(pomc, pano)
     res["fill"] = {} if degraded else fill_quality(pano, src)  # the layers are not at the truth's size
@@ -413,8 +505,8 @@ def main():
     ap.add_argument("--build-args", default="", help="extra `pomc build` options for the scene (not the reference), "
                     "e.g. '--fill-colour nearest'")
     ap.add_argument("--tag", default="", help="results go to a work subdirectory of this name (compare options)")
-    ap.add_argument("--degrade", default="", help="build from a degraded input: upsample2 (resized x2, soft depth "
-                    "edges) or blurN (depth blurred with sigma N px); the reference and the truth stay as they are")
+    ap.add_argument("--degrade", default="", help="build from a degraded input, one of " + ", ".join(DEGRADES) +
+                    " (docs/evaluation.md); the reference and the truth stay as they are")
     o = ap.parse_args()
     pomc, fix = binaries()
     py = bpy_python()

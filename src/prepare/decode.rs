@@ -1,0 +1,387 @@
+//! Stored depth values to metres along the ray: metric kinds (scale, invalid value), relative kinds
+//! (inverse depth with unknown scale and shift, 8/16-bit "nearness") made metric by a given range
+//! or by fitting the floor under a camera of known height, and the checks of what cannot be depth.
+
+use std::path::Path;
+
+use super::{DepthSamples, PrepareError, SampleFormat, Warning};
+use crate::mapping::{AnyMapping, Mapping};
+
+/// How depth values are stored.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthEncoding {
+    /// Metres per stored unit (`--depth-scale`); `None`: float EXR depth is in metres, and integer
+    /// (PNG) depth is refused, as its unit cannot be guessed. For [`DepthKind::Inverse`]: metres
+    /// times stored units (`depth = scale / value`, a disparity of known baseline and focal length).
+    pub scale: Option<f64>,
+    /// Stored value meaning "no depth" (besides NaN, and 0 and negatives for metric kinds).
+    pub invalid: Option<f64>,
+    /// What the stored values are.
+    pub kind: DepthKind,
+    /// Nearest and farthest distance (m) of a relative kind (`--depth-range NEAR,FAR`): the
+    /// largest stored value is `NEAR`, the smallest `FAR` (nearness: 1 and 0).
+    pub range: Option<(f64, f64)>,
+    /// Height of the camera above a level floor (m) (`--camera-height`): a relative kind is made
+    /// metric by fitting the floor seen below the horizon.
+    pub camera_height: Option<f64>,
+    /// The dataset preset these values came from, if any: a file of another sample format is refused.
+    pub preset: Option<Preset>,
+}
+
+impl Default for DepthEncoding {
+    fn default() -> Self {
+        DepthEncoding {
+            scale: None,
+            invalid: None,
+            kind: DepthKind::Ray,
+            range: None,
+            camera_height: None,
+            preset: None,
+        }
+    }
+}
+
+/// What stored depth values mean.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum DepthKind {
+    /// Euclidean distance from the centre along the pixel's ray (the default).
+    #[default]
+    #[cfg_attr(feature = "clap", value(help = "Distance along the ray (metres, or units × --depth-scale)"))]
+    Ray,
+    /// Planar depth along a cube face's axis; converted to ray distance (cube maps only).
+    #[cfg_attr(feature = "clap", value(help = "Planar depth along each cube face's axis (cube maps only)"))]
+    Z,
+    /// Inverse depth / disparity with unknown scale and shift, as monocular estimators give it
+    /// (MiDaS, Depth Anything): `1/depth = a·value + b`, larger = nearer.
+    #[cfg_attr(
+        feature = "clap",
+        value(
+            help = "Inverse depth / disparity, larger = nearer, unknown scale and shift (MiDaS, Depth Anything)"
+        )
+    )]
+    Inverse,
+    /// "Nearness" as in web viewers (three.js, krpano): brighter = nearer, 0 = far, linear in
+    /// distance between the range's ends; 8/16-bit values are taken as 0–1.
+    #[cfg_attr(
+        feature = "clap",
+        value(
+            help = "8/16-bit nearness map: brighter = nearer, 0 = far, linear in distance (three.js, krpano)"
+        )
+    )]
+    Nearness,
+}
+
+impl DepthKind {
+    /// Whether the stored values have no metric meaning of their own.
+    pub fn is_relative(self) -> bool {
+        matches!(self, DepthKind::Inverse | DepthKind::Nearness)
+    }
+
+    /// The name used on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            DepthKind::Ray => "ray",
+            DepthKind::Z => "z",
+            DepthKind::Inverse => "inverse",
+            DepthKind::Nearness => "nearness",
+        }
+    }
+}
+
+/// Dataset presets (each documented in spec/07-build.md with its source).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum Preset {
+    /// Matterport3D: uint16 PNG, metres = value / 4000, 0 invalid.
+    #[cfg_attr(feature = "clap", value(help = "uint16 PNG, metres = value / 4000, 0 invalid"))]
+    Matterport3d,
+    /// Stanford 2D-3D-S equirect panoramas: uint16 PNG, value / 512, 65535 invalid, Euclidean.
+    #[cfg_attr(feature = "clap", value(help = "uint16 PNG, value / 512, 65535 invalid, Euclidean"))]
+    Stanford2d3ds,
+    /// Structured3D: uint16 PNG in millimetres, 0 invalid.
+    #[cfg_attr(feature = "clap", value(help = "uint16 PNG in millimetres, 0 invalid"))]
+    Structured3d,
+    /// Pano3D / 3D60: float EXR in metres.
+    #[cfg_attr(feature = "clap", value(help = "float EXR in metres"))]
+    Pano3d,
+}
+
+impl Preset {
+    /// The preset's depth scale, invalid value and kind (all ray distance).
+    pub fn encoding(self) -> DepthEncoding {
+        let (scale, invalid) = match self {
+            Preset::Matterport3d => (1.0 / 4000.0, Some(0.0)),
+            Preset::Stanford2d3ds => (1.0 / 512.0, Some(65535.0)),
+            Preset::Structured3d => (1.0 / 1000.0, Some(0.0)),
+            Preset::Pano3d => (1.0, None),
+        };
+        DepthEncoding { scale: Some(scale), invalid, preset: Some(self), ..DepthEncoding::default() }
+    }
+
+    /// The name used on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Preset::Matterport3d => "matterport3d",
+            Preset::Stanford2d3ds => "stanford2d3ds",
+            Preset::Structured3d => "structured3d",
+            Preset::Pano3d => "pano3d",
+        }
+    }
+
+    /// The sample format the dataset stores depth in.
+    pub fn format(self) -> SampleFormat {
+        match self {
+            Preset::Pano3d => SampleFormat::F32,
+            _ => SampleFormat::U16,
+        }
+    }
+}
+
+/// Planar z-depth on a cube map to distance along the ray: `ray = z / max(|x|,|y|,|z|)` of the
+/// unit direction (the face axis component).
+pub fn z_to_ray(m: &AnyMapping, depth: &mut [f32]) {
+    for (p, d) in depth.iter_mut().enumerate() {
+        let dir = m.pixel_dir(p % m.width(), p / m.width());
+        let axis = dir.x.abs().max(dir.y.abs()).max(dir.z.abs());
+        *d = (*d as f64 / axis) as f32;
+    }
+}
+
+/// Float depth at or beyond this (m) is no measurement (100 000 km): a "no depth" sentinel.
+const SENTINEL_M: f64 = 1e7;
+
+/// How a relative kind was made metric: `target = a·value + b`, with target `1/depth` for
+/// [`DepthKind::Inverse`] and `depth` for [`DepthKind::Nearness`].
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct MetricFit {
+    /// Slope.
+    pub a: f64,
+    /// Offset.
+    pub b: f64,
+    /// `range` or `camera-height`.
+    pub from: &'static str,
+    /// Share of the floor candidates (pixels 20° or more below the horizon) the floor fit
+    /// explained within 3 %; `None` for a given range.
+    pub floor_share: Option<f64>,
+}
+
+/// Stored values to metres along the stored convention (z-depth is converted later): unknown = NaN,
+/// `+inf` = infinitely far. `mapping` is the depth canvas's own mapping (for the floor fit).
+pub(crate) fn to_metres(
+    path: &Path,
+    samples: &DepthSamples,
+    mapping: &AnyMapping,
+    enc: &DepthEncoding,
+    warnings: &mut Vec<Warning>,
+) -> Result<(Vec<f32>, Option<MetricFit>), PrepareError> {
+    check_kind(path, samples, enc)?;
+    let invalid = |v: f32| v.is_nan() || enc.invalid.is_some_and(|i| f64::from(v) == i);
+    match enc.kind {
+        DepthKind::Ray | DepthKind::Z => {
+            let scale = match (enc.scale, samples.format) {
+                (Some(s), _) => s,
+                (None, SampleFormat::F32) => 1.0,
+                (None, _) => return Err(PrepareError::ScaleNeeded { path: path.into() }),
+            };
+            let sentinel = sentinels(samples, scale, enc, warnings, path);
+            let d = samples
+                .values
+                .iter()
+                .map(|&v| {
+                    if invalid(v) || v <= 0.0 || (sentinel && f64::from(v) * scale >= SENTINEL_M) {
+                        f32::NAN
+                    } else {
+                        (f64::from(v) * scale) as f32
+                    }
+                })
+                .collect();
+            Ok((d, None))
+        }
+        DepthKind::Inverse | DepthKind::Nearness => {
+            let unit = samples.format.unit();
+            let values: Vec<f64> = samples
+                .values
+                .iter()
+                .map(|&v| if invalid(v) || !v.is_finite() { f64::NAN } else { f64::from(v) * unit })
+                .collect();
+            let fit = relative_fit(path, &values, mapping, enc)?;
+            let inverse = enc.kind == DepthKind::Inverse;
+            let d = values
+                .iter()
+                .map(|&v| {
+                    if v.is_nan() {
+                        return f32::NAN;
+                    }
+                    let t = fit.a * v + fit.b;
+                    if inverse {
+                        // 1/depth at or below 0: beyond any finite distance.
+                        if t <= 0.0 {
+                            f32::INFINITY
+                        } else {
+                            (1.0 / t) as f32
+                        }
+                    } else if t > 0.0 {
+                        t as f32
+                    } else {
+                        f32::NAN
+                    }
+                })
+                .collect();
+            Ok((d, Some(fit)))
+        }
+    }
+}
+
+/// Refuse what cannot be the depth the kind says: 8-bit metric depth (256 levels; a web nearness
+/// map read as metres turns brighter-is-nearer into farther) and colour images.
+fn check_kind(path: &Path, s: &DepthSamples, enc: &DepthEncoding) -> Result<(), PrepareError> {
+    if let Some(p) = enc.preset.filter(|p| p.format() != s.format) {
+        return Err(PrepareError::PresetMismatch {
+            path: path.into(),
+            preset: p.as_str(),
+            expected: p.format().name(),
+            found: s.format.name(),
+        });
+    }
+    if s.colour_channels {
+        return Err(PrepareError::NotDepth {
+            path: path.into(),
+            why: "its red, green and blue channels differ: it is a colour image".into(),
+        });
+    }
+    if s.format == SampleFormat::U8 && !enc.kind.is_relative() && enc.scale.is_none() {
+        return Err(PrepareError::EightBit { path: path.into() });
+    }
+    if enc.kind.is_relative() && enc.range.is_none() && enc.camera_height.is_none() {
+        let disparity = enc.kind == DepthKind::Inverse && enc.scale.is_some();
+        if !disparity {
+            return Err(PrepareError::RelativeNeedsScale { path: path.into(), kind: enc.kind.as_str() });
+        }
+    }
+    Ok(())
+}
+
+/// Whether float depth holds "no depth" sentinels (values of 10 000 km and more); warns once.
+fn sentinels(s: &DepthSamples, scale: f64, enc: &DepthEncoding, w: &mut Vec<Warning>, path: &Path) -> bool {
+    let far: Vec<f32> =
+        s.values.iter().copied().filter(|&v| v.is_finite() && f64::from(v) * scale >= SENTINEL_M).collect();
+    let Some(&first) = far.first() else { return false };
+    if enc.invalid.is_none() {
+        w.push(Warning::new(
+            "INPUT_DEPTH_SENTINEL",
+            format!(
+                "{}: {} pixel(s) hold depths of {:e} m and more (e.g. {first:e}), no measurement: taken as \
+                 unknown; give --depth-invalid {first:e} to say so, or store +inf for the sky",
+                path.display(),
+                far.len(),
+                SENTINEL_M
+            ),
+        ));
+    }
+    true
+}
+
+/// The map from relative values to metres: from the range, or from the floor.
+fn relative_fit(
+    path: &Path,
+    values: &[f64],
+    mapping: &AnyMapping,
+    enc: &DepthEncoding,
+) -> Result<MetricFit, PrepareError> {
+    let inverse = enc.kind == DepthKind::Inverse;
+    if let Some(h) = enc.camera_height {
+        return floor_fit(path, values, mapping, h, inverse);
+    }
+    if let Some((near, far)) = enc.range {
+        let (lo, hi) = values
+            .iter()
+            .filter(|v| !v.is_nan())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        if inverse {
+            // The largest value is NEAR, the smallest FAR, linear in 1/depth.
+            let span = (hi - lo).max(f64::MIN_POSITIVE);
+            let a = (1.0 / near - 1.0 / far) / span;
+            return Ok(MetricFit { a, b: 1.0 / far - a * lo, from: "range", floor_share: None });
+        }
+        // Nearness 0 is FAR and 1 is NEAR, linear in distance.
+        return Ok(MetricFit { a: near - far, b: far, from: "range", floor_share: None });
+    }
+    let scale = enc.scale.expect("checked by check_kind");
+    Ok(MetricFit { a: 1.0 / scale, b: 0.0, from: "depth-scale", floor_share: None })
+}
+
+/// Fit `target = a·value + b` on the floor: pixels 20° or more below the horizon whose target
+/// (`1/depth` or `depth` of a level floor `h` below the camera, `h / sin(elevation below)`) the
+/// line explains; a deterministic RANSAC over pairs, then least squares on the inliers.
+fn floor_fit(
+    path: &Path,
+    values: &[f64],
+    mapping: &AnyMapping,
+    h: f64,
+    inverse: bool,
+) -> Result<MetricFit, PrepareError> {
+    let (w, ht) = (mapping.width(), mapping.height());
+    let sin_min = 20f64.to_radians().sin();
+    // (value, target) of candidate floor pixels, subsampled to at most ~20 000.
+    let step = ((w * ht) as f64 / 80_000.0).sqrt().max(1.0) as usize;
+    let mut pts = Vec::new();
+    for y in (0..ht).step_by(step) {
+        for x in (0..w).step_by(step) {
+            let v = values[y * w + x];
+            let down = -mapping.pixel_dir(x, y).z;
+            if v.is_nan() || down < sin_min {
+                continue;
+            }
+            let d = h / down;
+            pts.push((v, if inverse { 1.0 / d } else { d }));
+        }
+    }
+    let none = || PrepareError::NoFloor { path: path.into() };
+    if pts.len() < 16 {
+        return Err(none());
+    }
+    let tol = 0.03;
+    let inliers = |a: f64, b: f64| pts.iter().filter(|&&(v, t)| ((a * v + b) - t).abs() <= tol * t).count();
+    let (mut best, mut best_n) = ((0.0, 0.0), 0);
+    let mut rng = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng % pts.len() as u64) as usize
+    };
+    for _ in 0..600 {
+        let ((v1, t1), (v2, t2)) = (pts[next()], pts[next()]);
+        if (v1 - v2).abs() < 1e-12 {
+            continue;
+        }
+        let a = (t1 - t2) / (v1 - v2);
+        let b = t1 - a * v1;
+        // Inverse depth grows with the value, nearness distance falls with it.
+        if (inverse && a <= 0.0) || (!inverse && a >= 0.0) {
+            continue;
+        }
+        let n = inliers(a, b);
+        if n > best_n {
+            (best, best_n) = ((a, b), n);
+        }
+    }
+    if best_n < pts.len() / 10 || best_n < 16 {
+        return Err(none());
+    }
+    // Least squares on the inliers, weighted by 1/t² (relative error).
+    let (a0, b0) = best;
+    let (mut sw, mut sv, mut st, mut svv, mut svt) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(v, t) in pts.iter().filter(|&&(v, t)| ((a0 * v + b0) - t).abs() <= tol * t) {
+        let wgt = 1.0 / (t * t);
+        (sw, sv, st, svv, svt) = (sw + wgt, sv + wgt * v, st + wgt * t, svv + wgt * v * v, svt + wgt * v * t);
+    }
+    let det = sw * svv - sv * sv;
+    let (a, b) = if det.abs() > 1e-12 * sw * svv {
+        ((sw * svt - sv * st) / det, (st * svv - sv * svt) / det)
+    } else {
+        best
+    };
+    Ok(MetricFit { a, b, from: "camera-height", floor_share: Some(best_n as f64 / pts.len() as f64) })
+}

@@ -1,0 +1,470 @@
+//! Depth preparation (spec §7.1), the first stage of a build: the depth people have — metric or
+//! relative, at any resolution, with holes, noise and soft edges — to the depth layering needs:
+//! metres along the ray on the colour's grid, complete, with occlusion edges as real steps on the
+//! colour's edges. Exact depth passes through unchanged (bit for bit).
+//!
+//! Steps: decode (kinds, units, range or floor fit; refuse what cannot be depth), resize onto the
+//! colour grid, complete unknown depth, smooth noise, snap soft edges ([`docs/build.md`]).
+
+pub(crate) mod complete;
+pub mod decode;
+pub(crate) mod refine;
+pub(crate) mod resize;
+
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+pub use decode::{DepthEncoding, DepthKind, MetricFit, Preset};
+pub use refine::EdgeScan;
+
+use crate::mapping::{AnyMapping, Mapping, MappingKind, Neighbours};
+
+/// Depth samples as a file stores them, before any unit or kind is applied.
+#[derive(Clone, Debug)]
+pub struct DepthSamples {
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels.
+    pub height: usize,
+    /// Stored values, row-major (integers as their value: 0–255, 0–65535).
+    pub values: Vec<f32>,
+    /// The stored sample format.
+    pub format: SampleFormat,
+    /// Whether the file's red, green and blue differ (a colour image, not depth).
+    pub colour_channels: bool,
+}
+
+/// How a depth file stores its samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SampleFormat {
+    /// 8-bit integers.
+    U8,
+    /// 16-bit integers.
+    U16,
+    /// Floating point (OpenEXR, Radiance HDR).
+    F32,
+}
+
+impl SampleFormat {
+    /// The stored value of full scale as 1 (nearness maps), for integer formats.
+    pub fn unit(self) -> f64 {
+        match self {
+            SampleFormat::U8 => 1.0 / 255.0,
+            SampleFormat::U16 => 1.0 / 65535.0,
+            SampleFormat::F32 => 1.0,
+        }
+    }
+
+    /// `8-bit`, `16-bit` or `float`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SampleFormat::U8 => "8-bit",
+            SampleFormat::U16 => "16-bit",
+            SampleFormat::F32 => "float",
+        }
+    }
+}
+
+/// Whether soft edges are snapped and noise smoothed (`--refine`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Refine {
+    /// Smooth noise where it is measured; no snapping (measured to lose, docs/build.md).
+    #[default]
+    #[cfg_attr(feature = "clap", value(help = "Smooth measured noise; do not snap edges"))]
+    Auto,
+    /// Also snap soft edges onto colour edges (experimental: sharper depth, not yet better layers).
+    #[cfg_attr(feature = "clap", value(help = "Also snap soft edges onto colour edges (experimental)"))]
+    On,
+    /// Neither: the depth as decoded and resized (holes still completed).
+    #[cfg_attr(feature = "clap", value(help = "Neither smooth nor snap"))]
+    Off,
+}
+
+/// What unknown depth (no measurement) means (`--unknown-depth`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum UnknownDepth {
+    /// A surface not measured: completed from the depth around it (and its edges snapped).
+    #[default]
+    #[cfg_attr(feature = "clap", value(help = "A surface not measured: completed from the depth around it"))]
+    Complete,
+    /// Regions open to the zenith are the sky (nothing there: infinitely far, as a scanner sees
+    /// the sky); the rest is completed.
+    #[cfg_attr(
+        feature = "clap",
+        value(
+            help = "Unknown regions open to the zenith are the sky (a scan outdoors); the rest is completed"
+        )
+    )]
+    Sky,
+}
+
+/// Settings of [`prepare_depth`]; the default is what `pomc build` does.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PrepareSettings {
+    /// Snapping of soft edges and smoothing of noise.
+    pub refine: Refine,
+    /// What unknown depth means.
+    pub unknown: UnknownDepth,
+}
+
+/// A finding about the input that did not stop the build.
+#[derive(Clone, Debug, Serialize)]
+pub struct Warning {
+    /// Stable code, e.g. `INPUT_DEPTH_SENTINEL`.
+    pub code: &'static str,
+    /// What was found and what to do.
+    pub message: String,
+}
+
+impl Warning {
+    pub(crate) fn new(code: &'static str, message: String) -> Self {
+        Warning { code, message }
+    }
+}
+
+/// What [`prepare_depth`] found and did.
+#[derive(Clone, Debug, Serialize)]
+pub struct PrepareReport {
+    /// The depth file's width and height, pixels.
+    pub source_size: (usize, usize),
+    /// Whether the depth was resampled onto the colour's grid.
+    pub resized: bool,
+    /// Share of the colour grid's pixels without depth (after resizing).
+    pub unknown_share: f64,
+    /// Pixels whose depth was completed.
+    pub completed_pixels: usize,
+    /// Unknown pixels made the sky (`--unknown-depth sky`).
+    pub sky_pixels: usize,
+    /// The depth edges measured along rows.
+    pub edges: EdgeScan,
+    /// Whether soft edges were snapped.
+    pub snapped: bool,
+    /// Window radius of the snap, pixels.
+    pub snap_radius: usize,
+    /// Pixels whose depth the snap moved onto a side.
+    pub snapped_pixels: usize,
+    /// Median noise of log depth (a relative standard deviation).
+    pub noise: f64,
+    /// Whether noise was smoothed.
+    pub smoothed: bool,
+    /// How relative depth was made metric.
+    pub metric: Option<MetricFit>,
+    /// Findings that did not stop the build.
+    pub warnings: Vec<Warning>,
+}
+
+/// Errors of depth preparation; each names the file and the fix.
+#[derive(Debug, thiserror::Error)]
+pub enum PrepareError {
+    /// Integer depth without a unit; `INPUT_DEPTH_SCALE_NEEDED`.
+    #[error(
+        "{path}: integer depth has no unit; give --depth-scale (metres per stored unit, e.g. 0.001 for \
+         millimetres) or a dataset --preset (matterport3d, stanford2d3ds, structured3d), or store float \
+         metres in an OpenEXR; for a map where brighter is nearer give --depth-kind nearness"
+    )]
+    ScaleNeeded {
+        /// The depth file.
+        path: PathBuf,
+    },
+    /// Planar z-depth on an equirect; `INPUT_Z_DEPTH_EQUIRECT`.
+    #[error("{path}: z-depth needs a cube-map input (an equirect has no image plane); use --depth-kind ray")]
+    ZDepthOnEquirect {
+        /// The depth file.
+        path: PathBuf,
+    },
+    /// 8-bit depth given as metric depth; `INPUT_DEPTH_8BIT`.
+    #[error(
+        "{path}: 8-bit depth holds 256 levels and no unit; if brighter is nearer (three.js, krpano) give \
+         --depth-kind nearness with --depth-range NEAR,FAR or --camera-height H; if it is inverse depth \
+         give --depth-kind inverse; to read the levels as metric anyway give --depth-scale"
+    )]
+    EightBit {
+        /// The depth file.
+        path: PathBuf,
+    },
+    /// The file cannot be depth; `INPUT_NOT_DEPTH`.
+    #[error("{path}: not a depth map: {why}; give the depth image (one channel, or grey)")]
+    NotDepth {
+        /// The depth file.
+        path: PathBuf,
+        /// Why.
+        why: String,
+    },
+    /// A relative kind without what makes it metric; `INPUT_DEPTH_RELATIVE`.
+    #[error(
+        "{path}: {kind} depth has no scale; give --camera-height H (metres above a level floor; the floor \
+         is fitted) or --depth-range NEAR,FAR (metres)"
+    )]
+    RelativeNeedsScale {
+        /// The depth file.
+        path: PathBuf,
+        /// The kind's name.
+        kind: &'static str,
+    },
+    /// No floor found for `--camera-height`; `INPUT_NO_FLOOR`.
+    #[error(
+        "{path}: no level floor found below the horizon to fit --camera-height to; give --depth-range \
+         NEAR,FAR instead"
+    )]
+    NoFloor {
+        /// The depth file.
+        path: PathBuf,
+    },
+    /// A dataset preset whose format the file does not have; `INPUT_PRESET_MISMATCH`.
+    #[error(
+        "{path}: the {preset} preset is for {expected} depth but the file holds {found} values; drop \
+         --preset (float EXR depth is read as metres) or give --depth-scale"
+    )]
+    PresetMismatch {
+        /// The depth file.
+        path: PathBuf,
+        /// The preset's name.
+        preset: &'static str,
+        /// The format the preset is for.
+        expected: &'static str,
+        /// The file's format.
+        found: &'static str,
+    },
+    /// Depth and colour canvases of different mappings; `INPUT_SIZE_MISMATCH`.
+    #[error(
+        "{depth}: is {dw}x{dh}, which is not a {kind} canvas like the colour ({cw}x{ch}); give depth of \
+         the colour's shape (any resolution)"
+    )]
+    Shape {
+        /// Colour width.
+        cw: usize,
+        /// Colour height.
+        ch: usize,
+        /// The depth file.
+        depth: PathBuf,
+        /// Depth width.
+        dw: usize,
+        /// Depth height.
+        dh: usize,
+        /// The colour's mapping.
+        kind: &'static str,
+    },
+    /// A setting out of its range; `INPUT_BAD_OPTION`.
+    #[error("{option}: {why}")]
+    BadOption {
+        /// The option's command-line name.
+        option: &'static str,
+        /// What is wrong.
+        why: String,
+    },
+}
+
+impl PrepareError {
+    /// Stable code, e.g. `INPUT_DEPTH_8BIT`.
+    pub fn code(&self) -> &'static str {
+        match self {
+            PrepareError::ScaleNeeded { .. } => "INPUT_DEPTH_SCALE_NEEDED",
+            PrepareError::ZDepthOnEquirect { .. } => "INPUT_Z_DEPTH_EQUIRECT",
+            PrepareError::EightBit { .. } => "INPUT_DEPTH_8BIT",
+            PrepareError::NotDepth { .. } => "INPUT_NOT_DEPTH",
+            PrepareError::RelativeNeedsScale { .. } => "INPUT_DEPTH_RELATIVE",
+            PrepareError::NoFloor { .. } => "INPUT_NO_FLOOR",
+            PrepareError::PresetMismatch { .. } => "INPUT_PRESET_MISMATCH",
+            PrepareError::Shape { .. } => "INPUT_SIZE_MISMATCH",
+            PrepareError::BadOption { .. } => "INPUT_BAD_OPTION",
+        }
+    }
+}
+
+/// Prepared depth: metres along the ray on the colour's grid (`+inf` infinitely far; NaN only
+/// where nothing at all is known).
+#[derive(Clone, Debug)]
+pub struct PreparedDepth {
+    /// The colour canvas's width, pixels.
+    pub width: usize,
+    /// The colour canvas's height, pixels.
+    pub height: usize,
+    /// Row-major on the colour's canvas.
+    pub depth: Vec<f32>,
+    /// What was found and done.
+    pub report: PrepareReport,
+}
+
+/// A share above which unknown depth is worth a warning.
+const MOSTLY_UNKNOWN: f64 = 0.5;
+/// Median relative noise above which `--refine auto` smooths.
+const NOISY: f64 = 0.0015;
+/// The relative jump that separates surfaces in the build (`continuity::JUMP`).
+const JUMP: f64 = crate::continuity::JUMP;
+
+/// Prepare `samples` (read from `path`) for a build on the colour canvas `mapping` with colour
+/// `rgb` (linear, planar): decode, resize, complete, smooth, snap.
+pub fn prepare_depth(
+    path: &Path,
+    mapping: &AnyMapping,
+    rgb: &[Vec<f32>; 3],
+    samples: &DepthSamples,
+    enc: &DepthEncoding,
+    s: &PrepareSettings,
+) -> Result<PreparedDepth, PrepareError> {
+    check_encoding(enc)?;
+    let (sw, sh) = (samples.width, samples.height);
+    let kind = mapping.kind();
+    let source = AnyMapping::new(kind, sw, sh).map_err(|_| PrepareError::Shape {
+        cw: mapping.width(),
+        ch: mapping.height(),
+        depth: path.into(),
+        dw: sw,
+        dh: sh,
+        kind: match kind {
+            MappingKind::Equirect => "2:1 equirect",
+            MappingKind::Cube3x2 => "3:2 cube-map",
+        },
+    })?;
+    let mut warnings = Vec::new();
+    let (mut depth, metric) = decode::to_metres(path, samples, &source, enc, &mut warnings)?;
+    if enc.kind == DepthKind::Z {
+        if kind == MappingKind::Equirect {
+            return Err(PrepareError::ZDepthOnEquirect { path: path.into() });
+        }
+        decode::z_to_ray(&source, &mut depth);
+    }
+    let resized = (sw, sh) != (mapping.width(), mapping.height());
+    if resized {
+        depth = resize::resize(&depth, &source, mapping);
+    }
+    let n = depth.len();
+    let unknown: Vec<bool> = depth.par_iter().map(|d| d.is_nan()).collect();
+    let unknown_count = unknown.iter().filter(|&&u| u).count();
+    let unknown_share = unknown_count as f64 / n.max(1) as f64;
+    if unknown_share > MOSTLY_UNKNOWN && unknown_count < n {
+        warnings.push(Warning::new(
+            "INPUT_DEPTH_MOSTLY_UNKNOWN",
+            format!(
+                "{}: {:.0} % of the pixels have no depth; they are {} (--unknown-depth {})",
+                path.display(),
+                100.0 * unknown_share,
+                match s.unknown {
+                    UnknownDepth::Complete => "completed from the rest",
+                    UnknownDepth::Sky => "taken as the sky",
+                },
+                match s.unknown {
+                    UnknownDepth::Complete => "complete",
+                    UnknownDepth::Sky => "sky",
+                }
+            ),
+        ));
+    }
+    let mut report = PrepareReport {
+        source_size: (sw, sh),
+        resized,
+        unknown_share,
+        completed_pixels: 0,
+        sky_pixels: 0,
+        edges: EdgeScan::default(),
+        snapped: false,
+        snap_radius: 0,
+        snapped_pixels: 0,
+        noise: 0.0,
+        smoothed: false,
+        metric,
+        warnings,
+    };
+    // Nothing known at all: the build makes such a canvas one layer at infinity.
+    if unknown_count == n {
+        return Ok(PreparedDepth { width: mapping.width(), height: mapping.height(), depth, report });
+    }
+    let nb = Neighbours::new(*mapping);
+    let mut unknown = unknown;
+    if s.unknown == UnknownDepth::Sky {
+        for p in complete::open_to_zenith(&nb, &unknown) {
+            (depth[p], unknown[p]) = (f32::INFINITY, false);
+            report.sky_pixels += 1;
+        }
+    }
+    refine_depth(&nb, rgb, &mut depth, &unknown, s, &mut report);
+    Ok(PreparedDepth { width: mapping.width(), height: mapping.height(), depth, report })
+}
+
+/// Ranges of the settings that have them (relative kinds' range and height).
+fn check_encoding(enc: &DepthEncoding) -> Result<(), PrepareError> {
+    if let Some((near, far)) = enc.range {
+        if !(near > 0.0 && far > near && far.is_finite()) {
+            return Err(PrepareError::BadOption {
+                option: "--depth-range",
+                why: format!("{near},{far}: give NEAR,FAR in metres with 0 < NEAR < FAR"),
+            });
+        }
+    }
+    if let Some(h) = enc.camera_height {
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(PrepareError::BadOption {
+                option: "--camera-height",
+                why: format!("{h}: give the camera's height above the floor in metres (> 0)"),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Completion, smoothing and snapping in log depth; writes back only the pixels they change.
+fn refine_depth(
+    nb: &Neighbours,
+    rgb: &[Vec<f32>; 3],
+    depth: &mut [f32],
+    unknown: &[bool],
+    s: &PrepareSettings,
+    report: &mut PrepareReport,
+) {
+    let (w, h) = (nb.width(), nb.height());
+    let jump_log = (1.0 + JUMP).ln() as f32;
+    let to_log = |d: f32| if d.is_infinite() { complete::SKY_LOG } else { d.ln().min(complete::SKY_LOG) };
+    let original: Vec<f32> =
+        depth.par_iter().map(|&d| if d.is_nan() { f32::NAN } else { to_log(d) }).collect();
+    let mut log = original.clone();
+    let completed = unknown.iter().any(|&u| u);
+    if completed {
+        complete::push_pull(&mut log, w, h);
+        complete::relax(nb, &mut log, unknown, RELAX_SWEEPS);
+        report.completed_pixels = unknown.iter().filter(|&&u| u).count();
+    }
+    if s.refine != Refine::Off {
+        let known: Vec<bool> = unknown.iter().map(|u| !u).collect();
+        let (blocks, median) = refine::noise(&log, &known, w, h, jump_log);
+        report.noise = f64::from(median);
+        if f64::from(median) > NOISY {
+            refine::smooth(&mut log, w, h, &blocks, median, jump_log);
+            report.smoothed = true;
+        }
+        report.edges = refine::scan_edges(&log, w, jump_log);
+        // Measured on the path-traced corpus and the analytic room (docs/build.md, "Depth
+        // preparation"): snapping loses there (objects stay joined to the floor at softened
+        // contacts, and their sharpened outlines split off as shells), so only `on` snaps.
+        let soft = s.refine == Refine::On;
+        if soft {
+            let radius = MAX_RADIUS;
+            let guide = refine::guide(rgb);
+            // A second pass takes what the first left of ramps it made shorter.
+            for _ in 0..SNAP_PASSES {
+                report.snapped_pixels += refine::snap(nb, &mut log, &guide, radius, jump_log);
+            }
+            (report.snapped, report.snap_radius) = (true, radius);
+        }
+    }
+    depth.par_iter_mut().zip(log.par_iter().zip(&original)).for_each(|(d, (&l, &o))| {
+        if l.to_bits() != o.to_bits() {
+            *d = if l >= complete::SKY_LOG - 1e-3 { f32::INFINITY } else { l.exp() };
+        }
+    });
+}
+
+/// Relaxation sweeps after the push-pull.
+const RELAX_SWEEPS: usize = 60;
+
+/// Passes of the snap.
+const SNAP_PASSES: usize = 2;
+
+/// Largest snap window radius, pixels (a ramp wider than twice this is left as a surface).
+const MAX_RADIUS: usize = 24;

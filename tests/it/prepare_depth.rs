@@ -1,0 +1,250 @@
+//! `pomc::prepare` against the exact depth of the analytic room: exact depth passes bit for bit;
+//! low-resolution, holed, scan-line, noisy and relative depth come out near the truth.
+
+use pomc::build::{self, BuildOptions, RgbdInput};
+use pomc::mapping::{AnyMapping, Mapping, MappingKind};
+use pomc::prepare::{
+    prepare_depth, DepthEncoding, DepthKind, DepthSamples, PrepareSettings, PreparedDepth, Refine,
+    SampleFormat, UnknownDepth,
+};
+use pomc_fixtures::{layers::render_on, layers::rgbd_input, layers::CENTRE_HEIGHT, Rendered, Scene};
+
+const W: usize = 512;
+
+fn room() -> (AnyMapping, Rendered, RgbdInput) {
+    let m = AnyMapping::new(MappingKind::Equirect, W, W / 2).unwrap();
+    let r = render_on(&Scene::room(), &m);
+    let input = rgbd_input(&r, m, false);
+    (m, r, input)
+}
+
+fn samples(w: usize, values: Vec<f32>, format: SampleFormat) -> DepthSamples {
+    DepthSamples { width: w, height: w / 2, values, format, colour_channels: false }
+}
+
+fn prepare(
+    input: &RgbdInput,
+    s: DepthSamples,
+    enc: &DepthEncoding,
+    settings: &PrepareSettings,
+) -> PreparedDepth {
+    prepare_depth("depth".as_ref(), &input.mapping, &input.rgb, &s, enc, settings).unwrap()
+}
+
+/// Share of pixels whose prepared depth is within `tol` (relative) of the truth.
+fn within(prepared: &[f32], truth: &[f32], tol: f32) -> f64 {
+    let ok = prepared.iter().zip(truth).filter(|(p, t)| ((*p / *t) - 1.0).abs() <= tol).count();
+    ok as f64 / truth.len() as f64
+}
+
+/// Inverse-depth block means over `f` × `f` pixels: depth as a lower-resolution sensor sees it.
+fn block_down(depth: &[f32], w: usize, f: usize) -> Vec<f32> {
+    let (sw, sh) = (w / f, w / 2 / f);
+    (0..sw * sh)
+        .map(|p| {
+            let (x, y) = (p % sw * f, p / sw * f);
+            let mut sum = 0.0f64;
+            for j in y..y + f {
+                for i in x..x + f {
+                    sum += 1.0 / f64::from(depth[j * w + i]);
+                }
+            }
+            ((f * f) as f64 / sum) as f32
+        })
+        .collect()
+}
+
+#[test]
+fn exact_depth_passes_bit_for_bit() {
+    let (_, _, input) = room();
+    let p = prepare(
+        &input,
+        samples(W, input.depth.clone(), SampleFormat::F32),
+        &DepthEncoding::default(),
+        &PrepareSettings::default(),
+    );
+    assert!(p.depth.iter().zip(&input.depth).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(!p.report.snapped && !p.report.smoothed && p.report.completed_pixels == 0, "{:?}", p.report);
+}
+
+/// Depth at a quarter of the colour's resolution is resized onto the colour grid (not refused),
+/// and the layering from it separates the objects; `Refine::On` snaps its soft edges onto the
+/// colour's, which puts more pixels near the truth (the layering gains nothing from it yet: see
+/// docs/build.md, "Depth preparation").
+#[test]
+fn quarter_resolution_depth_is_resized() {
+    let (m, r, input) = room();
+    let low = block_down(&input.depth, W, 4);
+    let enc = DepthEncoding::default();
+    let resized =
+        prepare(&input, samples(W / 4, low.clone(), SampleFormat::F32), &enc, &PrepareSettings::default());
+    assert!(resized.report.resized && !resized.report.snapped, "{:?}", resized.report);
+    let on = PrepareSettings { refine: Refine::On, ..Default::default() };
+    let snapped = prepare(&input, samples(W / 4, low, SampleFormat::F32), &enc, &on);
+    let (a, b) = (within(&snapped.depth, &input.depth, 0.08), within(&resized.depth, &input.depth, 0.08));
+    assert!(a > b + 0.003 && b > 0.95, "within 8 %: snapped {a:.4}, resized {b:.4}");
+    let built =
+        build::build(&RgbdInput { depth: resized.depth, ..input.clone() }, &BuildOptions::default(), &|_| {})
+            .unwrap();
+    let object = |p: usize| built.layers[built.layer_of[p] as usize].role == pomc::manifest::Role::Object;
+    let n = m.width() * m.height();
+    let right = (0..n).filter(|&p| object(p) == (r.first_hit.object[p] != 0)).count() as f64 / n as f64;
+    assert!(right > 0.88, "front/back assignment {right:.4}");
+}
+
+/// Holes (1 % dropouts, a scanner's shadow) and a LiDAR's scan lines (70 % of the rows missing)
+/// are completed near the truth; a region open to the zenith becomes the sky with
+/// `UnknownDepth::Sky`, and is completed otherwise.
+#[test]
+fn unknown_depth_is_completed() {
+    let (_, _, input) = room();
+    let mut lidar = input.depth.clone();
+    for (p, d) in lidar.iter_mut().enumerate() {
+        if !matches!((p / W) % 10, 0 | 3 | 6) || p % 97 == 0 {
+            *d = 0.0;
+        }
+    }
+    let p =
+        prepare(&input, samples(W, lidar, SampleFormat::F32), &DepthEncoding::default(), &Default::default());
+    assert!(p.report.completed_pixels > W * W / 2 * 6 / 10, "{:?}", p.report);
+    assert!(
+        p.report.warnings.iter().any(|w| w.code == "INPUT_DEPTH_MOSTLY_UNKNOWN"),
+        "{:?}",
+        p.report.warnings
+    );
+    let share = within(&p.depth, &input.depth, 0.03);
+    assert!(share > 0.97, "completed within 3 %: {share:.4}");
+
+    // A 30 × 20 hole in the room's surfaces is completed on them.
+    let (_, r, _) = room();
+    let hole: Vec<usize> = (90..110).flat_map(|y| (100..130).map(move |x| y * W + x)).collect();
+    assert!(hole.iter().all(|&p| r.first_hit.object[p] == 0), "the hole is on the room alone");
+    let mut holed = input.depth.clone();
+    for &p in &hole {
+        holed[p] = f32::NAN;
+    }
+    let done =
+        prepare(&input, samples(W, holed, SampleFormat::F32), &DepthEncoding::default(), &Default::default());
+    let worst = hole.iter().map(|&p| (done.depth[p] / input.depth[p] - 1.0).abs()).fold(0.0, f32::max);
+    assert!(worst < 0.03, "worst completed error {worst}");
+
+    // The top 20 rows unknown: the sky when asked (regions open to the zenith).
+    let mut open = input.depth.clone();
+    open[..20 * W].fill(f32::NAN);
+    let sky = PrepareSettings { unknown: UnknownDepth::Sky, ..Default::default() };
+    let p = prepare(&input, samples(W, open, SampleFormat::F32), &DepthEncoding::default(), &sky);
+    assert_eq!(p.report.sky_pixels, 20 * W);
+    assert!(p.depth[..20 * W].iter().all(|d| d.is_infinite()));
+}
+
+/// Noise growing with the square of the distance (a scanner's) is measured and smoothed without
+/// adding layers: the build from it has as many layers as from exact depth, give or take one.
+#[test]
+fn scanner_noise_is_smoothed() {
+    let (_, _, input) = room();
+    let mut state = 12345u64;
+    let mut gauss = || {
+        // Sum of uniforms: near-Gaussian, deterministic.
+        (0..4)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state % 10_000) as f32 / 10_000.0 - 0.5
+            })
+            .sum::<f32>()
+            * 1.7
+    };
+    let noisy: Vec<f32> = input.depth.iter().map(|&d| d + 0.003 * d * d * gauss()).collect();
+    let p = prepare(
+        &input,
+        samples(W, noisy.clone(), SampleFormat::F32),
+        &DepthEncoding::default(),
+        &Default::default(),
+    );
+    assert!(p.report.smoothed && p.report.noise > 0.002, "{:?}", p.report);
+    let err = |d: &[f32]| {
+        let mut e: Vec<f32> = d.iter().zip(&input.depth).map(|(a, b)| (a / b - 1.0).abs()).collect();
+        e.sort_by(f32::total_cmp);
+        e[e.len() / 2]
+    };
+    assert!(err(&p.depth) < 0.5 * err(&noisy), "median error {} -> {}", err(&noisy), err(&p.depth));
+    let layers = |depth: Vec<f32>| {
+        build::build(&RgbdInput { depth, ..input.clone() }, &BuildOptions::default(), &|_| {})
+            .unwrap()
+            .layers
+            .len()
+    };
+    let (exact, smoothed) = (layers(input.depth.clone()), layers(p.depth));
+    assert!(smoothed.abs_diff(exact) <= 1, "layers: exact {exact}, from noisy depth {smoothed}");
+}
+
+/// Relative kinds: inverse depth with unknown scale and shift made metric by the floor under a
+/// camera of known height, and an 8-bit nearness map with its range.
+#[test]
+fn relative_depth_is_made_metric() {
+    let (_, _, input) = room();
+    let inverse: Vec<f32> = input.depth.iter().map(|d| 3.7 / d + 0.25).collect();
+    let enc =
+        DepthEncoding { kind: DepthKind::Inverse, camera_height: Some(CENTRE_HEIGHT), ..Default::default() };
+    let p = prepare(&input, samples(W, inverse, SampleFormat::F32), &enc, &Default::default());
+    let fit = p.report.metric.unwrap();
+    assert!((fit.a - 1.0 / 3.7).abs() < 0.01 / 3.7, "{fit:?}");
+    assert!(within(&p.depth, &input.depth, 0.01) > 0.99);
+
+    let (near, far) = (0.5f32, 6.0f32);
+    let levels: Vec<f32> =
+        input.depth.iter().map(|d| (255.0 * ((far - d) / (far - near)).clamp(0.0, 1.0)).round()).collect();
+    let enc = DepthEncoding { kind: DepthKind::Nearness, range: Some((0.5, 6.0)), ..Default::default() };
+    let p = prepare(&input, samples(W, levels.clone(), SampleFormat::U8), &enc, &Default::default());
+    // Half a level of 5.5 m is 1.1 cm.
+    let ok = p.depth.iter().zip(&input.depth).filter(|(a, b)| (*a - *b).abs() <= 0.012 || **b > far).count();
+    assert!(ok as f64 / levels.len() as f64 > 0.99);
+    // Its floor gives the same scale.
+    let enc =
+        DepthEncoding { kind: DepthKind::Nearness, camera_height: Some(CENTRE_HEIGHT), ..Default::default() };
+    let p = prepare(&input, samples(W, levels, SampleFormat::U8), &enc, &Default::default());
+    assert!(within(&p.depth, &input.depth, 0.03) > 0.9, "{:?}", p.report.metric);
+}
+
+/// What cannot be the depth the settings say is refused with the fix, by code.
+#[test]
+fn what_is_not_depth_is_refused() {
+    let (_, _, input) = room();
+    let try_ = |s: DepthSamples, enc: DepthEncoding| {
+        prepare_depth("d.png".as_ref(), &input.mapping, &input.rgb, &s, &enc, &Default::default())
+            .map(|_| ())
+            .unwrap_err()
+    };
+    let eight = samples(W, vec![100.0; W * W / 2], SampleFormat::U8);
+    let e = try_(eight.clone(), DepthEncoding::default());
+    assert_eq!(e.code(), "INPUT_DEPTH_8BIT");
+    assert!(e.to_string().contains("--depth-kind nearness"), "{e}");
+    let e = try_(eight, DepthEncoding { kind: DepthKind::Nearness, ..Default::default() });
+    assert_eq!(e.code(), "INPUT_DEPTH_RELATIVE");
+    let colour =
+        DepthSamples { colour_channels: true, ..samples(W, vec![1.0; W * W / 2], SampleFormat::U16) };
+    assert_eq!(try_(colour, DepthEncoding::default()).code(), "INPUT_NOT_DEPTH");
+    let metres = samples(W, input.depth.clone(), SampleFormat::F32);
+    let e = try_(metres, pomc::prepare::Preset::Matterport3d.encoding());
+    assert_eq!(e.code(), "INPUT_PRESET_MISMATCH");
+    let odd = DepthSamples { height: 100, ..samples(W / 2, vec![1.0; W / 2 * 100], SampleFormat::F32) };
+    assert_eq!(try_(odd, DepthEncoding::default()).code(), "INPUT_SIZE_MISMATCH");
+    let e = try_(
+        samples(W, vec![100.0; W * W / 2], SampleFormat::U16),
+        DepthEncoding { kind: DepthKind::Nearness, range: Some((2.0, 1.0)), ..Default::default() },
+    );
+    assert_eq!(e.code(), "INPUT_BAD_OPTION");
+}
+
+/// A "no depth" sentinel in float depth is taken as unknown with a warning naming the option.
+#[test]
+fn sentinels_are_unknown_with_a_warning() {
+    let (_, _, input) = room();
+    let mut d = input.depth.clone();
+    d[W * 100 + 17] = 1e10;
+    let p = prepare(&input, samples(W, d, SampleFormat::F32), &DepthEncoding::default(), &Default::default());
+    let w = p.report.warnings.iter().find(|w| w.code == "INPUT_DEPTH_SENTINEL").expect("a sentinel warning");
+    assert!(w.message.contains("--depth-invalid"), "{}", w.message);
+    assert!(p.depth[W * 100 + 17] < 10.0 && p.report.completed_pixels == 1);
+}
