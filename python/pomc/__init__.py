@@ -31,6 +31,7 @@ __all__ = [
     "Issue",
     "PomcError",
     "BUILD_OPTIONS",
+    "prepare_depth",
     "MESH_OPTIONS",
 ]
 
@@ -270,9 +271,18 @@ def _build_options(freedom_radius: float, convention: str, center: Sequence[floa
     for k, allowed in _CHOICES.items():
         if k in opts and opts[k] not in allowed:
             raise _usage(f"{k} must be one of {allowed}, got {opts[k]!r}")
-    for k in ("jump", "depth_scale", "fold_deg"):
+    for k in ("jump", "depth_scale", "fold_deg", "camera_height"):
         if k in opts:
             opts[k] = _positive(k, opts[k])
+    if "depth_range" in opts:
+        r = opts["depth_range"]
+        try:
+            near, far = (float(x) for x in r)
+        except (TypeError, ValueError):
+            raise _usage(f"depth_range must be (near, far) in metres, got {r!r}") from None
+        if not (0 < near < far < float("inf")):
+            raise _usage(f"depth_range must have 0 < near < far, got {r!r}")
+        opts["depth_range"] = (near, far)
     if "fill_margin" in opts:
         opts["fill_margin"] = _positive("fill_margin", opts["fill_margin"], allow_zero=True)
     if "normals_in" in opts:
@@ -302,6 +312,21 @@ def build_files(
     ``{"layers", "read_s", "build_s", "write_s"}``."""
     opts = _build_options(freedom_radius, convention, center, options)
     return json.loads(_pomc.build_files(os.fspath(colour), os.fspath(depth), os.fspath(output), opts))
+
+
+def prepare_depth(
+    colour: "os.PathLike[str] | str",
+    depth: "os.PathLike[str] | str",
+    **options: Any,
+) -> "tuple[np.ndarray, Dict[str, Any]]":
+    """Read and prepare depth exactly as ``pomc build`` does before layering (``pomc prepare``):
+    returns the depth on the colour's grid (H×W float32, metres along the ray, ``inf`` infinitely
+    far) and the report (what was resized, completed, smoothed; warnings). Keywords: the depth
+    options of :data:`BUILD_OPTIONS` (``depth_kind``, ``depth_range``, ``camera_height``,
+    ``refine``, ``unknown_depth``, ``preset``, ``depth_scale``, ``depth_invalid``, ...)."""
+    opts = _build_options(0.5, "thesis", (0.0, 0.0, 0.0), options)
+    array, report = _pomc.prepare_files(os.fspath(colour), os.fspath(depth), opts)
+    return array, json.loads(report)
 
 
 def build(

@@ -381,11 +381,30 @@ fn build_files(
         py.allow_threads(|| jobs::build_panorama(&colour, &depth, &output, &settings)).map_err(to_py)?;
     let json = serde_json::json!({
         "layers": summary.manifest.layers.len(),
+        "prepare": summary.prepare,
         "read_s": summary.read_s,
         "build_s": summary.build_s,
         "write_s": summary.write_s,
     });
     Ok(json.to_string())
+}
+
+/// Read and prepare depth as `pomc prepare` does: the depth on the colour's grid (H×W float32,
+/// metres along the ray, `inf` far) and the JSON report.
+#[pyfunction]
+fn prepare_files<'py>(
+    py: Python<'py>,
+    colour: PathBuf,
+    depth: PathBuf,
+    options: &Bound<'py, PyDict>,
+) -> PyResult<(Bound<'py, numpy::PyArray2<f32>>, String)> {
+    let settings = settings(options)?;
+    let prepared =
+        py.allow_threads(|| jobs::prepare_depth_files(&colour, &depth, &settings)).map_err(to_py)?;
+    let report = serde_json::to_string(&prepared.report).map_err(|e| usage(e.to_string()))?;
+    let array = numpy::ndarray::Array2::from_shape_vec((prepared.height, prepared.width), prepared.depth)
+        .map_err(|e| usage(e.to_string()))?;
+    Ok((numpy::IntoPyArray::into_pyarray(array, py), report))
 }
 
 fn contiguous<T: numpy::Element + Copy>(a: &PyReadonlyArray3<'_, T>) -> PyResult<Vec<T>> {
@@ -534,5 +553,6 @@ fn _pomc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(open, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;
     m.add_function(wrap_pyfunction!(build_files, m)?)?;
+    m.add_function(wrap_pyfunction!(prepare_files, m)?)?;
     Ok(())
 }

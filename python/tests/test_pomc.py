@@ -205,3 +205,40 @@ def test_normals_in_and_max_pixels_are_the_command_options(tmp_path):
             call()
         assert e.value.code == "INPUT_TOO_LARGE"
     assert pomc.build(colour, depth, max_pixels=w * h).validate().valid
+
+
+def test_prepare_depth_equals_the_command(tmp_path):
+    """Depth at a quarter of the colour's size, prepared by Python and by `pomc prepare`: the same
+    array, on the colour's grid, and what `pomc build` layers from it."""
+    depth = exr_channels(FIXTURE / "depth.exr")["Z"]
+    h, w = depth.shape
+    small = 1.0 / (1.0 / depth).reshape(h // 4, 4, w // 4, 4).mean(axis=(1, 3))
+    path = tmp_path / "small.exr"
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                 {"Z": np.ascontiguousarray(small, np.float32)}).write(str(path))
+    array, report = pomc.prepare_depth(FIXTURE / "colour.png", path)
+    assert array.shape == (h, w) and array.dtype == np.float32
+    assert report["resized"] and report["source_size"] == [w // 4, h // 4]
+    cli("prepare", "--colour", str(FIXTURE / "colour.png"), "--depth", str(path), "-o", str(tmp_path / "p.exr"))
+    np.testing.assert_array_equal(array, exr_channels(tmp_path / "p.exr")["Z"])
+    within = np.mean(np.abs(array / depth - 1) < 0.08)
+    assert within > 0.95, within
+    summary = pomc.build_files(FIXTURE / "colour.png", path, tmp_path / "pano")
+    assert summary["prepare"]["resized"] and summary["layers"] >= 2
+
+
+def test_relative_depth_needs_its_scale(tmp_path):
+    """An 8-bit nearness map: refused as metric depth with the fix, built with its range."""
+    depth = exr_channels(FIXTURE / "depth.exr")["Z"]
+    near = np.clip((8.0 - depth) / 7.5, 0, 1)
+    path = tmp_path / "nearness.png"
+    Image.fromarray(np.round(255 * near).astype(np.uint8), "L").save(path)
+    with pytest.raises(pomc.PomcError) as e:
+        pomc.prepare_depth(FIXTURE / "colour.png", path)
+    assert e.value.code == "INPUT_DEPTH_8BIT" and "nearness" in str(e.value)
+    array, report = pomc.prepare_depth(FIXTURE / "colour.png", path, depth_kind="nearness", depth_range=(0.5, 8.0))
+    assert report["metric"]["from"] == "range"
+    ok = np.abs(array - np.minimum(depth, 8.0)) < 0.03
+    assert ok.mean() > 0.97, ok.mean()
+    with pytest.raises(pomc.PomcError):
+        pomc.prepare_depth(FIXTURE / "colour.png", path, depth_kind="nearness", depth_range=(3, 1))

@@ -100,7 +100,10 @@ pub enum InputError {
     },
     /// Colour and depth (or a normals image) differ in size, or the normals image lacks a channel;
     /// `INPUT_SIZE_MISMATCH`.
-    #[error("{colour}: is {cw}x{ch} but the depth {depth} is {dw}x{dh}; resample one to the other's size")]
+    #[error(
+        "{colour}: is {cw}x{ch} but {depth} is {dw}x{dh}; give depth of the colour's shape (2:1 or 3:2, any \
+         resolution) and normals of its size"
+    )]
     SizeMismatch {
         /// The colour file.
         colour: PathBuf,
@@ -155,6 +158,35 @@ fn reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::
         |e: &dyn std::fmt::Display| InputError::Image { path: path.to_path_buf(), reason: e.to_string() };
     crate::fsutil::check_regular(path).map_err(|e| err(&e))?;
     image::ImageReader::open(path).map_err(|e| err(&e))?.with_guessed_format().map_err(|e| err(&e))
+}
+
+/// What a plain image's header says (`pomc info`): no pixel is decoded.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct ImageHeader {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// The container, e.g. `Png`, `Jpeg`.
+    pub format: String,
+    /// Channels per pixel (1 grey, 2 grey + alpha, 3 RGB, 4 RGBA).
+    pub channels: u8,
+    /// Bits per channel (8, 16, 32).
+    pub bits: u16,
+}
+
+/// Read a PNG/JPEG/HDR/… header ([`ImageHeader`]).
+pub fn image_header(path: &Path) -> Result<ImageHeader, InputError> {
+    use image::ImageDecoder;
+    let err =
+        |e: &dyn std::fmt::Display| InputError::Image { path: path.to_path_buf(), reason: e.to_string() };
+    let reader = reader(path)?;
+    let format = reader.format().map(|f| format!("{f:?}")).unwrap_or_else(|| "unknown".into());
+    let decoder = reader.into_decoder().map_err(|e| err(&e))?;
+    let (width, height) = decoder.dimensions();
+    let colour = decoder.color_type();
+    let channels = colour.channel_count();
+    Ok(ImageHeader { width, height, format, channels, bits: colour.bits_per_pixel() / u16::from(channels) })
 }
 
 /// Width and height from the file's header, checked against `limits` (for `channels` planes of
@@ -384,8 +416,12 @@ pub fn read(
     // Sizes from the headers first: a small file declaring a huge canvas, or a colour canvas that
     // is no panorama, are refused before either is decoded (4 planes: colour and depth).
     let (cw, ch) = header_size(colour, 4, limits)?;
-    mapping_for(colour, cw, ch)?;
-    header_size(depth, 4, limits)?;
+    let kind = mapping_for(colour, cw, ch)?.kind();
+    let (dw, dh) = header_size(depth, 4, limits)?;
+    if AnyMapping::new(kind, dw, dh).is_err() {
+        let (colour, depth) = (colour.to_path_buf(), depth.to_path_buf());
+        return Err(InputError::SizeMismatch { colour, cw, ch, depth, dw, dh });
+    }
     let (cw, ch, rgb) = read_colour(colour, space, limits)?;
     let mapping = mapping_for(colour, cw, ch)?;
     let samples = read_depth_samples(depth, limits)?;

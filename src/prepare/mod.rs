@@ -339,24 +339,6 @@ pub fn prepare_depth(
     let unknown: Vec<bool> = depth.par_iter().map(|d| d.is_nan()).collect();
     let unknown_count = unknown.iter().filter(|&&u| u).count();
     let unknown_share = unknown_count as f64 / n.max(1) as f64;
-    if unknown_share > MOSTLY_UNKNOWN && unknown_count < n {
-        warnings.push(Warning::new(
-            "INPUT_DEPTH_MOSTLY_UNKNOWN",
-            format!(
-                "{}: {:.0} % of the pixels have no depth; they are {} (--unknown-depth {})",
-                path.display(),
-                100.0 * unknown_share,
-                match s.unknown {
-                    UnknownDepth::Complete => "completed from the rest",
-                    UnknownDepth::Sky => "taken as the sky",
-                },
-                match s.unknown {
-                    UnknownDepth::Complete => "complete",
-                    UnknownDepth::Sky => "sky",
-                }
-            ),
-        ));
-    }
     let mut report = PrepareReport {
         source_size: (sw, sh),
         resized,
@@ -383,6 +365,19 @@ pub fn prepare_depth(
             (depth[p], unknown[p]) = (f32::INFINITY, false);
             report.sky_pixels += 1;
         }
+    }
+    if unknown_share > MOSTLY_UNKNOWN {
+        report.warnings.push(Warning::new(
+            "INPUT_DEPTH_MOSTLY_UNKNOWN",
+            format!(
+                "{}: {:.0} % of the pixels have no depth: {:.0} % open to the zenith made the sky, the rest \
+                 completed from the depth around it (--unknown-depth complete|sky; --depth-invalid V marks a \
+                 stored value as unknown)",
+                path.display(),
+                100.0 * unknown_share,
+                100.0 * report.sky_pixels as f64 / n as f64,
+            ),
+        ));
     }
     refine_depth(&nb, rgb, &mut depth, &unknown, s, &mut report);
     Ok(PreparedDepth { width: mapping.width(), height: mapping.height(), depth, report })
@@ -428,6 +423,14 @@ fn refine_depth(
     if completed {
         complete::push_pull(&mut log, w, h);
         complete::relax(nb, &mut log, unknown, RELAX_SWEEPS);
+        // Completion interpolates: it never goes nearer or farther than the finite depth known.
+        let (lo, hi) = original
+            .iter()
+            .filter(|l| l.is_finite() && **l < complete::SKY_LOG)
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &l| (lo.min(l), hi.max(l)));
+        if lo <= hi {
+            log.par_iter_mut().zip(unknown).filter(|(_, &u)| u).for_each(|(l, _)| *l = l.clamp(lo, hi));
+        }
         report.completed_pixels = unknown.iter().filter(|&&u| u).count();
     }
     if s.refine != Refine::Off {

@@ -52,13 +52,21 @@ fn exr_info(path: &Path, out: Output) -> Result<u8, Failure> {
 }
 
 fn image_info(path: &Path, out: Output) -> Result<u8, Failure> {
-    let (w, h) = image::image_dimensions(path).map_err(|e| Failure {
-        code: "IMAGE_UNREADABLE",
-        message: format!("{}: cannot read image header ({e})", path.display()),
-        exit: 2,
-    })?;
-    out.json(&serde_json::json!({"kind": "image", "path": path, "width": w, "height": h}));
-    out.say(format!("{}: image {w}x{h}", path.display()));
+    let h = pomc::build::input::image_header(path).map_err(pomc::Error::from)?;
+    let mut json = serde_json::to_value(&h).expect("header serialises");
+    json["kind"] = serde_json::json!("image");
+    json["path"] = serde_json::json!(path);
+    out.json(&json);
+    let grey = if h.channels <= 2 { " grey" } else { "" };
+    out.say(format!(
+        "{}: image {}x{}, {}, {} channel(s){grey}, {}-bit",
+        path.display(),
+        h.width,
+        h.height,
+        h.format,
+        h.channels,
+        h.bits
+    ));
     Ok(0)
 }
 

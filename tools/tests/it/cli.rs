@@ -561,9 +561,11 @@ fn build_checks_sizes_from_headers_first() {
     assert_eq!(v["error"]["code"], "INPUT_TOO_LARGE", "{v}");
     assert!(v["error"]["message"].as_str().unwrap().contains("--max-pixels"), "{v}");
     assert!(t.elapsed().as_secs() < 30, "refused from the header, not after decoding");
-    // A header of another size than the depth: the mismatch, not the missing pixels, is reported.
+    // A colour header of another shape than the depth (a 3:2 cube map beside a 2:1 equirect): the
+    // mismatch, not the missing pixels, is reported. (Depth of the same shape at another
+    // resolution is resampled, not refused.)
     let header = pomc::layer_io::read_header(&depth, &ReadLimits::default()).unwrap();
-    std::fs::write(p("small.png"), png_header_only(header.width as u32 / 2, header.height as u32 / 2))
+    std::fs::write(p("small.png"), png_header_only(header.height as u32 * 3 / 2, header.height as u32))
         .unwrap();
     let run = pomc(&["build", "--colour", &p("small.png"), "--depth", d, "-o", &p("o"), "--json"]);
     assert_eq!(json(&run)["error"]["code"], "INPUT_SIZE_MISMATCH");
