@@ -464,7 +464,7 @@ fn refine_depth(
 }
 
 /// Relaxation sweeps after the push-pull.
-const RELAX_SWEEPS: usize = 60;
+const RELAX_SWEEPS: usize = 24;
 
 /// Passes of the snap.
 const SNAP_PASSES: usize = 2;
