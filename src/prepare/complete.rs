@@ -1,7 +1,11 @@
 //! Unknown depth completed from the known depth around it: push-pull in log depth (a pyramid of
-//! weighted means, then each level's gaps from the coarser level), so holes of any size get a
-//! continuous surface; where a hole spans a depth edge the refinement snaps the completed ramp onto
-//! the colour edge.
+//! weighted means, then each level's gaps from the coarser level), relaxed over the sphere's
+//! neighbours, so holes of any size get a continuous surface; or, asked, the regions open to the
+//! zenith made the sky.
+
+use rayon::prelude::*;
+
+use crate::mapping::{Mapping, Neighbours};
 
 /// Unknown pixels of the regions open to the zenith: those reached from the unknown pixels nearest
 /// the zenith through unknown pixels, after an opening of `OPEN` pixels (so thin gaps, such as
@@ -46,10 +50,6 @@ const ZENITH_COS: f64 = 0.985;
 /// Log depth given to infinitely far pixels while completing (10 km), so a hole beside the sky
 /// completes towards it; completed values this far are infinitely far again.
 pub(crate) const SKY_LOG: f32 = 9.2103;
-
-use rayon::prelude::*;
-
-use crate::mapping::{Mapping, Neighbours};
 
 /// Fill the NaN pixels of `log` (row-major `w` × `h`; finite elsewhere) in place.
 pub(crate) fn push_pull(log: &mut [f32], w: usize, h: usize) {

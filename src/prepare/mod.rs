@@ -442,6 +442,18 @@ fn refine_depth(
             report.smoothed = true;
         }
         report.edges = refine::scan_edges(&log, w, jump_log);
+        if report.edges.is_soft() && s.refine == Refine::Auto {
+            report.warnings.push(Warning::new(
+                "INPUT_DEPTH_SOFT",
+                format!(
+                    "the depth's edges are spread over up to {} pixels (the steepest step takes {:.0} % of an \
+                     edge): objects will stay joined to what is behind them as stretched surfaces; depth at \
+                     the colour's resolution with sharp edges layers better (docs/build.md, \"Depth preparation\")",
+                    report.edges.width,
+                    100.0 * report.edges.sharpness
+                ),
+            ));
+        }
         // Measured on the path-traced corpus and the analytic room (docs/build.md, "Depth
         // preparation"): snapping loses there (objects stay joined to the floor at softened
         // contacts, and their sharpened outlines split off as shells), so only `on` snaps.
