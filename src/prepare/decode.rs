@@ -179,10 +179,22 @@ pub(crate) fn to_metres(
     let invalid = |v: f32| v.is_nan() || enc.invalid.is_some_and(|i| f64::from(v) == i);
     match enc.kind {
         DepthKind::Ray | DepthKind::Z => {
-            let scale = match (enc.scale, samples.format) {
-                (Some(s), _) => s,
-                (None, SampleFormat::F32) => 1.0,
-                (None, _) => return Err(PrepareError::ScaleNeeded { path: path.into() }),
+            let mut fit = None;
+            let scale = match (enc.scale, samples.format, enc.camera_height) {
+                (Some(s), _, _) => s,
+                (None, SampleFormat::F32, _) => 1.0,
+                // Integer depth of unknown unit: the floor under a camera of known height gives it.
+                (None, _, Some(h)) => {
+                    let raw: Vec<f64> = samples
+                        .values
+                        .iter()
+                        .map(|&v| if invalid(v) || v <= 0.0 { f64::NAN } else { f64::from(v) })
+                        .collect();
+                    let f = floor_fit(path, &raw, mapping, h, Line::Scale)?;
+                    fit = Some(f);
+                    f.a
+                }
+                (None, _, None) => return Err(PrepareError::ScaleNeeded { path: path.into() }),
             };
             let sentinel = sentinels(samples, scale, enc, warnings, path);
             let d = samples
@@ -196,7 +208,7 @@ pub(crate) fn to_metres(
                     }
                 })
                 .collect();
-            Ok((d, None))
+            Ok((d, fit))
         }
         DepthKind::Inverse | DepthKind::Nearness => {
             let unit = samples.format.unit();
@@ -250,7 +262,11 @@ fn check_kind(path: &Path, s: &DepthSamples, enc: &DepthEncoding) -> Result<(), 
             why: "its red, green and blue channels differ: it is a colour image".into(),
         });
     }
-    if s.format == SampleFormat::U8 && !enc.kind.is_relative() && enc.scale.is_none() {
+    if s.format == SampleFormat::U8
+        && !enc.kind.is_relative()
+        && enc.scale.is_none()
+        && enc.camera_height.is_none()
+    {
         return Err(PrepareError::EightBit { path: path.into() });
     }
     if enc.kind.is_relative() && enc.range.is_none() && enc.camera_height.is_none() {
@@ -291,7 +307,7 @@ fn relative_fit(
 ) -> Result<MetricFit, PrepareError> {
     let inverse = enc.kind == DepthKind::Inverse;
     if let Some(h) = enc.camera_height {
-        return floor_fit(path, values, mapping, h, inverse);
+        return floor_fit(path, values, mapping, h, if inverse { Line::Inverse } else { Line::Nearness });
     }
     if let Some((near, far)) = enc.range {
         let (lo, hi) = values
@@ -311,6 +327,17 @@ fn relative_fit(
     Ok(MetricFit { a: 1.0 / scale, b: 0.0, from: "depth-scale", floor_share: None })
 }
 
+/// The line a floor fit looks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Line {
+    /// `1/depth = a·value + b`, `a > 0`.
+    Inverse,
+    /// `depth = a·value + b`, `a < 0`.
+    Nearness,
+    /// `depth = a·value`, `a > 0`: metric depth of unknown unit.
+    Scale,
+}
+
 /// Fit `target = a·value + b` on the floor: pixels 20° or more below the horizon whose target
 /// (`1/depth` or `depth` of a level floor `h` below the camera, `h / sin(elevation below)`) the
 /// line explains; a deterministic RANSAC over pairs, then least squares on the inliers.
@@ -319,8 +346,9 @@ fn floor_fit(
     values: &[f64],
     mapping: &AnyMapping,
     h: f64,
-    inverse: bool,
+    line: Line,
 ) -> Result<MetricFit, PrepareError> {
+    let inverse = line == Line::Inverse;
     let (w, ht) = (mapping.width(), mapping.height());
     let sin_min = 20f64.to_radians().sin();
     // (value, target) of candidate floor pixels, subsampled to at most ~20 000.
@@ -353,13 +381,16 @@ fn floor_fit(
     };
     for _ in 0..600 {
         let ((v1, t1), (v2, t2)) = (pts[next()], pts[next()]);
-        if (v1 - v2).abs() < 1e-12 {
+        let (a, b) = if line == Line::Scale {
+            (t1 / v1, 0.0)
+        } else if (v1 - v2).abs() < 1e-12 {
             continue;
-        }
-        let a = (t1 - t2) / (v1 - v2);
-        let b = t1 - a * v1;
-        // Inverse depth grows with the value, nearness distance falls with it.
-        if (inverse && a <= 0.0) || (!inverse && a >= 0.0) {
+        } else {
+            let a = (t1 - t2) / (v1 - v2);
+            (a, t1 - a * v1)
+        };
+        // Inverse depth and a metric value grow with the value, nearness distance falls with it.
+        if !a.is_finite() || (line == Line::Nearness) != (a < 0.0) || a == 0.0 {
             continue;
         }
         let n = inliers(a, b);
@@ -378,7 +409,9 @@ fn floor_fit(
         (sw, sv, st, svv, svt) = (sw + wgt, sv + wgt * v, st + wgt * t, svv + wgt * v * v, svt + wgt * v * t);
     }
     let det = sw * svv - sv * sv;
-    let (a, b) = if det.abs() > 1e-12 * sw * svv {
+    let (a, b) = if line == Line::Scale {
+        (svt / svv, 0.0)
+    } else if det.abs() > 1e-12 * sw * svv {
         ((sw * svt - sv * st) / det, (st * svv - sv * svt) / det)
     } else {
         best

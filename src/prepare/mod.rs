@@ -166,8 +166,9 @@ pub enum PrepareError {
     /// Integer depth without a unit; `INPUT_DEPTH_SCALE_NEEDED`.
     #[error(
         "{path}: integer depth has no unit; give --depth-scale (metres per stored unit, e.g. 0.001 for \
-         millimetres) or a dataset --preset (matterport3d, stanford2d3ds, structured3d), or store float \
-         metres in an OpenEXR; for a map where brighter is nearer give --depth-kind nearness"
+         millimetres), a dataset --preset (matterport3d, stanford2d3ds, structured3d) or --camera-height H \
+         (the unit is fitted to the floor), or store float metres in an OpenEXR; for a map where brighter \
+         is nearer give --depth-kind nearness"
     )]
     ScaleNeeded {
         /// The depth file.
@@ -441,7 +442,7 @@ fn refine_depth(
             refine::smooth(&mut log, w, h, &blocks, median, jump_log);
             report.smoothed = true;
         }
-        report.edges = refine::scan_edges(&log, w, jump_log);
+        report.edges = refine::scan_edges(&original, w, jump_log);
         if report.edges.is_soft() && s.refine == Refine::Auto {
             report.warnings.push(Warning::new(
                 "INPUT_DEPTH_SOFT",

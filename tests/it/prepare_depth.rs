@@ -200,7 +200,13 @@ fn relative_depth_is_made_metric() {
     // Half a level of 5.5 m is 1.1 cm.
     let ok = p.depth.iter().zip(&input.depth).filter(|(a, b)| (*a - *b).abs() <= 0.012 || **b > far).count();
     assert!(ok as f64 / levels.len() as f64 > 0.99);
-    // Its floor gives the same scale.
+    // Millimetres without a unit: the floor gives it.
+    let mm: Vec<f32> = input.depth.iter().map(|d| (d * 1000.0).round()).collect();
+    let enc = DepthEncoding { camera_height: Some(CENTRE_HEIGHT), ..Default::default() };
+    let p = prepare(&input, samples(W, mm, SampleFormat::U16), &enc, &Default::default());
+    let fit = p.report.metric.unwrap();
+    assert!((fit.a - 0.001).abs() < 1e-5 && fit.b == 0.0, "{fit:?}");
+    // The nearness map's floor gives its scale too.
     let enc =
         DepthEncoding { kind: DepthKind::Nearness, camera_height: Some(CENTRE_HEIGHT), ..Default::default() };
     let p = prepare(&input, samples(W, levels, SampleFormat::U8), &enc, &Default::default());
