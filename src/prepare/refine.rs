@@ -33,24 +33,45 @@ impl EdgeScan {
 /// An edge whose steepest step takes less than this share of it is soft.
 const SOFT_SHARPNESS: f64 = 0.45;
 
-/// Scan rows for depth edges: runs of same-signed steps over `jump_log` in all.
+/// Scan rows for depth edges: runs of same-signed steps over `jump_log` in all, at most 64 pixels
+/// long, between flanks flatter than a quarter of the run's mean step (a wall turning away from the
+/// ray climbs as steadily as a soft edge, but has no flat flanks).
 pub(crate) fn scan_edges(log: &[f32], w: usize, jump_log: f32) -> EdgeScan {
+    const FLANK: usize = 4;
     let runs: Vec<(usize, f64)> = log
         .par_chunks(w)
         .flat_map_iter(|row| {
+            let step = |x: usize| row[x] - row[x - 1];
+            // Mean absolute step over `FLANK` steps from `from` on (backwards when `back`); NaN
+            // (unknown depth) or the row's end is no flank.
+            let flank = |from: usize, back: bool| -> Option<f32> {
+                let xs: Vec<usize> = if back {
+                    (from.saturating_sub(FLANK).max(1)..from).collect()
+                } else {
+                    (from..(from + FLANK).min(row.len())).collect()
+                };
+                let sum: f32 = xs.iter().map(|&x| step(x).abs()).sum();
+                (xs.len() == FLANK && sum.is_finite()).then(|| sum / FLANK as f32)
+            };
             let mut out = Vec::new();
-            let (mut len, mut total, mut widest, mut sign) = (0usize, 0.0f32, 0.0f32, 0.0f32);
-            let close = |len: usize, total: f32, widest: f32, out: &mut Vec<(usize, f64)>| {
-                if len > 0 && len <= 64 && total.abs() > 1.5 * jump_log {
+            let (mut start, mut len, mut total, mut widest, mut sign) =
+                (0usize, 0usize, 0.0f32, 0.0f32, 0.0f32);
+            let mut close = |start: usize, len: usize, total: f32, widest: f32| {
+                if len == 0 || len > 64 || total.abs() <= 1.5 * jump_log {
+                    return;
+                }
+                let mean = total.abs() / len as f32;
+                let flat = |f: Option<f32>| f.is_some_and(|f| f < 0.25 * mean);
+                if flat(flank(start, true)) && flat(flank(start + len, false)) {
                     out.push((len, f64::from(widest / total.abs())));
                 }
             };
             for x in 1..row.len() {
-                let s = row[x] - row[x - 1];
+                let s = step(x);
                 let small = s.is_nan() || s.abs() <= 0.003;
                 if small || s.signum() != sign {
-                    close(len, total, widest, &mut out);
-                    (len, total, widest, sign) = (0, 0.0, 0.0, 0.0);
+                    close(start, len, total, widest);
+                    (start, len, total, widest, sign) = (x, 0, 0.0, 0.0, 0.0);
                     if small {
                         continue;
                     }
@@ -60,7 +81,7 @@ pub(crate) fn scan_edges(log: &[f32], w: usize, jump_log: f32) -> EdgeScan {
                 total += s;
                 widest = widest.max(s.abs());
             }
-            close(len, total, widest, &mut out);
+            close(start, len, total, widest);
             out
         })
         .collect();
