@@ -375,3 +375,31 @@ fn snap_along(
     }
     None
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rows of `pattern(x)` log depth, 16 of them, 256 wide.
+    fn rows(pattern: impl Fn(usize) -> f32) -> Vec<f32> {
+        (0..256 * 16).map(|p| pattern(p % 256)).collect()
+    }
+
+    /// A step is an edge, sharp; the same step blurred is soft; a steady climb (a wall turning
+    /// away from the ray) is no edge at all.
+    #[test]
+    fn edges_are_told_from_walls() {
+        let jump = 1.08f32.ln();
+        let step = |x: usize| if (x / 32) % 2 == 0 { 0.5 } else { 1.2 };
+        let sharp = scan_edges(&rows(step), 256, jump);
+        assert!(sharp.edges >= 8 && !sharp.is_soft() && sharp.sharpness > 0.99, "{sharp:?}");
+        let blurred = |x: usize| {
+            let t = (((x % 64) as f32 - 32.0).abs() - 16.0) / 3.0;
+            0.5 + 0.7 / (1.0 + (-t).exp())
+        };
+        let soft = scan_edges(&rows(blurred), 256, jump);
+        assert!(soft.is_soft() && soft.width >= 8, "{soft:?}");
+        let wall = scan_edges(&rows(|x| 0.01 * x as f32), 256, jump);
+        assert_eq!(wall.edges, 0, "{wall:?}");
+    }
+}
