@@ -95,11 +95,7 @@ pub fn build_panorama_with_progress(
     let files = input::read(colour, s.colour_space, depth, s.normals_in.as_deref(), &s.limits)?;
     let read_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    progress(PREPARE_STAGE);
-    let (rgbd, prepare) = files.prepare(depth, &s.depth, &s.prepare)?;
-    let prepare_s = t.elapsed().as_secs_f64();
-    let mut built = build_rgbd(&rgbd, s, progress)?;
-    built.report.stages.insert(0, (PREPARE_STAGE, prepare_s));
+    let (built, prepare) = prepare_and_build(files, depth, s, progress)?;
     let build_s = t.elapsed().as_secs_f64();
     progress("writing");
     let t = Instant::now();
@@ -212,13 +208,23 @@ pub fn build_arrays(
         colour_channels: false,
     };
     let files = input::RgbdFiles { mapping, rgb, depth: samples, normals };
+    Ok(prepare_and_build(files, name, s, progress)?.0)
+}
+
+/// The `prepare` stage (timed first in the report's stages), then the build's.
+fn prepare_and_build(
+    files: input::RgbdFiles,
+    depth: &Path,
+    s: &BuildSettings,
+    progress: &dyn Fn(&str),
+) -> crate::Result<(BuiltPanorama, PrepareReport)> {
     progress(PREPARE_STAGE);
     let t = Instant::now();
-    let (rgbd, _) = files.prepare(name, &s.depth, &s.prepare)?;
+    let (rgbd, prepare) = files.prepare(depth, &s.depth, &s.prepare)?;
     let prepare_s = t.elapsed().as_secs_f64();
     let mut built = build_rgbd(&rgbd, s, progress)?;
     built.report.stages.insert(0, (PREPARE_STAGE, prepare_s));
-    Ok(built)
+    Ok((built, prepare))
 }
 
 /// How [`Renderer`] draws a view (`pomc render --method`).

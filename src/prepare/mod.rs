@@ -90,7 +90,7 @@ pub enum Refine {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum UnknownDepth {
-    /// A surface not measured: completed from the depth around it (and its edges snapped).
+    /// A surface not measured: completed from the depth around it.
     #[default]
     #[cfg_attr(feature = "clap", value(help = "A surface not measured: completed from the depth around it"))]
     Complete,

@@ -196,7 +196,7 @@ pub(crate) fn snap(
 ) -> usize {
     let src = log.to_vec();
     // The 1D analysis: which pixels are on a soft step, and its radius.
-    let found: Vec<(usize, Snap)> = (0..src.len())
+    let found: Vec<(usize, usize)> = (0..src.len())
         .into_par_iter()
         .filter(|&p| steepest_step(nb, &src, p) >= MIN_STEP)
         .filter_map(|p| {
@@ -216,19 +216,12 @@ pub(crate) fn snap(
     // depths of either side, so the snapped pixels join a side's surface, not a shell of their own).
     let updates: Vec<(usize, f32)> = found
         .par_iter()
-        .map(|&(p, Snap::Step(r))| (p, weighted_median(nb, &src, guide, &zone, p, r).unwrap_or(src[p])))
+        .map(|&(p, r)| (p, weighted_median(nb, &src, guide, &zone, p, r).unwrap_or(src[p])))
         .collect();
     for &(p, v) in &updates {
         log[p] = v;
     }
     updates.len()
-}
-
-/// What the 1D analysis found at a pixel.
-#[derive(Clone, Copy, Debug)]
-enum Snap {
-    /// On a soft step whose sides are this many pixels away.
-    Step(usize),
 }
 
 /// The colour-weighted median of the log depths within `r` of `p` (sampled on a grid of about
@@ -327,8 +320,8 @@ fn monotone_ramp(log: &[f32], minus: &[usize], l0: f32, plus: &[usize], rise: f3
 /// Radii tried, smallest first.
 const RADII: [usize; 9] = [2, 3, 4, 5, 6, 8, 11, 16, 24];
 
-/// The snapped value of `p` along axis `k` (0: row, 2: column) and the jump's size, if `p` is an
-/// in-between pixel of a soft edge along it.
+/// If `p` is an in-between pixel of a soft step along axis `k` (0: row, 2: column): the step's
+/// window radius and its size.
 fn snap_along(
     nb: &Neighbours,
     log: &[f32],
@@ -336,7 +329,7 @@ fn snap_along(
     k: usize,
     max_r: usize,
     jump_log: f32,
-) -> Option<(Snap, f32)> {
+) -> Option<(usize, f32)> {
     // The pixels 1..=max_r+1 steps away each way (fewer where the sphere has no neighbour).
     let walk = |dir: usize| -> Vec<usize> {
         let mut line = Vec::with_capacity(max_r + 1);
@@ -371,7 +364,7 @@ fn snap_along(
         if !(t > 0.02 && t < 0.98 && monotone_ramp(log, &minus[..r], l0, &plus[..r], ep - em, rf)) {
             return None;
         }
-        return Some((Snap::Step(r + 1), e));
+        return Some((r + 1, e));
     }
     None
 }
