@@ -44,6 +44,7 @@ BUILD_OPTIONS: Dict[str, Any] = {
     "depth_kind": "ray",
     "depth_range": None,
     "camera_height": None,
+    "known_distance": None,
     "refine": "auto",
     "unknown_depth": "complete",
     "jump": 0.08,
@@ -283,6 +284,15 @@ def _build_options(freedom_radius: float, convention: str, center: Sequence[floa
         if not (0 < near < far < float("inf")):
             raise _usage(f"depth_range must have 0 < near < far, got {r!r}")
         opts["depth_range"] = (near, far)
+    if "known_distance" in opts:
+        kd = opts["known_distance"]
+        try:
+            x, y, metres = (float(v) for v in kd)
+        except (TypeError, ValueError):
+            raise _usage(f"known_distance must be (x, y, metres), got {kd!r}") from None
+        if not (x >= 0 and y >= 0 and 0 < metres < float("inf")):
+            raise _usage(f"known_distance must have x, y >= 0 (colour pixels) and metres > 0, got {kd!r}")
+        opts["known_distance"] = (x, y, metres)
     if "fill_margin" in opts:
         opts["fill_margin"] = _positive("fill_margin", opts["fill_margin"], allow_zero=True)
     if "normals_in" in opts:

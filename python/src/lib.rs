@@ -488,6 +488,10 @@ fn settings(o: &Bound<'_, PyDict>) -> PyResult<BuildSettings> {
     if let Some(v) = get("camera_height")? {
         s.depth.camera_height = Some(v.extract()?);
     }
+    if let Some(v) = get("known_distance")? {
+        let (x, y, metres): (f64, f64, f64) = v.extract()?;
+        s.depth.known_distance = Some(pomc::prepare::KnownDistance { x, y, metres });
+    }
     if let Some(v) = get("refine")? {
         s.prepare.refine = match v.extract::<String>()?.as_str() {
             "auto" => Refine::Auto,

@@ -509,7 +509,7 @@ fn cut_fronts(
 
 /// A segment behind another that is over `SPECK` times larger, and smaller than `SPECK_MAX` pixels,
 /// is a speck: it does not count as occluded by it.
-const SPECK: u64 = 1000;
+const SPECK: u64 = 100;
 const SPECK_MAX: u32 = 256;
 
 /// Longest occlusion chain per segment. Real data can produce cycles (A occludes B somewhere, B

@@ -24,6 +24,9 @@ pub struct DepthEncoding {
     /// Height of the camera above a level floor (m) (`--camera-height`): a relative kind is made
     /// metric by fitting the floor seen below the horizon.
     pub camera_height: Option<f64>,
+    /// One distance the user knows (`--known-distance X,Y,METRES`): the scale of depth of unknown
+    /// unit (metric kinds) or of inverse depth taken as having no shift.
+    pub known_distance: Option<KnownDistance>,
     /// The dataset preset these values came from, if any: a file of another sample format is refused.
     pub preset: Option<Preset>,
 }
@@ -36,9 +39,21 @@ impl Default for DepthEncoding {
             kind: DepthKind::Ray,
             range: None,
             camera_height: None,
+            known_distance: None,
             preset: None,
         }
     }
+}
+
+/// The distance along the ray of one pixel of the colour image.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct KnownDistance {
+    /// Column of the colour image, pixels from the left (fractions allowed).
+    pub x: f64,
+    /// Row of the colour image, pixels from the top.
+    pub y: f64,
+    /// Distance from the panorama's centre along that pixel's ray, metres.
+    pub metres: f64,
 }
 
 /// What stored depth values mean.
@@ -182,6 +197,13 @@ pub(crate) fn to_metres(
             let mut fit = None;
             let scale = match (enc.scale, samples.format, enc.camera_height) {
                 (Some(s), _, _) => s,
+                // One known distance gives the unit (float depth too: an estimator's depth up to scale).
+                _ if enc.known_distance.is_some() => {
+                    let (k, v) = known_value(path, samples, mapping, enc, &invalid)?;
+                    let along = if enc.kind == DepthKind::Z { v / z_axis(mapping, k) } else { v };
+                    fit = Some(MetricFit { a: k.metres / along, b: 0.0, from: "known-distance", floor_share: None });
+                    k.metres / along
+                }
                 (None, SampleFormat::F32, _) => 1.0,
                 // Integer depth of unknown unit: the floor under a camera of known height gives it.
                 (None, _, Some(h)) => {
@@ -217,7 +239,21 @@ pub(crate) fn to_metres(
                 .iter()
                 .map(|&v| if invalid(v) || !v.is_finite() { f64::NAN } else { f64::from(v) * unit })
                 .collect();
-            let fit = relative_fit(path, &values, mapping, enc)?;
+            let fit = match enc.known_distance {
+                // Inverse depth without shift: 1/depth = a·value.
+                Some(_) if enc.kind == DepthKind::Inverse => {
+                    let (k, v) = known_value(path, samples, mapping, enc, &invalid)?;
+                    let v = v * unit;
+                    if v <= 0.0 {
+                        return Err(PrepareError::BadOption {
+                            option: "--known-distance",
+                            why: format!("{}: the inverse depth at pixel ({},{}) is {v}, not above 0: pick a pixel nearer than the farthest", path.display(), k.x, k.y),
+                        });
+                    }
+                    MetricFit { a: 1.0 / (k.metres * v), b: 0.0, from: "known-distance", floor_share: None }
+                }
+                _ => relative_fit(path, &values, mapping, enc)?,
+            };
             let inverse = enc.kind == DepthKind::Inverse;
             let d = values
                 .iter()
@@ -245,6 +281,50 @@ pub(crate) fn to_metres(
     }
 }
 
+/// The known distance (its pixel on the depth's canvas) and the median stored value within 2
+/// pixels of it.
+fn known_value(
+    path: &Path,
+    samples: &DepthSamples,
+    mapping: &AnyMapping,
+    enc: &DepthEncoding,
+    invalid: &dyn Fn(f32) -> bool,
+) -> Result<(KnownDistance, f64), PrepareError> {
+    let k = enc.known_distance.expect("called with a known distance");
+    let (w, h) = (mapping.width() as i64, mapping.height() as i64);
+    let (cx, cy) = (k.x.floor() as i64, k.y.floor() as i64);
+    let mut near: Vec<f64> = (-2..=2)
+        .flat_map(|dy| (-2..=2).map(move |dx| (cx + dx, cy + dy)))
+        .filter(|&(x, y)| (0..w).contains(&x) && (0..h).contains(&y))
+        .map(|(x, y)| samples.values[(y * w + x) as usize])
+        .filter(|&v| !invalid(v) && v.is_finite() && v > 0.0)
+        .map(f64::from)
+        .collect();
+    near.sort_by(f64::total_cmp);
+    match near.get(near.len() / 2) {
+        Some(&v) => Ok((k, v)),
+        None => Err(PrepareError::BadOption {
+            option: "--known-distance",
+            why: format!(
+                "{}: no depth within 2 pixels of ({},{}) (on the depth's {}x{} canvas): pick a pixel with depth",
+                path.display(),
+                k.x,
+                k.y,
+                w,
+                h
+            ),
+        }),
+    }
+}
+
+/// The face-axis component of the direction of the canvas pixel at `k` (z-depth over ray distance).
+fn z_axis(mapping: &AnyMapping, k: KnownDistance) -> f64 {
+    let x = (k.x.max(0.0) as usize).min(mapping.width() - 1);
+    let y = (k.y.max(0.0) as usize).min(mapping.height() - 1);
+    let dir = mapping.pixel_dir(x, y);
+    dir.x.abs().max(dir.y.abs()).max(dir.z.abs())
+}
+
 /// Refuse what cannot be the depth the kind says: 8-bit metric depth (256 levels; a web nearness
 /// map read as metres turns brighter-is-nearer into farther) and colour images.
 fn check_kind(path: &Path, s: &DepthSamples, enc: &DepthEncoding) -> Result<(), PrepareError> {
@@ -266,11 +346,12 @@ fn check_kind(path: &Path, s: &DepthSamples, enc: &DepthEncoding) -> Result<(), 
         && !enc.kind.is_relative()
         && enc.scale.is_none()
         && enc.camera_height.is_none()
+        && enc.known_distance.is_none()
     {
         return Err(PrepareError::EightBit { path: path.into() });
     }
     if enc.kind.is_relative() && enc.range.is_none() && enc.camera_height.is_none() {
-        let disparity = enc.kind == DepthKind::Inverse && enc.scale.is_some();
+        let disparity = enc.kind == DepthKind::Inverse && (enc.scale.is_some() || enc.known_distance.is_some());
         if !disparity {
             return Err(PrepareError::RelativeNeedsScale { path: path.into(), kind: enc.kind.as_str() });
         }

@@ -10,13 +10,14 @@ pub(crate) mod complete;
 pub mod decode;
 pub(crate) mod refine;
 pub(crate) mod resize;
+pub(crate) mod specks;
 
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::Serialize;
 
-pub use decode::{DepthEncoding, DepthKind, MetricFit, Preset};
+pub use decode::{DepthEncoding, DepthKind, KnownDistance, MetricFit, Preset};
 pub use refine::EdgeScan;
 
 use crate::mapping::{AnyMapping, Mapping, MappingKind, Neighbours};
@@ -150,6 +151,9 @@ pub struct PrepareReport {
     pub snap_radius: usize,
     /// Pixels whose depth the snap moved onto a side.
     pub snapped_pixels: usize,
+    /// Pixels of specks (small pieces of surface behind their surroundings, cut off from them)
+    /// given the depth of the neighbouring surface they share the colour of.
+    pub speck_pixels: usize,
     /// Median noise of log depth (a relative standard deviation).
     pub noise: f64,
     /// Whether noise was smoothed.
@@ -325,6 +329,25 @@ pub fn prepare_depth(
         },
     })?;
     let mut warnings = Vec::new();
+    // The known distance's pixel is the colour's: onto the depth's canvas.
+    let mut enc = *enc;
+    if let Some(k) = &mut enc.known_distance {
+        if !(k.x >= 0.0 && k.y >= 0.0 && k.x < mapping.width() as f64 && k.y < mapping.height() as f64) {
+            return Err(PrepareError::BadOption {
+                option: "--known-distance",
+                why: format!(
+                    "pixel ({},{}) is outside the {}x{} colour image",
+                    k.x,
+                    k.y,
+                    mapping.width(),
+                    mapping.height()
+                ),
+            });
+        }
+        k.x *= sw as f64 / mapping.width() as f64;
+        k.y *= sh as f64 / mapping.height() as f64;
+    }
+    let enc = &enc;
     let (mut depth, metric) = decode::to_metres(path, samples, &source, enc, &mut warnings)?;
     if enc.kind == DepthKind::Z {
         if kind == MappingKind::Equirect {
@@ -334,7 +357,7 @@ pub fn prepare_depth(
     }
     let resized = (sw, sh) != (mapping.width(), mapping.height());
     if resized {
-        depth = resize::resize(&depth, &source, mapping);
+        depth = resize::resize(&depth, &source, mapping, &refine::guide(rgb));
     }
     let n = depth.len();
     let unknown: Vec<bool> = depth.par_iter().map(|d| d.is_nan()).collect();
@@ -350,6 +373,7 @@ pub fn prepare_depth(
         snapped: false,
         snap_radius: 0,
         snapped_pixels: 0,
+        speck_pixels: 0,
         noise: 0.0,
         smoothed: false,
         metric,
@@ -391,6 +415,37 @@ fn check_encoding(enc: &DepthEncoding) -> Result<(), PrepareError> {
             return Err(PrepareError::BadOption {
                 option: "--depth-range",
                 why: format!("{near},{far}: give NEAR,FAR in metres with 0 < NEAR < FAR"),
+            });
+        }
+    }
+    if let Some(k) = enc.known_distance {
+        if !(k.metres > 0.0 && k.metres.is_finite()) {
+            return Err(PrepareError::BadOption {
+                option: "--known-distance",
+                why: format!("{}: give X,Y,METRES with a distance in metres above 0", k.metres),
+            });
+        }
+        let other = if enc.range.is_some() {
+            Some("--depth-range")
+        } else if enc.camera_height.is_some() {
+            Some("--camera-height")
+        } else if enc.scale.is_some() {
+            Some("--depth-scale (or a --preset)")
+        } else {
+            None
+        };
+        if let Some(other) = other {
+            return Err(PrepareError::BadOption {
+                option: "--known-distance",
+                why: format!("it and {other} both give the depth's scale: give one"),
+            });
+        }
+        if enc.kind == DepthKind::Nearness {
+            return Err(PrepareError::BadOption {
+                option: "--known-distance",
+                why: "a nearness map has two unknowns (its near and far ends): give --depth-range NEAR,FAR \
+                      or --camera-height H"
+                    .into(),
             });
         }
     }
@@ -468,6 +523,13 @@ fn refine_depth(
             }
             (report.snapped, report.snap_radius) = (true, radius);
         }
+        // Resampled depth only: the guided upsampling leaves pieces of neither side along
+        // silhouettes. In blurred depth at full resolution such pieces break ramps that would
+        // otherwise join into wider stretched surfaces (measured: docs/build.md).
+        if report.resized {
+            let max = (w * h / SPECK_SHARE).max(MIN_SPECK);
+            report.speck_pixels = specks::remove(nb, &mut log, &refine::guide(rgb), max, complete::SKY_LOG - 1e-3);
+        }
     }
     depth.par_iter_mut().zip(log.par_iter().zip(&original)).for_each(|(d, (&l, &o))| {
         if l.to_bits() != o.to_bits() {
@@ -478,6 +540,11 @@ fn refine_depth(
 
 /// Relaxation sweeps after the push-pull.
 const RELAX_SWEEPS: usize = 24;
+
+/// Pieces of surface smaller than this share of the canvas (1 / it), or [`MIN_SPECK`] pixels, are
+/// specks when they are behind something on their border.
+const SPECK_SHARE: usize = 1000;
+const MIN_SPECK: usize = 64;
 
 /// Passes of the snap.
 const SNAP_PASSES: usize = 2;

@@ -29,6 +29,21 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
     }
 }
 
+/// `--known-distance X,Y,METRES`: a pixel of the colour image and its distance along the ray.
+pub fn parse_known_distance(s: &str) -> Result<pomc::prepare::KnownDistance, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected X,Y,METRES (a colour pixel and its distance), got `{s}`"))?;
+    match v.as_slice() {
+        [x, y, m] if *x >= 0.0 && *y >= 0.0 && x.is_finite() && y.is_finite() && *m > 0.0 && m.is_finite() => {
+            Ok(pomc::prepare::KnownDistance { x: *x, y: *y, metres: *m })
+        }
+        _ => Err(format!("expected X,Y,METRES with X, Y ≥ 0 (pixels) and METRES > 0, got `{s}`")),
+    }
+}
+
 /// The domain of a number option: `lo < x` (or `lo <= x` when `lo_closed`), `x < hi` (or `<=`).
 /// NaN and infinities are never in a domain.
 #[derive(Clone, Copy, Debug)]

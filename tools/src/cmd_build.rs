@@ -12,7 +12,7 @@ use pomc::layer_io::ReadLimits;
 use pomc::panorama::SaveOptions;
 use pomc::prepare::{PrepareSettings, Refine, UnknownDepth};
 
-use crate::args::{parse_range, parse_vec3, Range};
+use crate::args::{parse_known_distance, parse_range, parse_vec3, Range};
 use crate::output::Output;
 use crate::Failure;
 
@@ -49,6 +49,10 @@ pub struct InputArgs {
     /// Camera height above a level floor (m): relative depth is made metric by fitting the floor.
     #[arg(long, value_name = "H", value_parser = Range::POSITIVE.parser())]
     camera_height: Option<f64>,
+    /// One distance you know: pixel X,Y of the colour image is METRES away along its ray; gives the
+    /// scale of depth of unknown unit, or of inverse depth taken as having no shift.
+    #[arg(long, value_name = "X,Y,METRES", value_parser = parse_known_distance)]
+    known_distance: Option<pomc::prepare::KnownDistance>,
     /// Snap soft depth edges onto colour edges and smooth depth noise: auto (when measured soft,
     /// noisy, resized or completed), on, off.
     #[arg(long, value_enum, default_value = "auto")]
@@ -75,6 +79,7 @@ impl InputArgs {
         enc.kind = self.depth_kind;
         enc.range = self.depth_range;
         enc.camera_height = self.camera_height;
+        enc.known_distance = self.known_distance;
         BuildSettings {
             colour_space: self.colour_space,
             depth: enc,

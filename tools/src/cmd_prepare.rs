@@ -33,7 +33,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     out.json(&report);
     let r = &prepared.report;
     out.say(format!(
-        "prepared {}x{} depth from {}x{}: {} px completed, {} made sky, {} px snapped (radius {}), noise {:.4}{} -> {}",
+        "prepared {}x{} depth from {}x{}: {} px completed, {} made sky, {} px snapped (radius {}), {} px of specks, noise {:.4}{} -> {}",
         w,
         h,
         r.source_size.0,
@@ -42,6 +42,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         r.sky_pixels,
         r.snapped_pixels,
         r.snap_radius,
+        r.speck_pixels,
         r.noise,
         if r.smoothed { " (smoothed)" } else { "" },
         args.output.display()

@@ -1,0 +1,88 @@
+//! Specks: small pieces of surface cut off from everything around them, with something nearer on
+//! their border — what resampled, blurred or estimated depth leaves along silhouettes (pixels of
+//! neither side's depth). Each would be a segment of its own, and a chain of them lifts the
+//! surface in front a level in the build (docs/build.md, "Depth preparation"). They take the depth
+//! of the neighbouring surface whose colour they share.
+
+use std::collections::VecDeque;
+
+use crate::continuity;
+use crate::mapping::{opposite, Neighbours};
+
+/// Replace the specks of `log` (log depth; `sky_log` and above is infinitely far) smaller than
+/// `max` pixels. Returns the pixels changed.
+pub(crate) fn remove(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]], max: usize, sky_log: f32) -> usize {
+    let n = log.len();
+    let depth = |l: f32| if l >= sky_log { f64::INFINITY } else { f64::from(l).exp() };
+    let joined = |log: &[f32], p: usize, k: usize, q: usize| {
+        let (a, b) = (depth(log[p]), depth(log[q]));
+        let behind = nb.get(p, opposite(k)).map(|r| depth(log[r]));
+        let beyond = nb.get(q, k).map(|r| depth(log[r]));
+        continuity::continuous(a, b, behind, beyond, continuity::JUMP, continuity::PLANAR)
+    };
+    // Pieces by flood fill; a small one with a nearer neighbour across its border is a speck.
+    let mut piece = vec![u32::MAX; n];
+    let mut speck = vec![false; n];
+    let mut queue = VecDeque::new();
+    let mut members = Vec::new();
+    for start in 0..n {
+        if piece[start] != u32::MAX || log[start].is_nan() {
+            continue;
+        }
+        piece[start] = start as u32;
+        queue.push_back(start);
+        members.clear();
+        let mut behind_something = false;
+        while let Some(p) = queue.pop_front() {
+            members.push(p);
+            for k in 0..4 {
+                let Some(q) = nb.get(p, k) else { continue };
+                if log[q].is_nan() {
+                    continue;
+                }
+                if joined(log, p, k, q) {
+                    if piece[q] == u32::MAX {
+                        piece[q] = start as u32;
+                        queue.push_back(q);
+                    }
+                } else if log[q] < log[p] {
+                    behind_something = true;
+                }
+            }
+        }
+        if members.len() < max && behind_something {
+            for &p in &members {
+                speck[p] = true;
+            }
+        }
+    }
+    // Fill the specks from their borders inwards, each pixel from the neighbour nearest in colour.
+    let mut left: Vec<usize> = (0..n).filter(|&p| speck[p]).collect();
+    let changed = left.len();
+    while !left.is_empty() {
+        let settled: Vec<(usize, f32)> = left
+            .iter()
+            .filter_map(|&p| {
+                let c = guide[p];
+                (0..4)
+                    .filter_map(|k| nb.get(p, k))
+                    .filter(|&q| !speck[q] && !log[q].is_nan())
+                    .min_by(|&a, &b| colour_distance(c, guide[a]).total_cmp(&colour_distance(c, guide[b])))
+                    .map(|q| (p, log[q]))
+            })
+            .collect();
+        if settled.is_empty() {
+            break; // a speck with no settled neighbour at all (cannot happen: it has a border)
+        }
+        for &(p, l) in &settled {
+            log[p] = l;
+            speck[p] = false;
+        }
+        left.retain(|&p| speck[p]);
+    }
+    changed
+}
+
+fn colour_distance(a: [f32; 3], b: [f32; 3]) -> f32 {
+    (0..3).map(|i| (a[i] - b[i]).powi(2)).sum()
+}
