@@ -242,3 +242,22 @@ def test_relative_depth_needs_its_scale(tmp_path):
     assert ok.mean() > 0.97, ok.mean()
     with pytest.raises(pomc.PomcError):
         pomc.prepare_depth(FIXTURE / "colour.png", path, depth_kind="nearness", depth_range=(3, 1))
+
+
+def test_one_known_distance_gives_the_scale(tmp_path):
+    """Depth known only up to scale (an estimator's float depth) made metric by one distance."""
+    depth = exr_channels(FIXTURE / "depth.exr")["Z"]
+    h, w = depth.shape
+    y, x = h // 2, w // 2
+    path = tmp_path / "scaled.exr"
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                 {"Z": (depth * 0.37).astype(np.float32)}).write(str(path))
+    array, report = pomc.prepare_depth(FIXTURE / "colour.png", path, known_distance=(x, y, float(depth[y, x])))
+    assert report["metric"]["from"] == "known-distance"
+    fin = np.isfinite(depth)
+    assert np.mean(np.abs(array[fin] / depth[fin] - 1) < 0.005) > 0.99
+    with pytest.raises(pomc.PomcError) as e:
+        pomc.prepare_depth(FIXTURE / "colour.png", path, known_distance=(x, y, 2.0), depth_scale=0.001)
+    assert e.value.code == "INPUT_BAD_OPTION" and "--known-distance" in str(e.value)
+    with pytest.raises(pomc.PomcError):
+        pomc.prepare_depth(FIXTURE / "colour.png", path, known_distance=(x, y, -1))

@@ -19,9 +19,10 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::continuity;
 use crate::layer::{LayerImage, SampleType, OUTSIDE_DEPTH};
 use crate::manifest::{LayerDecl, Manifest, MappingDecl, Role, Transform};
-use crate::mapping::Neighbours;
+use crate::mapping::{opposite, Neighbours};
 use crate::mapping::{AnyMapping, Mapping, MappingKind};
 pub use edges::EdgeOptions;
 use fill::{fill_layer, FillContext};
@@ -118,6 +119,8 @@ struct LayerKey {
     level: u32,
     band_rev: u32,
     class: SurfaceClass,
+    /// Segments of one key that meet across a discontinuity go to different parts (layers).
+    part: u32,
 }
 
 /// Classify segments by their area-weighted mean normal (facing the centre) and position:
@@ -386,10 +389,20 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
             level,
             band_rev: nbands - 1 - band_of(depth[p]),
             class: if level == 0 { class[s as usize] } else { SurfaceClass::Any },
+            part: 0,
         })
     };
     let has_infinity = depth.iter().any(|d| d.is_infinite());
-    let pixel_keys: Vec<Option<LayerKey>> = (0..n).into_par_iter().map(key_of).collect();
+    let mut pixel_keys: Vec<Option<LayerKey>> = (0..n).into_par_iter().map(key_of).collect();
+    let (piece, piece_size) = pieces(&nb, &depth, &seg.id, &seg.size);
+    let part = parts(&nb, &depth, &piece, &piece_size, &pixel_keys);
+    if part.iter().any(|&c| c != 0) {
+        pixel_keys.par_iter_mut().zip(&piece).for_each(|(k, &s)| {
+            if let Some(k) = k {
+                k.part = part[s as usize];
+            }
+        });
+    }
     let mut keys: Vec<LayerKey> = pixel_keys
         .par_iter()
         .fold(std::collections::BTreeSet::new, |mut set, k| {
@@ -406,7 +419,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         .collect();
     if keys.is_empty() && !has_infinity {
         // All unknown: one background layer.
-        keys.push(LayerKey { level: 0, band_rev: 0, class: SurfaceClass::Any });
+        keys.push(LayerKey { level: 0, band_rev: 0, class: SurfaceClass::Any, part: 0 });
     }
     let first = has_infinity as u32;
     let mut layer_of: Vec<u32> = (0..n)
@@ -418,6 +431,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         })
         .collect();
     assign_unknown(&nb, &mut depth, &mut layer_of, first);
+    repair_breaks(&nb, &depth, &mut layer_of);
     lap("layers", &mut stages);
 
     // (6) Fill behind occluders.
@@ -586,6 +600,211 @@ fn assign_unknown(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [u32], firs
         if *l == u32::MAX {
             *l = first_finite;
             *d = f32::INFINITY;
+        }
+    }
+}
+
+/// Pieces of segments: pixels of one segment joined by `validate`'s rule with the plane test
+/// through pixels of the same segment ([`continuity::LAYER_JUMP`]). A segment is one piece unless
+/// a plane test through pixels that went elsewhere linked it (a soft ramp cut in pieces). Returns
+/// each pixel's piece (`u32::MAX` outside segments) and each piece's size.
+fn pieces(nb: &Neighbours, depth: &[f32], id: &[u32], sizes: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let w = nb.width();
+    let broken: Vec<(usize, usize)> = (0..nb.height())
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            let mut found = Vec::new();
+            for x in 0..w {
+                let p = y * w + x;
+                let s = id[p];
+                if s == NO_SEGMENT {
+                    continue;
+                }
+                let at = |r: usize| (id[r] == s).then(|| f64::from(depth[r]));
+                for k in 0..4 {
+                    let Some(q) = nb.get_at(x, y, k).filter(|&q| q > p && id[q] == s) else { continue };
+                    let behind = nb.get_at(x, y, opposite(k)).and_then(at);
+                    let beyond = nb.get2_at(x, y, k).and_then(at);
+                    let (a, b) = (f64::from(depth[p]), f64::from(depth[q]));
+                    if !continuity::continuous(
+                        a,
+                        b,
+                        behind,
+                        beyond,
+                        continuity::LAYER_JUMP,
+                        continuity::PLANAR,
+                    ) {
+                        found.push((p, q));
+                    }
+                }
+            }
+            found
+        })
+        .collect();
+    // Most builds: every segment one piece.
+    if broken.is_empty() {
+        return (id.to_vec(), sizes.to_vec());
+    }
+    let broken: std::collections::HashSet<(usize, usize)> = broken.into_iter().collect();
+    let mut dsu = segment::Dsu::new(id.len());
+    for p in 0..id.len() {
+        if id[p] == NO_SEGMENT {
+            continue;
+        }
+        for k in 0..4 {
+            if let Some(q) = nb.get(p, k).filter(|&q| q > p && id[q] == id[p] && !broken.contains(&(p, q))) {
+                dsu.union(p as u32, q as u32);
+            }
+        }
+    }
+    let mut label = vec![u32::MAX; id.len()];
+    let mut size = Vec::new();
+    for p in 0..id.len() {
+        if id[p] == NO_SEGMENT {
+            continue;
+        }
+        let root = dsu.find(p as u32) as usize;
+        if label[root] == u32::MAX {
+            label[root] = size.len() as u32;
+            size.push(0);
+        }
+        label[p] = label[root];
+        size[label[p] as usize] += 1;
+    }
+    (label, size)
+}
+
+/// The part of each piece of segment ([`pieces`]): segments that would share a layer (one key) but meet across a
+/// discontinuity by `validate`'s rule ([`continuity::LAYER_JUMP`], the plane test through pixels
+/// of the same key) — a far speck the surface in front does not rise above, two ends of a soft ramp
+/// — get different parts, larger segments first (greedy colouring), so each layer stays continuous.
+fn parts(nb: &Neighbours, depth: &[f32], piece: &[u32], size: &[u32], keys: &[Option<LayerKey>]) -> Vec<u32> {
+    let w = nb.width();
+    let mut conflicts: Vec<(u32, u32)> = (0..nb.height())
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            let mut found = Vec::new();
+            for x in 0..w {
+                let p = y * w + x;
+                let (s, Some(key)) = (piece[p], keys[p]) else { continue };
+                let at = |r: usize| (keys[r] == Some(key)).then(|| f64::from(depth[r]));
+                for k in 0..4 {
+                    let Some(q) = nb.get_at(x, y, k).filter(|&q| q > p) else { continue };
+                    let t = piece[q];
+                    if t == s || keys[q] != Some(key) {
+                        continue;
+                    }
+                    let (a, b) = (f64::from(depth[p]), f64::from(depth[q]));
+                    let behind = nb.get_at(x, y, opposite(k)).and_then(at);
+                    let beyond = nb.get2_at(x, y, k).and_then(at);
+                    if !continuity::continuous(
+                        a,
+                        b,
+                        behind,
+                        beyond,
+                        continuity::LAYER_JUMP,
+                        continuity::PLANAR,
+                    ) {
+                        found.push((s.min(t), s.max(t)));
+                    }
+                }
+            }
+            found
+        })
+        .collect();
+    let mut part = vec![0u32; size.len()];
+    if conflicts.is_empty() {
+        return part;
+    }
+    conflicts.sort_unstable();
+    conflicts.dedup();
+    let mut adjacent: Vec<Vec<u32>> = vec![Vec::new(); size.len()];
+    for &(s, t) in &conflicts {
+        adjacent[s as usize].push(t);
+        adjacent[t as usize].push(s);
+    }
+    let mut order: Vec<usize> = (0..size.len()).filter(|&s| !adjacent[s].is_empty()).collect();
+    order.sort_by_key(|&s| (std::cmp::Reverse(size[s]), s));
+    let mut coloured = vec![false; size.len()];
+    for s in order {
+        let used: Vec<u32> =
+            adjacent[s].iter().filter(|&&t| coloured[t as usize]).map(|&t| part[t as usize]).collect();
+        part[s] = (0..).find(|c| !used.contains(c)).unwrap_or(0);
+        coloured[s] = true;
+    }
+    part
+}
+
+/// Pixels of one layer that `validate` would find discontinuous (a step over
+/// [`continuity::LAYER_JUMP`] that no plane through pixels of the same layer continues): segments
+/// can be linked through a plane test whose third pixel went to another layer (a ramp of soft depth
+/// cut in pieces). The looser pixel of each such pair moves to a neighbouring layer it is
+/// continuous with, if there is one. Passes until none moves (at most a few).
+fn repair_breaks(nb: &Neighbours, depth: &[f32], layer_of: &mut [u32]) {
+    let w = nb.width();
+    for _ in 0..4 {
+        let layer = &*layer_of;
+        let at = |p: usize, l: u32| (layer[p] == l).then(|| f64::from(depth[p])).filter(|d| *d > 0.0);
+        let breaks: Vec<(usize, usize)> = (0..nb.height())
+            .into_par_iter()
+            .flat_map_iter(|y| {
+                let mut found = Vec::new();
+                for x in 0..w {
+                    let p = y * w + x;
+                    let l = layer[p];
+                    let Some(a) = at(p, l) else { continue };
+                    for k in 0..4 {
+                        let Some(q) = nb.get_at(x, y, k).filter(|&q| q > p) else { continue };
+                        let Some(b) = at(q, l) else { continue };
+                        let behind = nb.get_at(x, y, opposite(k)).and_then(|r| at(r, l));
+                        let beyond = nb.get2_at(x, y, k).and_then(|r| at(r, l));
+                        if !continuity::continuous(
+                            a,
+                            b,
+                            behind,
+                            beyond,
+                            continuity::LAYER_JUMP,
+                            continuity::PLANAR,
+                        ) {
+                            found.push((p, q));
+                        }
+                    }
+                }
+                found
+            })
+            .collect();
+        if breaks.is_empty() {
+            return;
+        }
+        let joined = |p: usize, q: usize| {
+            continuity::continuous(
+                f64::from(depth[p]),
+                f64::from(depth[q]),
+                None,
+                None,
+                continuity::LAYER_JUMP,
+                0.0,
+            )
+        };
+        let moves: Vec<(usize, u32)> = breaks
+            .iter()
+            .filter_map(|&(p, q)| {
+                let l = layer[p];
+                let ties = |r: usize| nb.all(r).filter(|&s| layer[s] == l && joined(r, s)).count();
+                let loose = if ties(p) <= ties(q) { p } else { q };
+                nb.all(loose)
+                    .filter(|&s| layer[s] != l && layer[s] != u32::MAX && joined(loose, s))
+                    .min_by(|&a, &b| {
+                        (depth[a] - depth[loose]).abs().total_cmp(&(depth[b] - depth[loose]).abs())
+                    })
+                    .map(|s| (loose, layer[s]))
+            })
+            .collect();
+        if moves.is_empty() {
+            return;
+        }
+        for (p, l) in moves {
+            layer_of[p] = l;
         }
     }
 }

@@ -12,16 +12,16 @@ use crate::continuity::LAYER_JUMP;
 use crate::mapping::{opposite, Neighbours};
 
 /// Union-find with path halving and union by size.
-struct Dsu {
+pub(super) struct Dsu {
     parent: Vec<u32>,
     size: Vec<u32>,
 }
 
 impl Dsu {
-    fn new(n: usize) -> Self {
+    pub(super) fn new(n: usize) -> Self {
         Dsu { parent: (0..n as u32).collect(), size: vec![1; n] }
     }
-    fn find(&mut self, mut x: u32) -> u32 {
+    pub(super) fn find(&mut self, mut x: u32) -> u32 {
         while self.parent[x as usize] != x {
             let g = self.parent[self.parent[x as usize] as usize];
             self.parent[x as usize] = g;
@@ -29,7 +29,7 @@ impl Dsu {
         }
         x
     }
-    fn union(&mut self, a: u32, b: u32) {
+    pub(super) fn union(&mut self, a: u32, b: u32) {
         let (mut a, mut b) = (self.find(a), self.find(b));
         if a == b {
             return;

@@ -201,7 +201,12 @@ pub(crate) fn to_metres(
                 _ if enc.known_distance.is_some() => {
                     let (k, v) = known_value(path, samples, mapping, enc, &invalid)?;
                     let along = if enc.kind == DepthKind::Z { v / z_axis(mapping, k) } else { v };
-                    fit = Some(MetricFit { a: k.metres / along, b: 0.0, from: "known-distance", floor_share: None });
+                    fit = Some(MetricFit {
+                        a: k.metres / along,
+                        b: 0.0,
+                        from: "known-distance",
+                        floor_share: None,
+                    });
                     k.metres / along
                 }
                 (None, SampleFormat::F32, _) => 1.0,
@@ -351,7 +356,8 @@ fn check_kind(path: &Path, s: &DepthSamples, enc: &DepthEncoding) -> Result<(), 
         return Err(PrepareError::EightBit { path: path.into() });
     }
     if enc.kind.is_relative() && enc.range.is_none() && enc.camera_height.is_none() {
-        let disparity = enc.kind == DepthKind::Inverse && (enc.scale.is_some() || enc.known_distance.is_some());
+        let disparity =
+            enc.kind == DepthKind::Inverse && (enc.scale.is_some() || enc.known_distance.is_some());
         if !disparity {
             return Err(PrepareError::RelativeNeedsScale { path: path.into(), kind: enc.kind.as_str() });
         }

@@ -528,7 +528,8 @@ fn refine_depth(
         // otherwise join into wider stretched surfaces (measured: docs/build.md).
         if report.resized {
             let max = (w * h / SPECK_SHARE).max(MIN_SPECK);
-            report.speck_pixels = specks::remove(nb, &mut log, &refine::guide(rgb), max, complete::SKY_LOG - 1e-3);
+            report.speck_pixels =
+                specks::remove(nb, &mut log, &refine::guide(rgb), max, complete::SKY_LOG - 1e-3);
         }
     }
     depth.par_iter_mut().zip(log.par_iter().zip(&original)).for_each(|(d, (&l, &o))| {

@@ -35,7 +35,8 @@ impl Grid {
     /// Canvas coordinate `i` along an axis: its tile's origin in the source and its continuous
     /// source coordinate inside the tile.
     fn axis(&self, i: usize, horizontal: bool) -> (usize, f64) {
-        let (tc, td) = if horizontal { (self.tile_c.0, self.tile_d.0) } else { (self.tile_c.1, self.tile_d.1) };
+        let (tc, td) =
+            if horizontal { (self.tile_c.0, self.tile_d.0) } else { (self.tile_c.1, self.tile_d.1) };
         let (t, l) = (i / tc, i % tc);
         (t * td, (l as f64 + 0.5) * td as f64 / tc as f64 - 0.5)
     }
@@ -76,8 +77,19 @@ pub(crate) fn resize(depth: &[f32], from: &AnyMapping, to: &AnyMapping, guide: &
             if d[nearest].is_nan() {
                 return f32::NAN;
             }
+            let bilinear =
+                [(5, (1.0 - tx) * (1.0 - ty)), (6, tx * (1.0 - ty)), (9, (1.0 - tx) * ty), (10, tx * ty)];
+            // Most windows: finite samples within one step of each other, one surface.
+            let (lo, hi) = d.iter().fold((f32::INFINITY, 0f32), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+            if lo > 0.0
+                && hi.is_finite()
+                && !d.iter().any(|v| v.is_nan())
+                && f64::from(hi - lo) <= continuity::JUMP * f64::from(lo)
+            {
+                let inv: f64 = bilinear.iter().map(|&(k, wt)| wt / f64::from(d[k])).sum();
+                return (1.0 / inv) as f32;
+            }
             let surface = surfaces(&d);
-            let bilinear = [(5, (1.0 - tx) * (1.0 - ty)), (6, tx * (1.0 - ty)), (9, (1.0 - tx) * ty), (10, tx * ty)];
             let chosen = if surface.iter().all(|&s| s == surface[5]) && surface[5] != NONE {
                 surface[5]
             } else {
@@ -91,7 +103,8 @@ pub(crate) fn resize(depth: &[f32], from: &AnyMapping, to: &AnyMapping, guide: &
                     let (sx, sy) = ((k % 4) as f64 - 1.0 - tx, (k / 4) as f64 - 1.0 - ty);
                     let c = sample_colour[idx[k]];
                     // A sample no canvas pixel falls in (a finer source) is judged by its place only.
-                    let dc = if c[0].is_nan() { 0.0 } else { (0..3).map(|i| (c[i] - c0[i]).powi(2)).sum::<f32>() };
+                    let dc =
+                        if c[0].is_nan() { 0.0 } else { (0..3).map(|i| (c[i] - c0[i]).powi(2)).sum::<f32>() };
                     score[surface[k] as usize] +=
                         (-(sx * sx + sy * sy) as f32 / 2.0 - dc / (2.0 * SIGMA_COLOUR * SIGMA_COLOUR)).exp();
                 }
@@ -99,8 +112,9 @@ pub(crate) fn resize(depth: &[f32], from: &AnyMapping, to: &AnyMapping, guide: &
                 // area-averaged sample across the edge), no surface of its own.
                 let between = |l: u8| {
                     let of = |k: &usize| surface[*k] == l;
-                    let (lo, hi) =
-                        (0..16).filter(of).fold((f32::INFINITY, 0f32), |(lo, hi), k| (lo.min(d[k]), hi.max(d[k])));
+                    let (lo, hi) = (0..16)
+                        .filter(of)
+                        .fold((f32::INFINITY, 0f32), |(lo, hi), k| (lo.min(d[k]), hi.max(d[k])));
                     let others = (0..16).filter(|&k| surface[k] != l && surface[k] != NONE);
                     (0..16).filter(of).count() <= 3
                         && others.clone().any(|k| d[k] < lo)
@@ -114,11 +128,14 @@ pub(crate) fn resize(depth: &[f32], from: &AnyMapping, to: &AnyMapping, guide: &
                     _ => surface[nearest],
                 }
             };
-            let mine: Vec<(usize, f64)> = bilinear.into_iter().filter(|&(k, _)| surface[k] == chosen).collect();
+            let mine: Vec<(usize, f64)> =
+                bilinear.into_iter().filter(|&(k, _)| surface[k] == chosen).collect();
             let of_surface = if mine.is_empty() {
                 // None of the 2 × 2: the surface's nearest sample.
-                let dist = |k: usize| ((k % 4) as f64 - 1.0 - tx).powi(2) + ((k / 4) as f64 - 1.0 - ty).powi(2);
-                let k = (0..16).filter(|&k| surface[k] == chosen).min_by(|&a, &b| dist(a).total_cmp(&dist(b)));
+                let dist =
+                    |k: usize| ((k % 4) as f64 - 1.0 - tx).powi(2) + ((k / 4) as f64 - 1.0 - ty).powi(2);
+                let k =
+                    (0..16).filter(|&k| surface[k] == chosen).min_by(|&a, &b| dist(a).total_cmp(&dist(b)));
                 vec![(k.unwrap_or(nearest), 1.0)]
             } else {
                 mine
@@ -144,7 +161,8 @@ const NONE: u8 = u8::MAX;
 /// rows and columns of the window, the next sample out as the plane test's end); [`NONE`] for
 /// unknown samples. Labels are the index of a surface's first sample.
 fn surfaces(d: &[f32; 16]) -> [u8; 16] {
-    let mut label: [u8; 16] = std::array::from_fn(|k| if d[k].is_nan() || d[k] <= 0.0 { NONE } else { k as u8 });
+    let mut label: [u8; 16] =
+        std::array::from_fn(|k| if d[k].is_nan() || d[k] <= 0.0 { NONE } else { k as u8 });
     let at = |k: i32| (0..16).contains(&k).then(|| f64::from(d[k as usize]));
     // Links of the window: right and down neighbours.
     let mut links = Vec::with_capacity(24);
@@ -196,5 +214,7 @@ fn footprint_colours(g: &Grid, from: &AnyMapping, to: &AnyMapping, guide: &[[f32
         }
         s[3] += 1.0;
     }
-    sum.into_iter().map(|s| if s[3] > 0.0 { [s[0] / s[3], s[1] / s[3], s[2] / s[3]] } else { [f32::NAN; 3] }).collect()
+    sum.into_iter()
+        .map(|s| if s[3] > 0.0 { [s[0] / s[3], s[1] / s[3], s[2] / s[3]] } else { [f32::NAN; 3] })
+        .collect()
 }

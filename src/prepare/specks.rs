@@ -6,19 +6,32 @@
 
 use std::collections::VecDeque;
 
+use rayon::prelude::*;
+
 use crate::continuity;
 use crate::mapping::{opposite, Neighbours};
 
 /// Replace the specks of `log` (log depth; `sky_log` and above is infinitely far) smaller than
 /// `max` pixels. Returns the pixels changed.
-pub(crate) fn remove(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]], max: usize, sky_log: f32) -> usize {
+pub(crate) fn remove(
+    nb: &Neighbours,
+    log: &mut [f32],
+    guide: &[[f32; 3]],
+    max: usize,
+    sky_log: f32,
+) -> usize {
     let n = log.len();
-    let depth = |l: f32| if l >= sky_log { f64::INFINITY } else { f64::from(l).exp() };
+    let depth: Vec<f64> =
+        log.par_iter().map(|&l| if l >= sky_log { f64::INFINITY } else { f64::from(l).exp() }).collect();
     let joined = |log: &[f32], p: usize, k: usize, q: usize| {
-        let (a, b) = (depth(log[p]), depth(log[q]));
-        let behind = nb.get(p, opposite(k)).map(|r| depth(log[r]));
-        let beyond = nb.get(q, k).map(|r| depth(log[r]));
-        continuity::continuous(a, b, behind, beyond, continuity::JUMP, continuity::PLANAR)
+        continuity::continuous_with(
+            depth[p],
+            depth[q],
+            || nb.get(p, opposite(k)).map(|r| depth[r]),
+            || nb.get(q, k).map(|r| depth[r]),
+            continuity::JUMP,
+            continuity::PLANAR,
+        ) && !log[q].is_nan()
     };
     // Pieces by flood fill; a small one with a nearer neighbour across its border is a speck.
     let mut piece = vec![u32::MAX; n];

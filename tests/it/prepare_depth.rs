@@ -98,7 +98,8 @@ fn low_resolution_depth_is_upsampled_along_the_colour() {
     let enc = DepthEncoding::default();
     for f in [4, 8] {
         let low = block_down(&input.depth, W, f);
-        let guided = prepare(&input, samples(W / f, low.clone(), SampleFormat::F32), &enc, &Default::default());
+        let guided =
+            prepare(&input, samples(W / f, low.clone(), SampleFormat::F32), &enc, &Default::default());
         assert!(guided.report.resized && !guided.report.snapped, "{:?}", guided.report);
         let off = |d: &[f32]| 1.0 - within(d, &input.depth, 0.08);
         let (g, b) = (off(&guided.depth), off(&bilinear_up(&low, W, f)));
@@ -248,14 +249,21 @@ fn one_known_distance_gives_the_scale() {
     let enc = |kind| DepthEncoding { kind, known_distance: Some(known), ..Default::default() };
     let half = block_down(&input.depth, W, 2);
     let units: Vec<f32> = half.iter().map(|d| (d * 250.0).round()).collect();
-    let p = prepare(&input, half_samples(units, SampleFormat::U16), &enc(DepthKind::Ray), &Default::default());
+    let p =
+        prepare(&input, half_samples(units, SampleFormat::U16), &enc(DepthKind::Ray), &Default::default());
     let fit = p.report.metric.unwrap();
     assert!((fit.a - 1.0 / 250.0).abs() < 0.01 / 250.0 && fit.from == "known-distance", "{fit:?}");
     let relative: Vec<f32> = input.depth.iter().map(|d| d * 0.37).collect();
-    let p = prepare(&input, samples(W, relative, SampleFormat::F32), &enc(DepthKind::Ray), &Default::default());
+    let p =
+        prepare(&input, samples(W, relative, SampleFormat::F32), &enc(DepthKind::Ray), &Default::default());
     assert!(within(&p.depth, &input.depth, 0.005) > 0.99);
     let inverse: Vec<f32> = input.depth.iter().map(|d| 3.7 / d).collect();
-    let p = prepare(&input, samples(W, inverse, SampleFormat::F32), &enc(DepthKind::Inverse), &Default::default());
+    let p = prepare(
+        &input,
+        samples(W, inverse, SampleFormat::F32),
+        &enc(DepthKind::Inverse),
+        &Default::default(),
+    );
     assert!(within(&p.depth, &input.depth, 0.005) > 0.99, "{:?}", p.report.metric);
     let refused = |e: DepthEncoding, s: DepthSamples| {
         prepare_depth("d.png".as_ref(), &input.mapping, &input.rgb, &s, &e, &Default::default()).unwrap_err()

@@ -37,7 +37,9 @@ pub fn parse_known_distance(s: &str) -> Result<pomc::prepare::KnownDistance, Str
         .collect::<Result<_, _>>()
         .map_err(|_| format!("expected X,Y,METRES (a colour pixel and its distance), got `{s}`"))?;
     match v.as_slice() {
-        [x, y, m] if *x >= 0.0 && *y >= 0.0 && x.is_finite() && y.is_finite() && *m > 0.0 && m.is_finite() => {
+        [x, y, m]
+            if *x >= 0.0 && *y >= 0.0 && x.is_finite() && y.is_finite() && *m > 0.0 && m.is_finite() =>
+        {
             Ok(pomc::prepare::KnownDistance { x: *x, y: *y, metres: *m })
         }
         _ => Err(format!("expected X,Y,METRES with X, Y ≥ 0 (pixels) and METRES > 0, got `{s}`")),
