@@ -604,28 +604,29 @@ fn assign_unknown(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [u32], firs
     }
 }
 
-/// Pieces of segments: pixels of one segment joined by `validate`'s rule with the plane test
-/// through pixels of the same segment ([`continuity::LAYER_JUMP`]). A segment is one piece unless
-/// a plane test through pixels that went elsewhere linked it (a soft ramp cut in pieces). Returns
-/// each pixel's piece (`u32::MAX` outside segments) and each piece's size.
-fn pieces(nb: &Neighbours, depth: &[f32], id: &[u32], sizes: &[u32]) -> (Vec<u32>, Vec<u32>) {
+/// The 4-neighbour pairs `(p, q)`, `p < q`, of one group (`group` is `None` outside every group)
+/// that are not one surface by `validate`'s rule ([`continuity::LAYER_JUMP`]; the plane test
+/// through pixels of the same group), across the seam, poles and cube-face edges.
+fn breaks<G: PartialEq + Copy>(
+    nb: &Neighbours,
+    depth: &[f32],
+    group: impl Fn(usize) -> Option<G> + Sync,
+) -> Vec<(usize, usize)> {
     let w = nb.width();
-    let broken: Vec<(usize, usize)> = (0..nb.height())
+    (0..nb.height())
         .into_par_iter()
         .flat_map_iter(|y| {
             let mut found = Vec::new();
             for x in 0..w {
                 let p = y * w + x;
-                let s = id[p];
-                if s == NO_SEGMENT {
-                    continue;
-                }
-                let at = |r: usize| (id[r] == s).then(|| f64::from(depth[r]));
+                let Some(g) = group(p) else { continue };
+                let at = |r: usize| (group(r) == Some(g)).then(|| f64::from(depth[r])).filter(|d| *d > 0.0);
+                let Some(a) = at(p) else { continue };
                 for k in 0..4 {
-                    let Some(q) = nb.get_at(x, y, k).filter(|&q| q > p && id[q] == s) else { continue };
+                    let Some(q) = nb.get_at(x, y, k).filter(|&q| q > p) else { continue };
+                    let Some(b) = at(q) else { continue };
                     let behind = nb.get_at(x, y, opposite(k)).and_then(at);
                     let beyond = nb.get2_at(x, y, k).and_then(at);
-                    let (a, b) = (f64::from(depth[p]), f64::from(depth[q]));
                     if !continuity::continuous(
                         a,
                         b,
@@ -640,7 +641,15 @@ fn pieces(nb: &Neighbours, depth: &[f32], id: &[u32], sizes: &[u32]) -> (Vec<u32
             }
             found
         })
-        .collect();
+        .collect()
+}
+
+/// Pieces of segments: pixels of one segment joined by `validate`'s rule with the plane test
+/// through pixels of the same segment ([`continuity::LAYER_JUMP`]). A segment is one piece unless
+/// a plane test through pixels that went elsewhere linked it (a soft ramp cut in pieces). Returns
+/// each pixel's piece (`u32::MAX` outside segments) and each piece's size.
+fn pieces(nb: &Neighbours, depth: &[f32], id: &[u32], sizes: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let broken = breaks(nb, depth, |p| (id[p] != NO_SEGMENT).then_some(id[p]));
     // Most builds: every segment one piece.
     if broken.is_empty() {
         return (id.to_vec(), sizes.to_vec());
@@ -679,38 +688,10 @@ fn pieces(nb: &Neighbours, depth: &[f32], id: &[u32], sizes: &[u32]) -> (Vec<u32
 /// of the same key) — a far speck the surface in front does not rise above, two ends of a soft ramp
 /// — get different parts, larger segments first (greedy colouring), so each layer stays continuous.
 fn parts(nb: &Neighbours, depth: &[f32], piece: &[u32], size: &[u32], keys: &[Option<LayerKey>]) -> Vec<u32> {
-    let w = nb.width();
-    let mut conflicts: Vec<(u32, u32)> = (0..nb.height())
-        .into_par_iter()
-        .flat_map_iter(|y| {
-            let mut found = Vec::new();
-            for x in 0..w {
-                let p = y * w + x;
-                let (s, Some(key)) = (piece[p], keys[p]) else { continue };
-                let at = |r: usize| (keys[r] == Some(key)).then(|| f64::from(depth[r]));
-                for k in 0..4 {
-                    let Some(q) = nb.get_at(x, y, k).filter(|&q| q > p) else { continue };
-                    let t = piece[q];
-                    if t == s || keys[q] != Some(key) {
-                        continue;
-                    }
-                    let (a, b) = (f64::from(depth[p]), f64::from(depth[q]));
-                    let behind = nb.get_at(x, y, opposite(k)).and_then(at);
-                    let beyond = nb.get2_at(x, y, k).and_then(at);
-                    if !continuity::continuous(
-                        a,
-                        b,
-                        behind,
-                        beyond,
-                        continuity::LAYER_JUMP,
-                        continuity::PLANAR,
-                    ) {
-                        found.push((s.min(t), s.max(t)));
-                    }
-                }
-            }
-            found
-        })
+    let mut conflicts: Vec<(u32, u32)> = breaks(nb, depth, |p| keys[p])
+        .into_iter()
+        .filter(|&(p, q)| piece[p] != piece[q])
+        .map(|(p, q)| (piece[p].min(piece[q]), piece[p].max(piece[q])))
         .collect();
     let mut part = vec![0u32; size.len()];
     if conflicts.is_empty() {
@@ -741,38 +722,9 @@ fn parts(nb: &Neighbours, depth: &[f32], piece: &[u32], size: &[u32], keys: &[Op
 /// cut in pieces). The looser pixel of each such pair moves to a neighbouring layer it is
 /// continuous with, if there is one. Passes until none moves (at most a few).
 fn repair_breaks(nb: &Neighbours, depth: &[f32], layer_of: &mut [u32]) {
-    let w = nb.width();
     for _ in 0..4 {
         let layer = &*layer_of;
-        let at = |p: usize, l: u32| (layer[p] == l).then(|| f64::from(depth[p])).filter(|d| *d > 0.0);
-        let breaks: Vec<(usize, usize)> = (0..nb.height())
-            .into_par_iter()
-            .flat_map_iter(|y| {
-                let mut found = Vec::new();
-                for x in 0..w {
-                    let p = y * w + x;
-                    let l = layer[p];
-                    let Some(a) = at(p, l) else { continue };
-                    for k in 0..4 {
-                        let Some(q) = nb.get_at(x, y, k).filter(|&q| q > p) else { continue };
-                        let Some(b) = at(q, l) else { continue };
-                        let behind = nb.get_at(x, y, opposite(k)).and_then(|r| at(r, l));
-                        let beyond = nb.get2_at(x, y, k).and_then(|r| at(r, l));
-                        if !continuity::continuous(
-                            a,
-                            b,
-                            behind,
-                            beyond,
-                            continuity::LAYER_JUMP,
-                            continuity::PLANAR,
-                        ) {
-                            found.push((p, q));
-                        }
-                    }
-                }
-                found
-            })
-            .collect();
+        let breaks = breaks(nb, depth, |p| (layer[p] != u32::MAX).then_some(layer[p]));
         if breaks.is_empty() {
             return;
         }
