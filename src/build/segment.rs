@@ -507,11 +507,11 @@ fn cut_fronts(
     next
 }
 
-/// A segment behind another that is over `SPECK` times smaller is a speck: it does not count as
-/// occluded by it. Lifting the larger surface a level for it would take that surface out of the
-/// background (unfilled behind); left on one level, the two go to different layers (parts), and the
-/// renderers' depth test keeps the speck behind all the same.
+/// A segment behind another that is over `SPECK` times larger, and smaller than `SPECK_MAX` pixels,
+/// is a speck: it does not count as occluded by it (the renderers' depth test keeps it behind all
+/// the same; it goes to a layer of its own, a part, see `build::parts`).
 const SPECK: u64 = 100;
+const SPECK_MAX: u32 = 256;
 
 /// Longest occlusion chain per segment. Real data can produce cycles (A occludes B somewhere, B
 /// occludes A elsewhere); only relations inside a cycle (a strongly connected component of the
@@ -531,7 +531,8 @@ fn levels(
     let mut behind: Vec<Vec<u32>> = vec![Vec::new(); count];
     for &(near, far, _) in occludes {
         // A speck behind a surface (a few mixed or noisy pixels) does not lift the surface a level.
-        if (size[far as usize] as u64) * SPECK < size[near as usize] as u64 {
+        if (size[far as usize] as u64) * SPECK < size[near as usize] as u64 && size[far as usize] < SPECK_MAX
+        {
             continue;
         }
         behind[near as usize].push(far);
