@@ -2,14 +2,18 @@
 
 use glam::DVec3;
 
+/// Comma-separated numbers (spaces allowed after commas); `what` names them in the error.
+fn numbers(s: &str, what: &str) -> Result<Vec<f64>, String> {
+    s.split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected {what}, got `{s}`"))
+}
+
 /// A vector `x,y,z` (finite numbers; spaces allowed after commas; a leading `-` is a number, not
 /// an option, when the argument is declared with `allow_hyphen_values`).
 pub fn parse_vec3(s: &str) -> Result<DVec3, String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("expected three numbers x,y,z, got `{s}`"))?;
+    let v = numbers(s, "three numbers x,y,z")?;
     match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(DVec3::new(*x, *y, *z)),
         _ => Err(format!("expected three finite numbers x,y,z, got `{s}`")),
@@ -18,11 +22,7 @@ pub fn parse_vec3(s: &str) -> Result<DVec3, String> {
 
 /// `NEAR,FAR` distances (m): two finite numbers with `0 < NEAR < FAR`.
 pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("expected two distances NEAR,FAR in metres, got `{s}`"))?;
+    let v = numbers(s, "two distances NEAR,FAR in metres")?;
     match v.as_slice() {
         [near, far] if *near > 0.0 && far > near && far.is_finite() => Ok((*near, *far)),
         _ => Err(format!("expected NEAR,FAR in metres with 0 < NEAR < FAR, got `{s}`")),
@@ -31,11 +31,7 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
 
 /// `--known-distance X,Y,METRES`: a pixel of the colour image and its distance along the ray.
 pub fn parse_known_distance(s: &str) -> Result<pomc::prepare::KnownDistance, String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("expected X,Y,METRES (a colour pixel and its distance), got `{s}`"))?;
+    let v = numbers(s, "X,Y,METRES (a colour pixel and its distance)")?;
     match v.as_slice() {
         [x, y, m]
             if *x >= 0.0 && *y >= 0.0 && x.is_finite() && y.is_finite() && *m > 0.0 && m.is_finite() =>
