@@ -286,6 +286,8 @@ def _build_options(freedom_radius: float, convention: str, center: Sequence[floa
         opts["depth_range"] = (near, far)
     if "known_distance" in opts:
         kd = opts["known_distance"]
+        if isinstance(kd, (str, bytes)):
+            raise _usage(f"known_distance must be (x, y, metres), got {kd!r}")
         try:
             x, y, metres = (float(v) for v in kd)
         except (TypeError, ValueError):

@@ -355,9 +355,12 @@ pub fn prepare_depth(
         }
         decode::z_to_ray(&source, &mut depth);
     }
+    // The colour guide of the resize, the snap and the specks, made once when one needs it.
+    let guide_cell = std::cell::OnceCell::new();
+    let guide = || guide_cell.get_or_init(|| refine::guide(rgb)).as_slice();
     let resized = (sw, sh) != (mapping.width(), mapping.height());
     if resized {
-        depth = resize::resize(&depth, &source, mapping, &refine::guide(rgb));
+        depth = resize::resize(&depth, &source, mapping, guide());
     }
     let n = depth.len();
     let unknown: Vec<bool> = depth.par_iter().map(|d| d.is_nan()).collect();
@@ -404,7 +407,7 @@ pub fn prepare_depth(
             ),
         ));
     }
-    refine_depth(&nb, rgb, &mut depth, &unknown, s, &mut report);
+    refine_depth(&nb, &guide, &mut depth, &unknown, s, &mut report);
     Ok(PreparedDepth { width: mapping.width(), height: mapping.height(), depth, report })
 }
 
@@ -461,9 +464,9 @@ fn check_encoding(enc: &DepthEncoding) -> Result<(), PrepareError> {
 }
 
 /// Completion, smoothing and snapping in log depth; writes back only the pixels they change.
-fn refine_depth(
+fn refine_depth<'a>(
     nb: &Neighbours,
-    rgb: &[Vec<f32>; 3],
+    guide: &dyn Fn() -> &'a [[f32; 3]],
     depth: &mut [f32],
     unknown: &[bool],
     s: &PrepareSettings,
@@ -516,10 +519,10 @@ fn refine_depth(
         let soft = s.refine == Refine::On;
         if soft {
             let radius = MAX_RADIUS;
-            let guide = refine::guide(rgb);
+            let guide = guide();
             // A second pass takes what the first left of ramps it made shorter.
             for _ in 0..SNAP_PASSES {
-                report.snapped_pixels += refine::snap(nb, &mut log, &guide, radius, jump_log);
+                report.snapped_pixels += refine::snap(nb, &mut log, guide, radius, jump_log);
             }
             (report.snapped, report.snap_radius) = (true, radius);
         }
@@ -528,8 +531,7 @@ fn refine_depth(
         // otherwise join into wider stretched surfaces (measured: docs/build.md).
         if report.resized {
             let max = (w * h / SPECK_SHARE).max(MIN_SPECK);
-            report.speck_pixels =
-                specks::remove(nb, &mut log, &refine::guide(rgb), max, complete::SKY_LOG - 1e-3);
+            report.speck_pixels = specks::remove(nb, &mut log, guide(), max, complete::SKY_LOG - 1e-3);
         }
     }
     depth.par_iter_mut().zip(log.par_iter().zip(&original)).for_each(|(d, (&l, &o))| {

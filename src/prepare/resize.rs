@@ -102,9 +102,7 @@ pub(crate) fn resize(depth: &[f32], from: &AnyMapping, to: &AnyMapping, guide: &
                     }
                     let (sx, sy) = ((k % 4) as f64 - 1.0 - tx, (k / 4) as f64 - 1.0 - ty);
                     let c = sample_colour[idx[k]];
-                    // A sample no canvas pixel falls in (a finer source) is judged by its place only.
-                    let dc =
-                        if c[0].is_nan() { 0.0 } else { (0..3).map(|i| (c[i] - c0[i]).powi(2)).sum::<f32>() };
+                    let dc = (0..3).map(|i| (c[i] - c0[i]).powi(2)).sum::<f32>();
                     score[surface[k] as usize] +=
                         (-(sx * sx + sy * sy) as f32 / 2.0 - dc / (2.0 * SIGMA_COLOUR * SIGMA_COLOUR)).exp();
                 }
@@ -214,7 +212,19 @@ fn footprint_colours(g: &Grid, from: &AnyMapping, to: &AnyMapping, guide: &[[f32
         }
         s[3] += 1.0;
     }
+    let dw = from.width();
     sum.into_iter()
-        .map(|s| if s[3] > 0.0 { [s[0] / s[3], s[1] / s[3], s[2] / s[3]] } else { [f32::NAN; 3] })
+        .enumerate()
+        .map(|(i, s)| {
+            if s[3] > 0.0 {
+                return [s[0] / s[3], s[1] / s[3], s[2] / s[3]];
+            }
+            // No canvas pixel in the footprint (a finer source): the canvas pixel at its centre.
+            let canvas = |j: usize, td: usize, tc: usize| {
+                let (t, l) = (j / td, j % td);
+                t * tc + (((l as f64 + 0.5) * tc as f64 / td as f64) as usize).min(tc - 1)
+            };
+            guide[canvas(i / dw, g.tile_d.1, g.tile_c.1) * cw + canvas(i % dw, g.tile_d.0, g.tile_c.0)]
+        })
         .collect()
 }

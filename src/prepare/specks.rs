@@ -63,7 +63,8 @@ pub(crate) fn remove(
                 }
             }
         }
-        if members.len() < max && behind_something {
+        // The sky seen through a gap is behind everything and no speck.
+        if members.len() < max && behind_something && log[start] < sky_log {
             for &p in &members {
                 speck[p] = true;
             }
