@@ -65,7 +65,7 @@ impl Error {
             Error::Mesh(e) => e.code(),
             Error::Render(e) => e.code(),
             Error::Image(e) => e.code(),
-            Error::Io { .. } => "IO_ERROR",
+            Error::Io { .. } => crate::codes::IO_ERROR,
         }
     }
 }

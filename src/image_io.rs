@@ -68,12 +68,12 @@ impl ImageIoError {
     /// Stable code (the `convert` command's, where these errors were first reported).
     pub fn code(&self) -> &'static str {
         match self {
-            ImageIoError::Unreadable { .. } => "CONVERT_UNREADABLE",
-            ImageIoError::TooLarge { .. } => "CONVERT_TOO_LARGE",
-            ImageIoError::Unsupported { .. } => "CONVERT_UNSUPPORTED",
-            ImageIoError::Io { .. } => "CONVERT_IO",
-            ImageIoError::UnknownFormat { .. } => "CONVERT_USAGE",
-            ImageIoError::Encode { .. } => "CONVERT_ENCODE",
+            ImageIoError::Unreadable { .. } => crate::codes::CONVERT_UNREADABLE,
+            ImageIoError::TooLarge { .. } => crate::codes::CONVERT_TOO_LARGE,
+            ImageIoError::Unsupported { .. } => crate::codes::CONVERT_UNSUPPORTED,
+            ImageIoError::Io { .. } => crate::codes::CONVERT_IO,
+            ImageIoError::UnknownFormat { .. } => crate::codes::CONVERT_USAGE,
+            ImageIoError::Encode { .. } => crate::codes::CONVERT_ENCODE,
         }
     }
 }

@@ -82,6 +82,18 @@ pub fn build_panorama(
 /// The name of the depth preparation stage in progress and timings.
 pub const PREPARE_STAGE: &str = "prepare";
 
+/// Every stage [`build_panorama_with_progress`] names, in order: `prepare`, the build's
+/// ([`build::stages`]), `writing` (a progress bar's length).
+pub fn build_stages(s: &BuildSettings) -> Vec<&'static str> {
+    let mut v = vec![PREPARE_STAGE];
+    v.extend(build::stages(&s.options));
+    v.push(WRITING_STAGE);
+    v
+}
+
+/// The name of the writing stage in progress.
+pub const WRITING_STAGE: &str = "writing";
+
 /// [`build_panorama`], calling `progress` with each stage's name as it starts (`prepare`, the
 /// build's stages, then `writing`).
 pub fn build_panorama_with_progress(
@@ -97,7 +109,7 @@ pub fn build_panorama_with_progress(
     let t = Instant::now();
     let (built, prepare) = prepare_and_build(files, depth, s, progress)?;
     let build_s = t.elapsed().as_secs_f64();
-    progress("writing");
+    progress(WRITING_STAGE);
     let t = Instant::now();
     let manifest = panorama::write_panorama(output, &built.manifest, &built.layers, &s.save)?;
     let write_s = t.elapsed().as_secs_f64();

@@ -83,12 +83,12 @@ impl PanoramaError {
     /// Stable code for reports, e.g. `PANORAMA_NOT_FOUND` or `LAYER_PATH_ESCAPES`.
     pub fn code(&self) -> &'static str {
         match self {
-            PanoramaError::NotFound { .. } => "PANORAMA_NOT_FOUND",
+            PanoramaError::NotFound { .. } => crate::codes::PANORAMA_NOT_FOUND,
             PanoramaError::PathEscapes { .. } => crate::codes::LAYER_PATH_ESCAPES,
-            PanoramaError::NoSuchLayer { .. } => "PANORAMA_NO_SUCH_LAYER",
+            PanoramaError::NoSuchLayer { .. } => crate::codes::PANORAMA_NO_SUCH_LAYER,
             PanoramaError::SizeMismatch { .. } => crate::codes::LAYER_SIZE_MISMATCH,
             PanoramaError::PackedWithoutCanvas { .. } => crate::codes::PATCH_CANVAS_UNDECLARED,
-            PanoramaError::OutputNotDirectory { .. } => "OUTPUT_NOT_DIRECTORY",
+            PanoramaError::OutputNotDirectory { .. } => crate::codes::OUTPUT_NOT_DIRECTORY,
         }
     }
 }

@@ -92,11 +92,4 @@ impl<T: Copy> Raster<T> {
         let n = self.width * self.channels;
         &self.data[y * n..(y + 1) * n]
     }
-
-    /// Row `y` of samples, mutably (`width × channels` long). Panics if out of bounds.
-    #[inline]
-    pub fn row_mut(&mut self, y: usize) -> &mut [T] {
-        let n = self.width * self.channels;
-        &mut self.data[y * n..(y + 1) * n]
-    }
 }

@@ -99,15 +99,15 @@ impl ResampleError {
     /// Stable code for reports: `RESAMPLE_*`, or the layout's code for [`ResampleError::Layout`].
     pub fn code(&self) -> &'static str {
         match self {
-            ResampleError::Unsupported => "RESAMPLE_UNSUPPORTED",
+            ResampleError::Unsupported => crate::codes::RESAMPLE_UNSUPPORTED,
             ResampleError::Layout(e) => e.code(),
-            ResampleError::NotEquirect { .. } => "RESAMPLE_NOT_EQUIRECT",
-            ResampleError::BadTargetSize(_) => "RESAMPLE_BAD_SIZE",
-            ResampleError::TooLarge { .. } => "RESAMPLE_TOO_LARGE",
-            ResampleError::NoSuchChannel { .. } => "RESAMPLE_NO_SUCH_CHANNEL",
-            ResampleError::NoChannels => "RESAMPLE_NO_CHANNELS",
-            ResampleError::OutputLength { .. } => "RESAMPLE_OUTPUT_LENGTH",
-            ResampleError::ChannelSize { .. } => "RESAMPLE_CHANNEL_SIZE",
+            ResampleError::NotEquirect { .. } => crate::codes::RESAMPLE_NOT_EQUIRECT,
+            ResampleError::BadTargetSize(_) => crate::codes::RESAMPLE_BAD_SIZE,
+            ResampleError::TooLarge { .. } => crate::codes::RESAMPLE_TOO_LARGE,
+            ResampleError::NoSuchChannel { .. } => crate::codes::RESAMPLE_NO_SUCH_CHANNEL,
+            ResampleError::NoChannels => crate::codes::RESAMPLE_NO_CHANNELS,
+            ResampleError::OutputLength { .. } => crate::codes::RESAMPLE_OUTPUT_LENGTH,
+            ResampleError::ChannelSize { .. } => crate::codes::RESAMPLE_CHANNEL_SIZE,
         }
     }
 }

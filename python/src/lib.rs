@@ -43,7 +43,7 @@ fn to_py(e: pomc::Error) -> PyErr {
 }
 
 fn usage(message: String) -> PyErr {
-    fail("CLI_USAGE", message)
+    fail(pomc::codes::CLI_USAGE, message)
 }
 
 /// A panorama in memory: manifest and full-canvas layers (manifest order), and the directory it was
@@ -417,7 +417,7 @@ fn contiguous<T: numpy::Element + Copy>(a: &PyReadonlyArray3<'_, T>) -> PyResult
 fn check_colour(shape: &[usize], h: usize, w: usize) -> PyResult<()> {
     if shape != [h, w, 3] {
         return Err(fail(
-            "INPUT_SIZE_MISMATCH",
+            pomc::codes::INPUT_SIZE_MISMATCH,
             format!(
                 "colour is {shape:?} but depth is {h}×{w}: colour must be H×W×3 with the depth's H and W"
             ),

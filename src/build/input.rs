@@ -124,12 +124,12 @@ impl InputError {
     /// Stable code, e.g. `INPUT_UNREADABLE`; a [`InputError::Layer`] error keeps the layer reader's.
     pub fn code(&self) -> &'static str {
         match self {
-            InputError::Image { .. } => "INPUT_UNREADABLE",
-            InputError::TooLarge { .. } => "INPUT_TOO_LARGE",
+            InputError::Image { .. } => crate::codes::INPUT_UNREADABLE,
+            InputError::TooLarge { .. } => crate::codes::INPUT_TOO_LARGE,
             InputError::Layer(e) => e.code(),
-            InputError::NoDepthChannel { .. } => "INPUT_NO_DEPTH",
-            InputError::NotAPanorama { .. } => "INPUT_NOT_PANORAMA",
-            InputError::SizeMismatch { .. } => "INPUT_SIZE_MISMATCH",
+            InputError::NoDepthChannel { .. } => crate::codes::INPUT_NO_DEPTH,
+            InputError::NotAPanorama { .. } => crate::codes::INPUT_NOT_PANORAMA,
+            InputError::SizeMismatch { .. } => crate::codes::INPUT_SIZE_MISMATCH,
         }
     }
 }

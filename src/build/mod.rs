@@ -180,8 +180,8 @@ impl BuildError {
     /// Stable code: `BUILD_SIZE_MISMATCH` or `BUILD_BAD_RADIUS`.
     pub fn code(&self) -> &'static str {
         match self {
-            BuildError::SizeMismatch { .. } => "BUILD_SIZE_MISMATCH",
-            BuildError::BadRadius(_) => "BUILD_BAD_RADIUS",
+            BuildError::SizeMismatch { .. } => crate::codes::BUILD_SIZE_MISMATCH,
+            BuildError::BadRadius(_) => crate::codes::BUILD_BAD_RADIUS,
         }
     }
 }
@@ -283,6 +283,48 @@ pub fn d_dirmin(r: f64, pixel_angle: f64) -> f64 {
     r / pixel_angle.sin()
 }
 
+/// The stages of [`build`] in order, as `progress` names them and the report times them.
+pub const STAGES: &[&str] =
+    &["classify", "normals", "segments", "layers", "fill", "borders", "fill colour", "images"];
+
+/// The stages a build with options `o` runs: [`STAGES`] without `fill colour` when fills keep
+/// the nearest colour.
+pub fn stages(o: &BuildOptions) -> Vec<&'static str> {
+    STAGES.iter().copied().filter(|&s| s != "fill colour" || o.fill_colour != FillColour::Nearest).collect()
+}
+
+/// Progress and timing of the stages, from one place: each start tells `progress` and closes the
+/// stage before it.
+struct Stages<'a> {
+    progress: &'a dyn Fn(&str),
+    current: Option<(&'static str, Instant)>,
+    times: Vec<(&'static str, f64)>,
+}
+
+impl<'a> Stages<'a> {
+    fn new(progress: &'a dyn Fn(&str)) -> Self {
+        Stages { progress, current: None, times: Vec::new() }
+    }
+
+    fn start(&mut self, name: &'static str) {
+        debug_assert!(STAGES.contains(&name), "{name} is not in STAGES");
+        self.close();
+        (self.progress)(name);
+        self.current = Some((name, Instant::now()));
+    }
+
+    fn close(&mut self) {
+        if let Some((name, t)) = self.current.take() {
+            self.times.push((name, t.elapsed().as_secs_f64()));
+        }
+    }
+
+    fn finish(mut self) -> Vec<(&'static str, f64)> {
+        self.close();
+        self.times
+    }
+}
+
 /// Build layers from an RGB-D panorama. `progress` is told each stage's name as it starts.
 pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Result<Built, BuildError> {
     let m = input.mapping;
@@ -295,15 +337,10 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
     if !(o.freedom_radius > 0.0 && o.freedom_radius.is_finite()) {
         return Err(BuildError::BadRadius(o.freedom_radius));
     }
-    let mut stages = Vec::new();
-    let mut clock = Instant::now();
-    let mut lap = |name: &'static str, stages: &mut Vec<(&'static str, f64)>| {
-        stages.push((name, clock.elapsed().as_secs_f64()));
-        clock = Instant::now();
-    };
+    let mut stages = Stages::new(progress);
 
     // (1) Depth classes. Unknown → NaN; far content → +inf (direction only).
-    progress("classify");
+    stages.start("classify");
     let alpha = pixel_angle(&m);
     let dmin = d_dirmin(o.freedom_radius, alpha);
     let mut depth: Vec<f32> = input
@@ -345,10 +382,9 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         }
     }
     let unknown_pixels = depth.iter().filter(|d| d.is_nan()).count();
-    lap("classify", &mut stages);
 
     // (2) Normals.
-    progress("normals");
+    stages.start("normals");
     let normals: Vec<Vec3> = match &input.normals {
         Some(given) if given.len() == n => given
             .par_iter()
@@ -364,15 +400,13 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
             .collect(),
         _ => edges::estimate_normals(&nb, &links, &edges::points(&dirs, &depth)),
     };
-    lap("normals", &mut stages);
 
     // (3, 4) Links, segments, levels.
-    progress("segments");
+    stages.start("segments");
     let seg = segment(&nb, &depth, &links, &normals, &o.segment);
-    lap("segments", &mut stages);
 
     // (5) Layer keys: infinity first, then (level, depth band far→near, surface class).
-    progress("layers");
+    stages.start("layers");
     let band_of = |d: f32| o.depth_bands.iter().filter(|&&b| (d as f64) >= b).count() as u32;
     let nbands = o.depth_bands.len() as u32 + 1;
     let class = match o.classify {
@@ -432,10 +466,9 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         .collect();
     assign_unknown(&nb, &mut depth, &mut layer_of, first);
     repair_breaks(&nb, &depth, &mut layer_of);
-    lap("layers", &mut stages);
 
     // (6) Fill behind occluders.
-    progress("fill");
+    stages.start("fill");
     let count = first as usize + keys.len();
     let cx = FillContext {
         nb: &nb,
@@ -452,21 +485,18 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         rgb: &input.rgb,
     };
     let mut fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(&cx, k)).collect();
-    lap("fill", &mut stages);
-    progress("borders");
+    stages.start("borders");
     fill::add_borders(&cx, &mut fills);
-    lap("borders", &mut stages);
     if o.fill_colour != FillColour::Nearest {
-        progress("fill colour");
+        stages.start("fill colour");
         fills.par_iter_mut().enumerate().for_each(|(k, f)| match o.fill_colour {
             FillColour::Exemplar => texture::synthesise(&cx, k as u32, f),
             _ => texture::smooth(&cx, k as u32, f),
         });
-        lap("fill colour", &mut stages);
     }
 
     // (7) Images, names, roles, order.
-    progress("images");
+    stages.start("images");
     let mut layers = Vec::new();
     let mut name_count = std::collections::BTreeMap::<String, u32>::new();
     for (k, f) in fills.iter().enumerate() {
@@ -502,14 +532,13 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
     for (k, l) in layers.iter_mut().enumerate() {
         l.order = k as u32;
     }
-    lap("images", &mut stages);
 
     let covered = (0..n).filter(|&p| layer_of[p] != u32::MAX).count();
     let max_band_deg = fills.iter().map(|f| f.max_angle).fold(0.0, f64::max).to_degrees();
     let report = BuildReport {
         width: m.width(),
         height: m.height(),
-        stages,
+        stages: stages.finish(),
         layers: layers
             .iter()
             .map(|l| LayerStats {

@@ -40,11 +40,6 @@ pub fn f32_to_half(x: f32) -> f16 {
     }
 }
 
-/// Whether `x` survives `f32 → half → f32` unchanged, bit for bit.
-pub fn is_exact_half(x: f32) -> bool {
-    half_to_f32(f32_to_half(x)).to_bits() == x.to_bits()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

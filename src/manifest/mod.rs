@@ -349,7 +349,7 @@ pub fn parse(bytes: &[u8], file: &str) -> Result<Manifest, ManifestError> {
         None => {
             let first = d.diagnostics.into_iter().find(|x| x.severity == Severity::Error);
             let first = first.unwrap_or(Diagnostic {
-                code: "XML_MALFORMED",
+                code: codes::XML_MALFORMED,
                 severity: Severity::Error,
                 message: "the manifest could not be read".into(),
                 line: 1,

@@ -111,8 +111,8 @@ impl LayoutError {
     /// Stable code for reports: `LAYOUT_BAD_SIZE` or `LAYOUT_UNKNOWN`.
     pub fn code(&self) -> &'static str {
         match self {
-            LayoutError::BadSize { .. } => "LAYOUT_BAD_SIZE",
-            LayoutError::UnknownName(_) => "LAYOUT_UNKNOWN",
+            LayoutError::BadSize { .. } => crate::codes::LAYOUT_BAD_SIZE,
+            LayoutError::UnknownName(_) => crate::codes::LAYOUT_UNKNOWN,
         }
     }
 }

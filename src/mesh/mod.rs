@@ -78,12 +78,12 @@ impl MeshError {
     /// Stable machine-readable code.
     pub fn code(&self) -> &'static str {
         match self {
-            MeshError::NoDepth => "MESH_NO_DEPTH",
-            MeshError::CanvasMismatch { .. } => "MESH_CANVAS_MISMATCH",
-            MeshError::Params(_) => "MESH_PARAMS_INVALID",
-            MeshError::Encoding(_) => "MESH_ENCODING_INVALID",
-            MeshError::Export(_) => "MESH_EXPORT_FAILED",
-            MeshError::Io { .. } => "IO_ERROR",
+            MeshError::NoDepth => crate::codes::MESH_NO_DEPTH,
+            MeshError::CanvasMismatch { .. } => crate::codes::MESH_CANVAS_MISMATCH,
+            MeshError::Params(_) => crate::codes::MESH_PARAMS_INVALID,
+            MeshError::Encoding(_) => crate::codes::MESH_ENCODING_INVALID,
+            MeshError::Export(_) => crate::codes::MESH_EXPORT_FAILED,
+            MeshError::Io { .. } => crate::codes::IO_ERROR,
         }
     }
 }

@@ -98,7 +98,7 @@ impl PackError {
         match self {
             PackError::BadTable(p) => p.code(),
             PackError::TooLarge { .. } => crate::codes::LAYER_TOO_LARGE,
-            PackError::PaddingTooLarge { .. } => "PACK_PADDING_TOO_LARGE",
+            PackError::PaddingTooLarge { .. } => crate::codes::PACK_PADDING_TOO_LARGE,
         }
     }
 }

@@ -372,7 +372,7 @@ fn sentinels(s: &DepthSamples, scale: f64, enc: &DepthEncoding, w: &mut Vec<Warn
     let Some(&first) = far.first() else { return false };
     if enc.invalid.is_none() {
         w.push(Warning::new(
-            "INPUT_DEPTH_SENTINEL",
+            crate::codes::INPUT_DEPTH_SENTINEL,
             format!(
                 "{}: {} pixel(s) hold depths of {:e} m and more (e.g. {first:e}), no measurement: taken as \
                  unknown; give --depth-invalid {first:e} to say so, or store +inf for the sky",

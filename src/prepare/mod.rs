@@ -270,15 +270,15 @@ impl PrepareError {
     /// Stable code, e.g. `INPUT_DEPTH_8BIT`.
     pub fn code(&self) -> &'static str {
         match self {
-            PrepareError::ScaleNeeded { .. } => "INPUT_DEPTH_SCALE_NEEDED",
-            PrepareError::ZDepthOnEquirect { .. } => "INPUT_Z_DEPTH_EQUIRECT",
-            PrepareError::EightBit { .. } => "INPUT_DEPTH_8BIT",
-            PrepareError::NotDepth { .. } => "INPUT_NOT_DEPTH",
-            PrepareError::RelativeNeedsScale { .. } => "INPUT_DEPTH_RELATIVE",
-            PrepareError::NoFloor { .. } => "INPUT_NO_FLOOR",
-            PrepareError::PresetMismatch { .. } => "INPUT_PRESET_MISMATCH",
-            PrepareError::Shape { .. } => "INPUT_SIZE_MISMATCH",
-            PrepareError::BadOption { .. } => "INPUT_BAD_OPTION",
+            PrepareError::ScaleNeeded { .. } => crate::codes::INPUT_DEPTH_SCALE_NEEDED,
+            PrepareError::ZDepthOnEquirect { .. } => crate::codes::INPUT_Z_DEPTH_EQUIRECT,
+            PrepareError::EightBit { .. } => crate::codes::INPUT_DEPTH_8BIT,
+            PrepareError::NotDepth { .. } => crate::codes::INPUT_NOT_DEPTH,
+            PrepareError::RelativeNeedsScale { .. } => crate::codes::INPUT_DEPTH_RELATIVE,
+            PrepareError::NoFloor { .. } => crate::codes::INPUT_NO_FLOOR,
+            PrepareError::PresetMismatch { .. } => crate::codes::INPUT_PRESET_MISMATCH,
+            PrepareError::Shape { .. } => crate::codes::INPUT_SIZE_MISMATCH,
+            PrepareError::BadOption { .. } => crate::codes::INPUT_BAD_OPTION,
         }
     }
 }
@@ -396,7 +396,7 @@ pub fn prepare_depth(
     }
     if unknown_share > MOSTLY_UNKNOWN {
         report.warnings.push(Warning::new(
-            "INPUT_DEPTH_MOSTLY_UNKNOWN",
+            crate::codes::INPUT_DEPTH_MOSTLY_UNKNOWN,
             format!(
                 "{}: {:.0} % of the pixels have no depth: {:.0} % open to the zenith made the sky, the rest \
                  completed from the depth around it (--unknown-depth complete|sky; --depth-invalid V marks a \
@@ -503,7 +503,7 @@ fn refine_depth<'a>(
         report.edges = refine::scan_edges(&original, w, jump_log);
         if report.edges.is_soft() && s.refine == Refine::Auto {
             report.warnings.push(Warning::new(
-                "INPUT_DEPTH_SOFT",
+                crate::codes::INPUT_DEPTH_SOFT,
                 format!(
                     "the depth's edges are spread over up to {} pixels (the steepest step takes {:.0} % of an \
                      edge): objects will stay joined to what is behind them as stretched surfaces; depth at \

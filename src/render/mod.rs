@@ -103,14 +103,14 @@ impl RenderError {
     /// Stable machine-readable code.
     pub fn code(&self) -> &'static str {
         match self {
-            RenderError::BadCamera(_) => "RENDER_BAD_CAMERA",
-            RenderError::BadSize { .. } => "RENDER_BAD_SIZE",
-            RenderError::BadOptions(_) => "RENDER_BAD_OPTIONS",
-            RenderError::NoLayers => "RENDER_NO_LAYERS",
-            RenderError::LayerChannel { .. } => "RENDER_LAYER_CHANNEL",
-            RenderError::LayerSize { .. } => "RENDER_LAYER_SIZE",
-            RenderError::Mesh { .. } => "RENDER_MESH",
-            RenderError::OutputFormat { .. } => "RENDER_OUTPUT_FORMAT",
+            RenderError::BadCamera(_) => crate::codes::RENDER_BAD_CAMERA,
+            RenderError::BadSize { .. } => crate::codes::RENDER_BAD_SIZE,
+            RenderError::BadOptions(_) => crate::codes::RENDER_BAD_OPTIONS,
+            RenderError::NoLayers => crate::codes::RENDER_NO_LAYERS,
+            RenderError::LayerChannel { .. } => crate::codes::RENDER_LAYER_CHANNEL,
+            RenderError::LayerSize { .. } => crate::codes::RENDER_LAYER_SIZE,
+            RenderError::Mesh { .. } => crate::codes::RENDER_MESH,
+            RenderError::OutputFormat { .. } => crate::codes::RENDER_OUTPUT_FORMAT,
         }
     }
 }

@@ -140,7 +140,7 @@ fn check_layer(
                 if let Some((_, t)) = h.channels.iter().find(|(n, _)| n == "Z") {
                     if *t != SampleType::F32 {
                         issues.push(issue(
-                            "LAYER_DEPTH_NOT_FLOAT32",
+                            codes::LAYER_DEPTH_NOT_FLOAT32,
                             format!("depth channel Z is stored as {t:?}; POMC requires float32, re-export the depth as 32-bit float"),
                             loc.clone(),
                         ));

@@ -182,9 +182,8 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         save: SaveOptions { pack: !args.no_pack, ..SaveOptions::default() },
         ..args.input.settings()
     };
-    // Reading, preparing, the build's stages (`fill colour` unless nearest), writing: a bar with an ETA.
-    let stages = 10 - (args.fill_colour == FillColour::Nearest) as u64;
-    let bar = out.progress(stages, "reading");
+    // Reading, then every stage the job names: a bar with an ETA.
+    let bar = out.progress(jobs::build_stages(&settings).len() as u64, "reading");
     let progress = |stage: &str| {
         bar.set_message(stage.to_string());
         bar.inc(1);

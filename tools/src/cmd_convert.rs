@@ -69,13 +69,13 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     }
     if !args.input.is_file() {
         return Err(fail(
-            "CONVERT_NOT_FOUND",
+            pomc::codes::CONVERT_NOT_FOUND,
             format!("{}: no such file; check the input path", args.input.display()),
         ));
     }
     if args.depth_jump.is_nan() || args.depth_jump < 0.0 {
         return Err(fail(
-            "CONVERT_USAGE",
+            pomc::codes::CONVERT_USAGE,
             format!("--depth-jump {} must be a non-negative number", args.depth_jump),
         ));
     }
@@ -94,7 +94,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         } else {
             "unknown output format; use a .png, .jpg, .exr or .hdr extension"
         };
-        return Err(fail("CONVERT_USAGE", format!("{}: {what}", args.output.display())));
+        return Err(fail(pomc::codes::CONVERT_USAGE, format!("{}: {what}", args.output.display())));
     }
     if layer {
         return run_layer(&args, opts, out, total);
@@ -231,7 +231,10 @@ fn plan(args: &Args, w: usize, h: usize) -> Result<(Canvas, Canvas, usize), Fail
                 None => w,
             });
             if width == 0 || width % 2 != 0 {
-                return Err(fail("CONVERT_USAGE", format!("--width {width} must be even and positive")));
+                return Err(fail(
+                    pomc::codes::CONVERT_USAGE,
+                    format!("--width {width} must be even and positive"),
+                ));
             }
             (Canvas::Equirect, width)
         }
@@ -243,7 +246,7 @@ fn plan(args: &Args, w: usize, h: usize) -> Result<(Canvas, Canvas, usize), Fail
     };
     if size == 0 || ow.max(oh) > limits.max_dimension || (ow as u64 * oh as u64) > limits.max_pixels {
         return Err(fail(
-            "CONVERT_TOO_LARGE",
+            pomc::codes::CONVERT_TOO_LARGE,
             format!(
                 "{}: an output of {ow}x{oh} pixels is outside the supported range (1..={} per side, {} pixels); choose a smaller --face-size/--width",
                 args.output.display(),
@@ -310,7 +313,7 @@ fn run_panorama(args: &Args, out: Output, total: Instant) -> Result<u8, Failure>
     use pomc::panorama::{self, Panorama, SaveOptions};
     if args.layout != CubeLayout::Canonical || args.in_layout.is_some_and(|l| l != CubeLayout::Canonical) {
         return Err(fail(
-            "CONVERT_USAGE",
+            pomc::codes::CONVERT_USAGE,
             "a POMC cube map is in the canonical layout: --layout and --in-layout do not apply to panoramas"
                 .into(),
         ));
@@ -319,7 +322,7 @@ fn run_panorama(args: &Args, out: Output, total: Instant) -> Result<u8, Failure>
     let target = args.to;
     if pano.manifest.mapping.kind == target {
         return Err(fail(
-            "CONVERT_USAGE",
+            pomc::codes::CONVERT_USAGE,
             format!("{}: is already a {} panorama", args.input.display(), target.primary_name()),
         ));
     }

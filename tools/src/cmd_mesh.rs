@@ -122,7 +122,8 @@ struct Layer {
 
 fn mapping_of(pano: &Panorama, image: &LayerImage) -> Result<AnyMapping, Failure> {
     let kind = pano.manifest.mapping.kind;
-    AnyMapping::new(kind, image.width, image.height).map_err(|e| fail("MESH_CANVAS_MISMATCH", e.to_string()))
+    AnyMapping::new(kind, image.width, image.height)
+        .map_err(|e| fail(pomc::codes::MESH_CANVAS_MISMATCH, e.to_string()))
 }
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {

@@ -37,7 +37,7 @@ pub fn run(a: Args, out: Output) -> Result<u8, Failure> {
     let server = match a.export {
         Some(_) => None,
         None => Some(tiny_http::Server::http(("127.0.0.1", a.port)).map_err(|e| Failure {
-            code: "VIEW_SERVE_FAILED",
+            code: pomc::codes::VIEW_SERVE_FAILED,
             message: format!(
                 "cannot listen on 127.0.0.1:{}: {e} (pick another --port, or 0 for any free one)",
                 a.port

@@ -7,6 +7,7 @@
 
 mod args;
 mod cmd_build;
+mod cmd_codes;
 mod cmd_convert;
 mod cmd_info;
 mod cmd_mesh;
@@ -44,6 +45,8 @@ struct Cli {
 enum Command {
     /// Check a panorama against the POMC 1 spec (exit 0 valid, 1 invalid, 2 usage/I-O error).
     Validate(cmd_validate::Args),
+    /// List every code pomc gives (validation findings and errors) with its severity and meaning.
+    Codes(cmd_codes::Args),
     /// Describe a panorama, a layer file or an image.
     Info(cmd_info::Args),
     /// Convert images or layers between equirect and 3×2 cube-map mappings.
@@ -75,7 +78,7 @@ pub struct Failure {
 impl Failure {
     /// An argument the command cannot use (a camera path, an output name), code `CLI_USAGE`.
     pub fn usage(message: String) -> Failure {
-        Failure { code: "CLI_USAGE", message, exit: 2 }
+        Failure { code: pomc::codes::CLI_USAGE, message, exit: 2 }
     }
 }
 
@@ -95,7 +98,7 @@ fn usage_error(e: clap::Error) -> ExitCode {
     if std::env::args_os().any(|a| a == "--json") {
         let message = e.render().to_string();
         let first = message.lines().next().unwrap_or("").trim_start_matches("error: ").to_string();
-        println!("{}", serde_json::json!({"error": {"code": "CLI_USAGE", "message": first}}));
+        println!("{}", serde_json::json!({"error": {"code": pomc::codes::CLI_USAGE, "message": first}}));
     }
     let _ = e.print();
     ExitCode::from(2)
@@ -109,6 +112,7 @@ fn main() -> ExitCode {
     let out = Output { json: cli.json, quiet: cli.quiet };
     let result = match cli.command {
         Command::Validate(a) => cmd_validate::run(a, out),
+        Command::Codes(a) => cmd_codes::run(a, out),
         Command::Info(a) => cmd_info::run(a, out),
         Command::Convert(a) => cmd_convert::run(a, out),
         Command::Build(a) => cmd_build::run(a, out),

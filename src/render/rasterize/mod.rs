@@ -35,8 +35,7 @@ use super::frame::Frame;
 use super::{check_layers, RenderError, RenderLayer, Stage};
 use crate::layer::OUTSIDE_DEPTH;
 use crate::mapping::Mapping;
-use crate::mesh::{self, MeshParams};
-use crate::panorama::Panorama;
+use crate::mesh;
 
 mod geometry;
 mod setup;
@@ -305,26 +304,4 @@ pub fn render_mesh(
         ],
     };
     Ok(MeshRendered { frame, stats })
-}
-
-/// Mesh then rasterise: [`mesh_layers`] with `params`, timed as the stage `mesh`, then
-/// [`render_mesh`].
-pub fn render_mesh_auto(
-    layers: &[RenderLayer],
-    params: &MeshParams,
-    local_to_world: DMat4,
-    camera: &Camera,
-    o: &MeshOptions,
-) -> Result<MeshRendered, RenderError> {
-    let t = Instant::now();
-    let meshes = mesh_layers(layers, params, o)?;
-    let mesh_s = t.elapsed().as_secs_f64();
-    let mut r = render_mesh(layers, &meshes, local_to_world, camera, o)?;
-    r.stats.stages.insert(0, Stage { name: "mesh", seconds: mesh_s });
-    Ok(r)
-}
-
-/// Whether a path names a panorama with at least one stored mesh (for reports).
-pub fn has_stored_meshes(pano: &Panorama) -> bool {
-    pano.manifest.layers.iter().any(|l| l.mesh.as_ref().is_some_and(|m| m.is_quadtree_v1()))
 }

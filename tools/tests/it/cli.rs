@@ -71,6 +71,24 @@ fn list_codes_covers_manifest_and_layer_codes() {
     assert!(codes.contains(&"XML_MALFORMED") && codes.contains(&"COVERAGE_INCOMPLETE"));
 }
 
+/// `pomc codes` lists every code once, with the error a failing command gives among them.
+#[test]
+fn codes_lists_findings_errors_and_warnings_once() {
+    let out = pomc(&["codes", "--json"]);
+    assert_eq!(out.status.code(), Some(0));
+    let v = json(&out);
+    let rows = v.as_array().unwrap();
+    let codes: Vec<&str> = rows.iter().map(|r| r["code"].as_str().unwrap()).collect();
+    let failed = pomc(&["validate", "/nonexistent/pano", "--json"]);
+    let error = json(&failed)["error"]["code"].as_str().unwrap().to_string();
+    for c in ["XML_MALFORMED", "COVERAGE_INCOMPLETE", "CLI_USAGE", "INPUT_DEPTH_SOFT", error.as_str()] {
+        assert_eq!(codes.iter().filter(|&&x| x == c).count(), 1, "{c} in `pomc codes`");
+    }
+    assert!(rows.iter().all(|r| !r["description"].as_str().unwrap().is_empty()));
+    let md = pomc(&["codes", "--markdown"]);
+    assert!(String::from_utf8_lossy(&md.stdout).starts_with("# 10. Codes"));
+}
+
 #[test]
 fn pack_unpack_round_trip_is_bit_exact() {
     let src = tempfile::tempdir().unwrap();
