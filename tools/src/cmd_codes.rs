@@ -15,7 +15,12 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         crate::output::line(pomc::codes::markdown().trim_end());
         return Ok(0);
     }
-    let codes = pomc::codes::all();
+    print(&pomc::codes::all(), out);
+    Ok(0)
+}
+
+/// One line per code (code, severity, meaning), or a JSON array with `--json`.
+pub fn print(codes: &[(&str, pomc::codes::Severity, &str)], out: Output) {
     if out.json {
         let rows: Vec<_> = codes
             .iter()
@@ -27,5 +32,4 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
             crate::output::line(format!("{c:32} {:8} {d}", s.as_str()));
         }
     }
-    Ok(0)
 }

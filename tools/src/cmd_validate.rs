@@ -23,18 +23,7 @@ pub struct Args {
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     if args.list_codes {
-        let codes = validate::codes::all();
-        if out.json {
-            let rows: Vec<_> = codes
-                .iter()
-                .map(|(c, s, d)| serde_json::json!({"code": c, "severity": s.as_str(), "description": d}))
-                .collect();
-            out.json(&serde_json::Value::Array(rows));
-        } else {
-            for (c, s, d) in codes {
-                crate::output::line(format!("{c:32} {:8} {d}", s.as_str()));
-            }
-        }
+        crate::cmd_codes::print(&validate::codes::all(), out);
         return Ok(0);
     }
     let options = ValidateOptions { jump_threshold: args.jump_threshold, ..Default::default() };
