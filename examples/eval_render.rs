@@ -1,6 +1,6 @@
 //! Evaluation harness of `pomc::render` on the analytic room (spec §9.6).
 //!
-//! The room is ray-cast from its centre into a plain RGB-D panorama, `pomc::build` turns it into
+//! The room is ray-cast from its centre into a plain RGB-D panorama, `pomc::layering` turns it into
 //! layers, and both systems — the **single-layer baseline** (the RGB-D panorama alone, splatted the
 //! same way) and the **layered splat** — are rendered from camera positions on rings inside the
 //! freedom radius, then compared with exact ray-cast views from the same positions: PSNR of
@@ -16,8 +16,8 @@
 use std::time::Instant;
 
 use glam::{DMat4, DVec3};
-use pomc::build::{self, BuildOptions};
 use pomc::layer::LayerImage;
+use pomc::layering::{self, BuildOptions};
 use pomc::mapping::{AnyMapping, MappingKind};
 use pomc::mesh::{self, MeshParams};
 use pomc::render::rasterize::{self, LayerGeometry, MeshOptions};
@@ -37,7 +37,7 @@ struct Systems {
 fn systems(scene: &Scene, width: usize) -> Res<Systems> {
     let mapping = AnyMapping::new(MappingKind::Equirect, width, width / 2)?;
     let r = render_on(scene, &mapping);
-    let built = build::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {})?;
+    let built = layering::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {})?;
     Ok(Systems {
         mapping,
         layered: built.layers.into_iter().map(|l| l.image).collect(),

@@ -23,10 +23,10 @@ pub enum Error {
     Panorama(#[from] crate::panorama::PanoramaError),
     /// Building a layered panorama from inputs failed.
     #[error(transparent)]
-    Build(#[from] crate::build::BuildError),
+    Build(#[from] crate::layering::BuildError),
     /// Loading or checking the build inputs failed.
     #[error(transparent)]
-    Input(#[from] crate::build::input::InputError),
+    Input(#[from] crate::layering::input::InputError),
     /// Preparing the input depth failed (what it is, its unit, its shape).
     #[error(transparent)]
     Prepare(#[from] crate::prepare::PrepareError),

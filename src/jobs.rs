@@ -6,11 +6,11 @@ use std::time::Instant;
 
 use glam::{DMat4, DVec3};
 
-use crate::build::input::{self, Convention, DepthEncoding};
-use crate::build::{self, BuildOptions, BuildReport};
 use crate::colour::ColourSpace;
 use crate::layer::LayerImage;
 use crate::layer_io::ReadLimits;
+use crate::layering::input::{self, Convention, DepthEncoding};
+use crate::layering::{self, BuildOptions, BuildReport};
 use crate::manifest::{Manifest, Transform};
 use crate::mapping::AnyMapping;
 use crate::mesh::{self, MeshParams};
@@ -83,10 +83,10 @@ pub fn build_panorama(
 pub const PREPARE_STAGE: &str = "prepare";
 
 /// Every stage [`build_panorama_with_progress`] names, in order: `prepare`, the build's
-/// ([`build::stages`]), `writing` (a progress bar's length).
+/// ([`layering::stages`]), `writing` (a progress bar's length).
 pub fn build_stages(s: &BuildSettings) -> Vec<&'static str> {
     let mut v = vec![PREPARE_STAGE];
-    v.extend(build::stages(&s.options));
+    v.extend(layering::stages(&s.options));
     v.push(WRITING_STAGE);
     v
 }
@@ -156,17 +156,17 @@ pub struct BuiltPanorama {
 
 /// Build from an RGB-D panorama already read ([`build_panorama`] without the files).
 pub fn build_rgbd(
-    rgbd: &build::RgbdInput,
+    rgbd: &layering::RgbdInput,
     s: &BuildSettings,
     progress: &dyn Fn(&str),
 ) -> crate::Result<BuiltPanorama> {
-    let built = build::build(rgbd, &s.options, progress)?;
+    let built = layering::build(rgbd, &s.options, progress)?;
     let mut transforms = Vec::new();
     if let Some(c) = s.center {
         transforms.push(Transform::Translate(c.to_array()));
     }
     transforms.extend(s.convention.transforms());
-    let manifest = build::manifest(&built, rgbd.mapping.kind(), s.options.freedom_radius, transforms);
+    let manifest = layering::manifest(&built, rgbd.mapping.kind(), s.options.freedom_radius, transforms);
     let layers = built.layers.into_iter().map(|l| l.image).collect();
     Ok(BuiltPanorama { manifest, layers, report: built.report })
 }

@@ -14,7 +14,7 @@
 //! - [`panorama`]: a whole panorama directory (manifest + layers), written as a whole;
 //! - [`validate`] and [`codes`]: the validator and its stable codes;
 //! - [`prepare`]: the depth people have to the depth layering needs (spec §7.1);
-//! - [`build`]: layers from a plain RGB-D panorama (spec §7);
+//! - [`layering`]: layers from a plain RGB-D panorama (spec §7), the job `pomc build` runs;
 //! - [`mesh`]: adaptive quadtree meshes and their export (spec §8);
 //! - [`render`]: views from a displaced camera, by point splatting or mesh rasterisation (spec §9);
 //! - [`viewer`]: the browser viewer's static site;
@@ -27,7 +27,6 @@
 #![warn(missing_docs)]
 #![warn(unnameable_types)]
 
-pub mod build;
 pub mod codes;
 pub mod colour;
 pub(crate) mod continuity;
@@ -37,6 +36,7 @@ pub mod image_io;
 pub mod jobs;
 pub mod layer;
 pub mod layer_io;
+pub mod layering;
 pub mod manifest;
 pub mod mapping;
 pub mod mesh;

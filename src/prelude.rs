@@ -36,8 +36,6 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub use crate::build::input::{Convention, DepthEncoding, Preset};
-pub use crate::build::{BuildOptions, BuildReport};
 pub use crate::colour::ColourSpace;
 pub use crate::error::{Error, Result};
 pub use crate::jobs::{
@@ -46,6 +44,8 @@ pub use crate::jobs::{
 };
 pub use crate::layer::{LayerImage, Sample};
 pub use crate::layer_io::ReadLimits;
+pub use crate::layering::input::{Convention, DepthEncoding, Preset};
+pub use crate::layering::{BuildOptions, BuildReport};
 pub use crate::manifest::Manifest;
 pub use crate::mapping::{layout::CubeLayout, AnyMapping, MappingKind};
 pub use crate::mesh::{mesh_layer, MeshParams};

@@ -15,12 +15,12 @@ use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use pomc::build::input::{ColourSamples, Convention, DepthKind, Preset};
-use pomc::build::{Classify, FillColour};
 use pomc::colour::ColourSpace;
 use pomc::jobs::{self, BuildSettings, RenderMethod, Renderer};
 use pomc::layer::{LayerImage, Sample};
 use pomc::layer_io::ReadLimits;
+use pomc::layering::input::{ColourSamples, Convention, DepthKind, Preset};
+use pomc::layering::{Classify, FillColour};
 use pomc::manifest::Manifest;
 use pomc::mesh::normals::NormalWeighting;
 use pomc::mesh::{MeshParams, MeshSettings};

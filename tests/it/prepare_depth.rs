@@ -1,7 +1,7 @@
 //! `pomc::prepare` against the exact depth of the analytic room: exact depth passes bit for bit;
 //! low-resolution, holed, scan-line, noisy and relative depth come out near the truth.
 
-use pomc::build::{self, BuildOptions, RgbdInput};
+use pomc::layering::{self, BuildOptions, RgbdInput};
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::prepare::{
     prepare_depth, DepthEncoding, DepthKind, DepthSamples, KnownDistance, PrepareSettings, PreparedDepth,
@@ -107,9 +107,12 @@ fn low_resolution_depth_is_upsampled_along_the_colour() {
     }
     let low = block_down(&input.depth, W, 4);
     let resized = prepare(&input, samples(W / 4, low, SampleFormat::F32), &enc, &Default::default());
-    let built =
-        build::build(&RgbdInput { depth: resized.depth, ..input.clone() }, &BuildOptions::default(), &|_| {})
-            .unwrap();
+    let built = layering::build(
+        &RgbdInput { depth: resized.depth, ..input.clone() },
+        &BuildOptions::default(),
+        &|_| {},
+    )
+    .unwrap();
     let object = |p: usize| built.layers[built.layer_of[p] as usize].role == pomc::manifest::Role::Object;
     let n = m.width() * m.height();
     let right = (0..n).filter(|&p| object(p) == (r.first_hit.object[p] != 0)).count() as f64 / n as f64;
@@ -194,7 +197,7 @@ fn scanner_noise_is_smoothed() {
     };
     assert!(err(&p.depth) < 0.5 * err(&noisy), "median error {} -> {}", err(&noisy), err(&p.depth));
     let layers = |depth: Vec<f32>| {
-        build::build(&RgbdInput { depth, ..input.clone() }, &BuildOptions::default(), &|_| {})
+        layering::build(&RgbdInput { depth, ..input.clone() }, &BuildOptions::default(), &|_| {})
             .unwrap()
             .layers
             .len()
@@ -376,10 +379,10 @@ fn layers_from_soft_depth_validate_clean() {
         .depth
     }];
     for depth in soft {
-        let built =
-            build::build(&RgbdInput { depth, ..input.clone() }, &BuildOptions::default(), &|_| {}).unwrap();
+        let built = layering::build(&RgbdInput { depth, ..input.clone() }, &BuildOptions::default(), &|_| {})
+            .unwrap();
         let dir = tempfile::tempdir().unwrap();
-        let manifest = build::manifest(&built, m.kind(), 0.5, vec![]);
+        let manifest = layering::manifest(&built, m.kind(), 0.5, vec![]);
         let images: Vec<_> = built.layers.iter().map(|l| l.image.clone()).collect();
         pomc::panorama::write_panorama(dir.path(), &manifest, &images, &Default::default()).unwrap();
         let report = pomc::validate::validate(dir.path(), &Default::default()).unwrap();

@@ -4,8 +4,8 @@
 //! stiff cameras (poles, seam, the radius itself, very near and infinitely far content) without NaN.
 
 use glam::{DMat4, DVec3};
-use pomc::build::{self, BuildOptions};
 use pomc::layer::{LayerImage, SampleType};
+use pomc::layering::{self, BuildOptions};
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::mesh::LayerMesh;
 use pomc::mesh::MeshParams;
@@ -26,7 +26,8 @@ impl Pano {
     fn new(scene: &Scene, kind: MappingKind, w: usize, h: usize) -> Pano {
         let mapping = AnyMapping::new(kind, w, h).unwrap();
         let r = render_on(scene, &mapping);
-        let built = build::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
+        let built =
+            layering::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
         let layers: Vec<LayerImage> = built.layers.into_iter().map(|l| l.image).collect();
         let refs: Vec<RenderLayer> = layers.iter().map(|image| RenderLayer { image, mapping }).collect();
         let meshes = rasterize::mesh_layers(&refs, &MeshParams::quadtree(), &MeshOptions::default()).unwrap();

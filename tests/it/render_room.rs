@@ -3,8 +3,8 @@
 //! the seam, at the radius and near or far content never give NaN.
 
 use glam::{DMat4, DVec3};
-use pomc::build::{self, BuildOptions};
 use pomc::layer::LayerImage;
+use pomc::layering::{self, BuildOptions};
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
 use pomc_fixtures::eval::{assert_no_nan, persp, truth};
@@ -21,7 +21,7 @@ struct Systems {
 fn systems(scene: &Scene, kind: MappingKind, w: usize, h: usize) -> Systems {
     let mapping = AnyMapping::new(kind, w, h).unwrap();
     let r = render_on(scene, &mapping);
-    let built = build::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
+    let built = layering::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
     Systems {
         mapping,
         layered: built.layers.into_iter().map(|l| l.image).collect(),

@@ -4,11 +4,11 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::DVec3;
-use pomc::build::input::{Convention, DepthKind, Preset};
-use pomc::build::{BuildOptions, Classify, FillColour};
 use pomc::colour::ColourSpace;
 use pomc::jobs::{self, BuildSettings};
 use pomc::layer_io::ReadLimits;
+use pomc::layering::input::{Convention, DepthKind, Preset};
+use pomc::layering::{BuildOptions, Classify, FillColour};
 use pomc::panorama::SaveOptions;
 use pomc::prepare::{PrepareSettings, Refine, UnknownDepth};
 
@@ -110,7 +110,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0.5, value_parser = Range::POSITIVE.parser())]
     freedom_radius: f64,
     /// Relative depth jump between neighbours that separates surfaces.
-    #[arg(long, default_value_t = pomc::build::EdgeOptions::default().jump, value_parser = Range::POSITIVE.parser())]
+    #[arg(long, default_value_t = pomc::layering::EdgeOptions::default().jump, value_parser = Range::POSITIVE.parser())]
     jump: f64,
     /// Normal angle (degrees) that closes regions where depth is continuous but the surface folds.
     #[arg(long, default_value_t = 35.0, value_parser = Range::ANGLE.parser())]

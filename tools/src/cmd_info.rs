@@ -52,7 +52,7 @@ fn exr_info(path: &Path, out: Output) -> Result<u8, Failure> {
 }
 
 fn image_info(path: &Path, out: Output) -> Result<u8, Failure> {
-    let h = pomc::build::input::image_header(path).map_err(pomc::Error::from)?;
+    let h = pomc::layering::input::image_header(path).map_err(pomc::Error::from)?;
     let mut json = serde_json::to_value(&h).expect("header serialises");
     json["kind"] = serde_json::json!("image");
     json["path"] = serde_json::json!(path);

@@ -732,7 +732,7 @@ fn interior_neighbour(cx: &FillContext, s: usize, k: u32) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::build::edges::EdgeOptions;
+    use crate::layering::edges::EdgeOptions;
     use crate::mapping::{AnyMapping, Mapping, MappingKind};
 
     /// A fill context over the given planes with the build's default rules (freedom radius

@@ -509,7 +509,7 @@ fn cut_fronts(
 
 /// A segment behind another that is over `SPECK` times larger, and smaller than `SPECK_MAX` pixels,
 /// is a speck: it does not count as occluded by it (the renderers' depth test keeps it behind all
-/// the same; it goes to a layer of its own, a part, see `build::parts`).
+/// the same; it goes to a layer of its own, a part, see `layering::parts`).
 const SPECK: u64 = 100;
 const SPECK_MAX: u32 = 256;
 
