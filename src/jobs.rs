@@ -453,8 +453,7 @@ pub fn mesh_scene(
                 want_h,
             })?;
             let (meshed, dome) = mesh::mesh_scene_layer(image, &mapping, params, radius)?;
-            let name =
-                manifest.layers.get(k).and_then(|d| d.name.clone()).unwrap_or_else(|| format!("layer{k}"));
+            let name = manifest.layer_name(k);
             let sky_radius = dome.is_some().then_some(radius);
             Ok(SceneMesh { index: k, name, image: dome.unwrap_or_else(|| image.clone()), sky_radius, meshed })
         })

@@ -156,8 +156,7 @@ fn site_from(
     let kind = manifest.mapping.kind;
     let radius = options.sky_radius.unwrap_or_else(|| mesh::default_sky_radius(images));
     let order: Vec<usize> = manifest.painter_order().into_iter().filter(|&k| k < images.len()).collect();
-    let name_of =
-        |k: usize| manifest.layers.get(k).and_then(|d| d.name.clone()).unwrap_or_else(|| format!("layer{k}"));
+    let name_of = |k: usize| manifest.layer_name(k);
     let mut domes = Vec::new();
     for &k in &order {
         let Some(dome) = infinite_only(&images[k], radius)? else { continue };

@@ -102,7 +102,7 @@ impl PyPanorama {
     /// `(name, role, order)` of layer `k`.
     fn layer_info(&self, k: usize) -> PyResult<(String, Option<String>, u32)> {
         let decl = self.manifest.layers.get(k).ok_or_else(|| usage(format!("no layer {k}")))?;
-        let name = decl.name.clone().unwrap_or_else(|| format!("layer{k}"));
+        let name = self.manifest.layer_name(k);
         let order = decl.order.unwrap_or(k as u32);
         Ok((name, decl.role.map(|r| r.as_str().to_string()), order))
     }

@@ -256,6 +256,12 @@ pub struct Manifest {
 }
 
 impl Manifest {
+    /// Layer `k`'s `name`, or `layer{k}` when it has none (or there is no layer `k`): what reports,
+    /// exports and the viewer call it.
+    pub fn layer_name(&self, k: usize) -> String {
+        self.layers.get(k).and_then(|d| d.name.clone()).unwrap_or_else(|| format!("layer{k}"))
+    }
+
     /// The 4×4 LocalToWorld matrix: `Op1 · Op2 · … · Opn` in document order, so the operation
     /// listed last is applied to points first (spec §2.4).
     pub fn local_to_world(&self) -> DMat4 {

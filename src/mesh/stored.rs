@@ -24,9 +24,7 @@ pub struct StoredMeshError {
 /// file and then the manifest are written atomically, under the panorama's writer lock.
 pub fn store(pano: &Panorama, meshes: &[(usize, &[u8])]) -> crate::Result<()> {
     let mut manifest = pano.manifest.clone();
-    let names: Vec<String> = (manifest.layers.iter().enumerate())
-        .map(|(k, d)| d.name.clone().unwrap_or_else(|| format!("layer{k}")))
-        .collect();
+    let names: Vec<String> = (0..manifest.layers.len()).map(|k| manifest.layer_name(k)).collect();
     let stems = super::export::safe_names(&names);
     // Not while another command rewrites the panorama (best effort: a read-only parent has no lock).
     let _lock = crate::fsutil::lock_dir(&pano.dir).ok();

@@ -161,7 +161,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         .map(|(&k, (image, read_ms))| {
             let decl = &pano.manifest.layers[k];
             let mut l = mesh_one(&args, &params, &pano, image, sky_radius)?;
-            l.name = decl.name.clone().unwrap_or_else(|| format!("layer{k}"));
+            l.name = pano.manifest.layer_name(k);
             (l.index, l.role, l.times[0]) = (k, decl.role.map(|r| r.as_str()), read_ms);
             Ok(l)
         })
