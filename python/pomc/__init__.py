@@ -33,6 +33,7 @@ __all__ = [
     "BUILD_OPTIONS",
     "prepare_depth",
     "MESH_OPTIONS",
+    "save_colour",
 ]
 
 #: Keyword options of :func:`build`, with the values ``pomc build`` uses by default.
@@ -199,7 +200,8 @@ class Panorama:
     ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Render a perspective view (world frame, metres; ``fov`` horizontal degrees; ``size``
         = (width, height)) as ``pomc render``: colour H×W×3 float32 linear, depth H×W float32
-        (distance from the eye; -1 in holes), mask H×W bool (covered)."""
+        (distance from the eye; -1 in holes), mask H×W bool (covered). :func:`save_colour` writes
+        the colour as ``pomc render -o`` does (PNG sRGB, EXR linear)."""
         if method not in ("splat", "mesh"):
             raise _usage(f"method must be 'splat' or 'mesh', got {method!r}")
         w, h = (int(size[0]), int(size[1]))
@@ -223,6 +225,16 @@ class Panorama:
         local = bool(options.pop("local", False))
         files = self._inner.export_mesh(os.fspath(path), _mesh_options(options), local=local)
         return [os.fspath(f) for f in files]
+
+
+def save_colour(path: "os.PathLike[str] | str", colour: np.ndarray) -> None:
+    """Write a rendered colour (H×W×3, linear, as :meth:`Panorama.render` returns) as
+    ``pomc render -o PATH`` does: ``.png`` 8-bit sRGB (clamped, the sRGB transfer function),
+    ``.exr`` linear float; written atomically."""
+    a = np.asarray(colour)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise _usage(f"colour must be H×W×3 (as render returns), got shape {a.shape}")
+    _pomc.save_colour(os.fspath(path), np.ascontiguousarray(a, dtype=np.float32))
 
 
 def _vec3(name: str, v: Sequence[float]) -> List[float]:
@@ -352,13 +364,16 @@ def build(
 ) -> Panorama:
     """Build a layered panorama from a plain RGB-D panorama, as ``pomc build``.
 
-    ``colour``: H×W×3 uint8 or uint16 (sRGB) or float32 (linear); ``depth``: H×W metres along
+    ``colour``: H×W×3 (or H×W×4: alpha is ignored) uint8 or uint16 (sRGB) or float32 (linear); ``depth``: H×W metres along
     the ray (``inf`` sky, ``nan`` or 0 unknown; integer depth needs ``depth_scale`` or ``preset``).
     A 2:1 canvas is an equirect, 3:2 a cube map. The ``pomc build`` options are keywords (``-`` as
     ``_``; ``normals_in`` is the path of a normals EXR of the same size): see :data:`BUILD_OPTIONS`
     for names and defaults.
     """
     opts = _build_options(freedom_radius, convention, center, options)
+    colour = np.asarray(colour)
+    if colour.ndim == 3 and colour.shape[2] == 4:
+        colour = colour[..., :3]  # RGBA as image libraries load it: the alpha says nothing of depth
     colour = np.ascontiguousarray(colour)
     if colour.dtype not in (np.uint8, np.uint16, np.float32):
         if np.issubdtype(colour.dtype, np.floating):

@@ -317,6 +317,25 @@ fn mesh_settings(o: &Bound<'_, PyDict>) -> PyResult<(MeshParams, Option<f64>)> {
     Ok((m.params(), sky_radius))
 }
 
+/// Write a rendered colour (H×W×3 float32, linear) as `pomc render -o` does: `.png` 8-bit sRGB
+/// through the same tone map, `.exr` linear float.
+#[pyfunction]
+fn save_colour(py: Python<'_>, path: PathBuf, colour: PyReadonlyArray3<'_, f32>) -> PyResult<()> {
+    let shape = colour.shape().to_vec();
+    if shape.len() != 3 || shape[2] != 3 {
+        return Err(usage(format!("colour must be H×W×3 (as render returns), got {shape:?}")));
+    }
+    let data = contiguous(&colour)?;
+    let (h, w) = (shape[0], shape[1]);
+    let mut frame = pomc::render::Frame::holes_only(w, h);
+    for (i, px) in data.chunks_exact(3).enumerate() {
+        for (plane, &v) in frame.rgb.iter_mut().zip(px) {
+            plane[i] = v;
+        }
+    }
+    py.allow_threads(|| pomc::render::frame::save_colour(&frame, &path)).map_err(to_py)
+}
+
 /// Open a panorama directory (or its manifest), reading every layer.
 #[pyfunction]
 fn open(py: Python<'_>, path: PathBuf) -> PyResult<PyPanorama> {
@@ -555,6 +574,7 @@ fn _pomc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("PomcError", m.py().get_type::<PomcError>())?;
     m.add_class::<PyPanorama>()?;
     m.add_function(wrap_pyfunction!(open, m)?)?;
+    m.add_function(wrap_pyfunction!(save_colour, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;
     m.add_function(wrap_pyfunction!(build_files, m)?)?;
     m.add_function(wrap_pyfunction!(prepare_files, m)?)?;

@@ -66,6 +66,15 @@ def test_building_from_arrays_equals_the_command(built):
     assert a.manifest_xml == b.manifest_xml
 
 
+def test_rgba_colour_builds_as_its_rgb(built):
+    colour, depth = fixture_arrays()
+    rgba = np.concatenate([colour, np.full(colour.shape[:2] + (1,), 255, np.uint8)], axis=2)
+    a, b = pomc.build(rgba, depth), pomc.open(built / "py")
+    assert [la.name for la in a.layers] == [lb.name for lb in b.layers]
+    for la, lb in zip(a.layers, b.layers):
+        assert np.array_equal(la.colour, lb.colour, equal_nan=True)
+
+
 def test_layers_are_the_files_read_by_openexr(built):
     pano = pomc.open(built / "py")
     background = pano.layers[0]
@@ -89,6 +98,23 @@ def test_render_equals_the_command(built, tmp_path):
         for c, name in enumerate("RGB"):
             assert np.array_equal(colour[..., c], truth[name]), f"{method} {name}"
         assert mask.mean() > 0.99
+
+
+def test_save_colour_writes_what_the_command_writes(built, tmp_path):
+    pano = pomc.open(built / "py")
+    eye, look = (0.15, -0.1, 0.05), (0.15, 1.0, 0.0)
+    cli(
+        "render", str(built / "py"), "-o", str(tmp_path / "cli.png"),
+        "--eye", ",".join(map(str, eye)), "--look-at", ",".join(map(str, look)), "--size", "160x90",
+    )
+    colour, _, _ = pano.render(eye, look, size=(160, 90))
+    pomc.save_colour(tmp_path / "py.png", colour)
+    pomc.save_colour(tmp_path / "py.exr", colour)
+    assert np.array_equal(np.asarray(Image.open(tmp_path / "py.png")), np.asarray(Image.open(tmp_path / "cli.png")))
+    exr = exr_channels(tmp_path / "py.exr")
+    assert np.array_equal(exr["G"], colour[..., 1])
+    with pytest.raises(pomc.PomcError):
+        pomc.save_colour(tmp_path / "bad.png", colour[..., :2])
 
 
 def test_validate_mesh_and_export(built, tmp_path):
