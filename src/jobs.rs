@@ -62,12 +62,15 @@ pub struct BuildSummary {
 /// Build a layered panorama from a colour and a depth image and write it into `output`, as
 /// `pomc build` does.
 ///
-/// ```no_run
+/// ```
 /// use pomc::prelude::*;
+/// let (dir, out) = (std::path::Path::new("fixtures/data/room-rgbd"), std::env::temp_dir().join("pomc-doc-build"));
 /// let mut settings = BuildSettings::default();
-/// settings.options.freedom_radius = 0.9;
-/// let built = build_panorama("colour.png".as_ref(), "depth.exr".as_ref(), "out".as_ref(), &settings)?;
-/// println!("{} layers", built.manifest.layers.len());
+/// settings.options.freedom_radius = 0.5;
+/// let built = build_panorama(&dir.join("colour.png"), &dir.join("depth.exr"), &out, &settings)?;
+/// assert!(built.manifest.layers.len() >= 2, "background and objects");
+/// assert!(validate(&out, &ValidateOptions::default())?.valid);
+/// # std::fs::remove_dir_all(&out).ok();
 /// # Ok::<(), pomc::Error>(())
 /// ```
 pub fn build_panorama(
@@ -119,13 +122,15 @@ pub fn build_panorama_with_progress(
 /// Read `colour` and `depth` and prepare the depth as `pomc build` does before layering
 /// (`pomc prepare`): metres along the ray on the colour's grid, with what was found and done.
 ///
-/// ```no_run
+/// ```
 /// use pomc::prelude::*;
-/// let mut settings = BuildSettings::default();
-/// settings.depth.kind = DepthKind::Inverse;
-/// settings.depth.camera_height = Some(1.6);
-/// let prepared = prepare_depth_files("colour.jpg".as_ref(), "depth.png".as_ref(), &settings)?;
-/// println!("{} px snapped", prepared.report.snapped_pixels);
+/// let dir = std::path::Path::new("fixtures/data/room-rgbd");
+/// let settings = BuildSettings::default();
+/// let prepared = prepare_depth_files(&dir.join("colour.png"), &dir.join("depth.exr"), &settings)?;
+/// assert_eq!(prepared.depth.len(), prepared.width * prepared.height);
+/// assert!(!prepared.report.resized, "depth of the colour's size is not resampled");
+/// // Estimator output instead: `settings.depth.kind = DepthKind::Inverse` with
+/// // `settings.depth.camera_height = Some(1.6)` for its scale.
 /// # Ok::<(), pomc::Error>(())
 /// ```
 pub fn prepare_depth_files(colour: &Path, depth: &Path, s: &BuildSettings) -> crate::Result<PreparedDepth> {
@@ -274,14 +279,16 @@ pub struct View {
 
 /// A panorama read (and for [`RenderMethod::Mesh`] meshed) once, to render any number of views.
 ///
-/// ```no_run
+/// ```
 /// use pomc::prelude::*;
-/// let pano = Panorama::open("room-pomc".as_ref())?;
-/// let renderer = Renderer::new(&pano, RenderMethod::Splat)?;
-/// let eye = renderer.centre() + DVec3::new(0.2, 0.0, 0.0);
-/// let camera = Camera::Perspective(Perspective::new(eye, eye + DVec3::Y, DVec3::Z, 60.0, 960, 540)?);
-/// let view = renderer.render(&camera)?;
-/// println!("{:.3} % holes", 100.0 * view.hole_ratio);
+/// let pano = Panorama::open("fixtures/data/room-equirect".as_ref())?;
+/// let renderer = Renderer::new(&pano, RenderMethod::Mesh)?;
+/// for x in [0.1, 0.2] {
+///     let eye = renderer.centre() + DVec3::new(x, 0.0, 0.0);
+///     let camera = Camera::Perspective(Perspective::new(eye, eye + DVec3::Y, DVec3::Z, 60.0, 160, 90)?);
+///     let view = renderer.render(&camera)?;
+///     assert!(view.hole_ratio < 0.01, "{:.3} % holes", 100.0 * view.hole_ratio);
+/// }
 /// # Ok::<(), pomc::Error>(())
 /// ```
 pub struct Renderer {
@@ -419,6 +426,18 @@ pub struct SceneMesh {
 /// Mesh the layers of a panorama held in memory (`images` in manifest order), in painter's order,
 /// or only layer `only`; infinitely far samples go on a sky dome of `sky_radius` (default
 /// [`mesh::default_sky_radius`] of all layers), as `pomc mesh` does.
+///
+/// ```
+/// use pomc::prelude::*;
+/// let pano = Panorama::open("fixtures/data/room-equirect".as_ref())?;
+/// let images = (0..pano.manifest.layers.len())
+///     .map(|k| pano.read_layer(k, &ReadLimits::default()))
+///     .collect::<Result<Vec<_>, _>>()?;
+/// let scene = pomc::jobs::mesh_scene(&pano.manifest, &images, None, &MeshParams::default(), None)?;
+/// assert_eq!(scene.len(), images.len());
+/// assert!(scene.iter().all(|m| !m.meshed.mesh.triangles.is_empty()));
+/// # Ok::<(), pomc::Error>(())
+/// ```
 pub fn mesh_scene(
     manifest: &Manifest,
     images: &[LayerImage],

@@ -120,6 +120,15 @@ pub fn mime_type(path: &str) -> &'static str {
 
 /// The site of panorama `pano`, its layers read (full canvases, manifest order) and meshed as
 /// `pomc render --method mesh` meshes them (stored meshes decoded).
+///
+/// ```
+/// use pomc::prelude::*;
+/// let pano = Panorama::open("fixtures/data/room-equirect".as_ref())?;
+/// let site = viewer::site(&pano, &SiteOptions::default())?;
+/// assert_eq!(site.files[0].0, "index.html");
+/// assert!(site.get("index.html").is_some());
+/// # Ok::<(), pomc::Error>(())
+/// ```
 pub fn site(pano: &Panorama, options: &SiteOptions) -> crate::Result<Site> {
     let layers = crate::render::read_layers(pano, &crate::layer_io::ReadLimits::default())?;
     let refs = RenderLayer::all(&layers);

@@ -50,6 +50,15 @@ impl Default for ValidateOptions {
 
 /// Validate the panorama at `path` (its directory or manifest). I/O problems with the panorama
 /// itself (no manifest) are errors of the call; everything about its content goes in the report.
+///
+/// ```
+/// use pomc::prelude::*;
+/// let report = validate("fixtures/data/room-cube".as_ref(), &ValidateOptions::default())?;
+/// assert!(report.valid && report.errors == 0, "{:?}", report.issues);
+/// let missing = validate("fixtures/data/no-such-panorama".as_ref(), &ValidateOptions::default());
+/// assert_eq!(missing.unwrap_err().code(), pomc::codes::PANORAMA_NOT_FOUND);
+/// # Ok::<(), pomc::Error>(())
+/// ```
 pub fn validate(path: &Path, options: &ValidateOptions) -> Result<Report, crate::Error> {
     let manifest_path = panorama::manifest_path(path)?;
     let name = manifest_path.display().to_string();
