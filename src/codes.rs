@@ -1,7 +1,7 @@
 //! The validator's stable codes as typed constants and as data ([`CODES`]: code, severity,
 //! meaning, like glTF-Validator), with the one [`Severity`]. They sit below every module that
-//! raises them (layer files, packing, panoramas, stored meshes, the validator); the manifest's
-//! codes are [`crate::manifest::CODES`], and [`crate::validate::codes::all`] lists both.
+//! raises them (layer files, packing, panoramas, stored meshes, the validator), with the
+//! manifest's ([`manifest`]) and the jobs' errors and warnings; [`all`] lists every one.
 
 use serde::Serialize;
 
@@ -47,6 +47,44 @@ macro_rules! declare_codes {
     };
 }
 pub(crate) use declare_codes;
+
+/// The manifest's codes (spec/02-manifest.md §2.9), re-exported as [`crate::manifest::CODES`].
+pub mod manifest {
+    declare_codes! {
+        /// The manifest's validation codes: code, severity, meaning (spec/02-manifest.md lists them).
+        CODES;
+        XML_MALFORMED, Error, "The manifest is not well-formed XML.";
+        XML_DTD_FORBIDDEN, Error, "The manifest has a DOCTYPE (DTD); DTDs and entity declarations are refused.";
+        XML_ENCODING_UNSUPPORTED, Error, "The manifest declares or uses an encoding other than UTF-8 or ISO-8859-1 (e.g. UTF-16).";
+        XML_ENCODING_INVALID, Error, "The manifest's bytes are not valid in its encoding (e.g. Latin-1 bytes in a file read as UTF-8).";
+        XML_TOO_LARGE, Error, "The manifest file is larger than the 16 MiB readers accept; refused before parsing.";
+        XML_LIMIT_EXCEEDED, Error, "An element has more than 256 attributes (refused before parsing: checking them costs quadratic time).";
+        ROOT_NOT_PANORAMA = "MANIFEST_ROOT_NOT_PANORAMA", Error, "The root element is not `<Panorama>` (without namespace).";
+        VERSION_UNSUPPORTED = "MANIFEST_VERSION_UNSUPPORTED", Error, "The `version` attribute of `<Panorama>` is not a POMC 1 version (`1` or `1.x`).";
+        UNKNOWN_ELEMENT = "MANIFEST_UNKNOWN_ELEMENT", Warning, "An element this version does not define; it is ignored (forward compatibility).";
+        UNKNOWN_ATTRIBUTE = "MANIFEST_UNKNOWN_ATTRIBUTE", Warning, "An attribute this version does not define; it is ignored (forward compatibility).";
+        MISSING_ATTRIBUTE = "MANIFEST_MISSING_ATTRIBUTE", Error, "A required attribute is absent (or only one of a pair such as width/height is given).";
+        NUMBER_INVALID = "MANIFEST_NUMBER_INVALID", Error, "A numeric attribute does not parse, is not finite, is out of range, or has the wrong number of components.";
+        MAPPING_MISSING = "MANIFEST_MAPPING_MISSING", Error, "There is no `<Mapping>` element.";
+        MAPPING_UNKNOWN = "MANIFEST_MAPPING_UNKNOWN", Error, "`<Mapping type>` names no known parametrisation.";
+        DUPLICATE_ELEMENT = "MANIFEST_DUPLICATE_ELEMENT", Error, "An element allowed once (TransformGroup, Mapping, Freedom, Packing, Mesh) appears more than once.";
+        ROTATE_AXIS_ZERO = "MANIFEST_ROTATE_AXIS_ZERO", Error, "A `<Rotate>` axis has zero length.";
+        SCALE_ZERO = "MANIFEST_SCALE_ZERO", Error, "A `<Scale>` component is zero: LocalToWorld would not be invertible.";
+        TRANSFORM_INVALID = "MANIFEST_TRANSFORM_INVALID", Error, "The composed LocalToWorld has an entry beyond ±1e150 (moving a point would overflow) or is not invertible, e.g. three `<Scale 1e300>` or `<Translate 1e308 0 0>`.";
+        FREEDOM_INVALID = "MANIFEST_FREEDOM_INVALID", Error, "The freedom radius is not a finite number greater than 0.";
+        FREEDOM_MISSING = "MANIFEST_FREEDOM_MISSING", Warning, "There is no `<Freedom>` element; the radius is taken as 0 (only the centre is guaranteed).";
+        NO_LAYERS = "MANIFEST_NO_LAYERS", Error, "The panorama has no `<Layer>`.";
+        TOO_MANY_LAYERS = "MANIFEST_TOO_MANY_LAYERS", Error, "The panorama has more than 1024 `<Layer>` elements; the rest are not read.";
+        LAYER_NO_SOURCE = "MANIFEST_LAYER_NO_SOURCE", Error, "A `<Layer>` has neither `<Image>` nor `<Textures>`.";
+        LAYER_MULTIPLE_SOURCES = "MANIFEST_LAYER_MULTIPLE_SOURCES", Error, "A `<Layer>` has more than one `<Image>`/`<Textures>`.";
+        FILE_NAME_UNSAFE = "MANIFEST_FILE_NAME_UNSAFE", Error, "A file name is empty, absolute, leaves the panorama directory (`..`), or uses `\\`, `:` or control characters.";
+        ROLE_UNKNOWN = "MANIFEST_ROLE_UNKNOWN", Warning, "A layer `role` is not one this version defines; the layer is read without a role.";
+        DEPTH_RANGE_INVALID = "MANIFEST_DEPTH_RANGE_INVALID", Error, "A `depthrange` does not satisfy 0 < min <= max.";
+        ORDER_DUPLICATE = "MANIFEST_ORDER_DUPLICATE", Warning, "Two layers declare the same `order`; their painter's order is undefined.";
+        PACKING_INVALID = "MANIFEST_PACKING_INVALID", Error, "A `<Packing>` lacks `atlaswidth`/`atlasheight` or gives 0.";
+        DIAGNOSTICS_TRUNCATED = "MANIFEST_DIAGNOSTICS_TRUNCATED", Info, "More findings than the reporting limit; the rest are not listed.";
+    }
+}
 
 declare_codes! {
     /// Codes raised on layer files, pixels, patch tables and the panorama as a whole.
@@ -162,7 +200,7 @@ declare_codes! {
 /// Every code pomc can give, with its severity and meaning: the manifest's and the validator's
 /// findings, then the errors ([`ERRORS`]) and warnings ([`WARNINGS`]) of jobs.
 pub fn all() -> Vec<(&'static str, Severity, &'static str)> {
-    crate::manifest::CODES.iter().chain(CODES).chain(ERRORS).chain(WARNINGS).copied().collect()
+    manifest::CODES.iter().chain(CODES).chain(ERRORS).chain(WARNINGS).copied().collect()
 }
 
 /// The table of [`all`] codes as Markdown (`pomc codes --markdown`; spec/10-codes.md is this text).
@@ -174,7 +212,7 @@ pub fn markdown() -> String {
          when it fails (exit status 2, nothing written) and the warnings it gives while it succeeds.\n",
     );
     for (title, table) in [
-        ("Manifest findings (§2.9)", crate::manifest::CODES),
+        ("Manifest findings (§2.9)", manifest::CODES),
         ("Layer, pixel, packing and mesh findings (§6)", CODES),
         ("Errors of jobs and commands", ERRORS),
         ("Warnings of jobs", WARNINGS),

@@ -70,5 +70,11 @@ impl Error {
     }
 }
 
+impl From<crate::fsutil::IoError> for Error {
+    fn from(e: crate::fsutil::IoError) -> Self {
+        Error::Io { path: e.path, source: e.source }
+    }
+}
+
 /// `std::result::Result` with pomc's [`Error`] as the default error type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

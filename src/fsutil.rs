@@ -2,12 +2,21 @@
 //! whole directories (temp sibling directory + swap, under a lock), and bounded reads.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use crate::error::Error;
+/// A file system operation on `path` failed; [`crate::Error::Io`] (code `IO_ERROR`) carries it.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {source}")]
+pub struct IoError {
+    /// The file or directory the operation was on.
+    pub path: PathBuf,
+    /// The underlying I/O error.
+    #[source]
+    pub source: std::io::Error,
+}
 
-fn io_err(path: &Path, source: std::io::Error) -> Error {
-    Error::Io { path: path.to_path_buf(), source }
+fn io_err(path: &Path, source: std::io::Error) -> IoError {
+    IoError { path: path.to_path_buf(), source }
 }
 
 /// Write a file atomically: the content goes to a temporary file next to `path`, is flushed to
@@ -16,7 +25,7 @@ fn io_err(path: &Path, source: std::io::Error) -> Error {
 pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> std::io::Result<()>,
-) -> Result<(), Error> {
+) -> Result<(), IoError> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -43,7 +52,7 @@ pub fn write_atomic(
 }
 
 /// Write bytes atomically.
-pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
     write_atomic(path, |w| w.write_all(bytes))
 }
 
@@ -59,7 +68,7 @@ pub fn check_regular(path: &Path) -> std::io::Result<std::fs::Metadata> {
 }
 
 /// Read a whole file, refusing files larger than `limit` bytes before reading them.
-pub fn read_limited(path: &Path, limit: u64) -> Result<Vec<u8>, Error> {
+pub fn read_limited(path: &Path, limit: u64) -> Result<Vec<u8>, IoError> {
     let meta = check_regular(path).map_err(|e| io_err(path, e))?;
     if meta.len() > limit {
         return Err(io_err(
@@ -82,7 +91,7 @@ pub struct DirLock {
 }
 
 /// The parent and file name of `dir` as absolute paths (`.` and `..` resolved when they exist).
-fn split_dir(dir: &Path) -> Result<(std::path::PathBuf, std::ffi::OsString), Error> {
+fn split_dir(dir: &Path) -> Result<(std::path::PathBuf, std::ffi::OsString), IoError> {
     let abs = std::path::absolute(dir).map_err(|e| io_err(dir, e))?;
     let abs = abs.canonicalize().unwrap_or(abs);
     match (abs.parent(), abs.file_name()) {
@@ -100,7 +109,7 @@ fn sibling(parent: &Path, name: &std::ffi::OsStr, tag: &str) -> std::path::PathB
 
 /// Lock `dir` against other writers (waits for the current one) and remove what killed writers
 /// left beside it (`.NAME.pomc-tmp-*` and `.NAME.pomc-old-*` directories).
-pub fn lock_dir(dir: &Path) -> Result<DirLock, Error> {
+pub fn lock_dir(dir: &Path) -> Result<DirLock, IoError> {
     let (parent, name) = split_dir(dir)?;
     std::fs::create_dir_all(&parent).map_err(|e| io_err(&parent, e))?;
     let lock_path = sibling(&parent, &name, ".pomc-lock");
@@ -146,7 +155,7 @@ pub fn lock_dir(dir: &Path) -> Result<DirLock, Error> {
 
 /// A fresh, empty temporary sibling of `dir` to write its new content into (call with the lock
 /// of [`lock_dir`] held); [`swap_in`] then puts it in place.
-pub fn temp_sibling(dir: &Path) -> Result<tempfile::TempDir, Error> {
+pub fn temp_sibling(dir: &Path) -> Result<tempfile::TempDir, IoError> {
     let (parent, name) = split_dir(dir)?;
     let prefix = sibling(Path::new(""), &name, ".pomc-tmp-");
     let tmp = tempfile::Builder::new().prefix(&prefix).tempdir_in(&parent).map_err(|e| io_err(dir, e))?;
@@ -164,7 +173,7 @@ pub fn temp_sibling(dir: &Path) -> Result<tempfile::TempDir, Error> {
 /// exist. On Linux the two are exchanged in one step (`renameat2(RENAME_EXCHANGE)`), so a crash
 /// leaves the old directory or the new one; elsewhere the old one is first moved aside. The old
 /// content is then deleted.
-pub fn swap_in(new: tempfile::TempDir, dir: &Path) -> Result<(), Error> {
+pub fn swap_in(new: tempfile::TempDir, dir: &Path) -> Result<(), IoError> {
     let (parent, name) = split_dir(dir)?;
     let target = parent.join(&name);
     let new = new.keep();
@@ -190,7 +199,7 @@ pub fn swap_in(new: tempfile::TempDir, dir: &Path) -> Result<(), Error> {
 }
 
 /// Exchange `new` and `target`; returns where the old content now is.
-fn exchange(new: &Path, target: &Path) -> Result<Option<std::path::PathBuf>, Error> {
+fn exchange(new: &Path, target: &Path) -> Result<Option<std::path::PathBuf>, IoError> {
     #[cfg(target_os = "linux")]
     {
         use rustix::fs::{renameat_with, RenameFlags, CWD};

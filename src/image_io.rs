@@ -281,10 +281,8 @@ pub fn encode(path: &Path, p: &Pixels) -> Result<(), ImageIoError> {
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), ImageIoError> {
-    crate::fsutil::write_atomic(path, |w| std::io::Write::write_all(w, bytes)).map_err(|e| match e {
-        crate::Error::Io { path, source } => ImageIoError::Io { path, source },
-        other => ImageIoError::Encode { path: path.to_path_buf(), reason: other.to_string() },
-    })
+    crate::fsutil::write_atomic(path, |w| std::io::Write::write_all(w, bytes))
+        .map_err(|e| ImageIoError::Io { path: e.path, source: e.source })
 }
 
 fn unreadable(path: &Path, reason: String) -> ImageIoError {

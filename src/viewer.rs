@@ -103,7 +103,7 @@ impl Site {
             }
             std::fs::write(&path, bytes).map_err(|source| crate::Error::Io { path, source })?;
         }
-        crate::fsutil::swap_in(tmp, dir)
+        Ok(crate::fsutil::swap_in(tmp, dir)?)
     }
 }
 

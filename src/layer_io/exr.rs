@@ -164,7 +164,7 @@ fn write_channels(
     });
     match (written, failed) {
         (_, Some(e)) => Err(e.into()),
-        (r, None) => r,
+        (r, None) => Ok(r?),
     }
 }
 

@@ -34,7 +34,7 @@ pub fn store(pano: &Panorama, meshes: &[(usize, &[u8])]) -> crate::Result<()> {
         crate::fsutil::write_bytes_atomic(&pano.dir.join(&file), bytes)?;
         decl.mesh = Some(crate::manifest::MeshDecl::quadtree(&file));
     }
-    crate::fsutil::write_bytes_atomic(&pano.manifest_path, manifest.to_xml().as_bytes())
+    Ok(crate::fsutil::write_bytes_atomic(&pano.manifest_path, manifest.to_xml().as_bytes())?)
 }
 
 /// The stored mesh of layer `index` when its declaration uses the encoding this reader knows

@@ -164,11 +164,12 @@ fn write_png(
     height: usize,
     ty: ExtendedColorType,
 ) -> crate::Result<()> {
-    crate::fsutil::write_atomic(path, |w| {
+    let written = crate::fsutil::write_atomic(path, |w| {
         image::codecs::png::PngEncoder::new(w)
             .write_image(data, width as u32, height as u32, ty)
             .map_err(std::io::Error::other)
-    })
+    });
+    Ok(written?)
 }
 
 /// Write the colour: `.exr` linear float, `.png` tone-mapped 8-bit sRGB.

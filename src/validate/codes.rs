@@ -6,7 +6,7 @@ pub use crate::codes::*;
 
 /// Every code the validator can report: the manifest's and its own.
 pub fn all() -> Vec<(&'static str, Severity, &'static str)> {
-    crate::manifest::CODES.iter().chain(CODES).copied().collect()
+    crate::codes::manifest::CODES.iter().chain(CODES).copied().collect()
 }
 
 /// Severity of a code; unknown codes are errors (a missing row is caught by the code-table test).
@@ -15,6 +15,6 @@ pub fn severity(code: &str) -> Severity {
         .iter()
         .find(|(c, _, _)| *c == code)
         .map(|(_, s, _)| *s)
-        .or_else(|| crate::manifest::CODES.iter().find(|(c, _, _)| *c == code).map(|(_, s, _)| *s))
+        .or_else(|| crate::codes::manifest::CODES.iter().find(|(c, _, _)| *c == code).map(|(_, s, _)| *s))
         .unwrap_or(Severity::Error)
 }

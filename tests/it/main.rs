@@ -19,4 +19,5 @@ mod pack_roundtrip;
 mod prepare_depth;
 mod render_mesh;
 mod render_room;
+mod source_layout;
 mod validate_codes;

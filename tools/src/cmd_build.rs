@@ -210,7 +210,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         serde_json::json!(built.manifest.layers.iter().map(|l| l.packing.is_some()).collect::<Vec<_>>());
     if let Some(p) = &args.report {
         let text = serde_json::to_string_pretty(&report).expect("JSON values serialise");
-        pomc::fsutil::write_bytes_atomic(p, text.as_bytes())?;
+        pomc::fsutil::write_bytes_atomic(p, text.as_bytes()).map_err(pomc::Error::from)?;
     }
     out.json(&report);
     for l in &built.report.layers {
