@@ -18,6 +18,9 @@ pub enum Error {
     /// Resampling between mappings or sizes failed.
     #[error(transparent)]
     Resample(#[from] crate::resample::ResampleError),
+    /// Converting a file or panorama between mappings failed.
+    #[error(transparent)]
+    Convert(#[from] crate::convert::ConvertError),
     /// Opening, checking or saving a panorama failed.
     #[error(transparent)]
     Panorama(#[from] crate::panorama::PanoramaError),
@@ -58,6 +61,7 @@ impl Error {
             Error::LayerIo(e) => e.code(),
             Error::Pack(e) => e.code(),
             Error::Resample(e) => e.code(),
+            Error::Convert(e) => e.code(),
             Error::Panorama(e) => e.code(),
             Error::Build(e) => e.code(),
             Error::Input(e) => e.code(),

@@ -8,7 +8,7 @@
 //! | validate | [`validate()`] with [`ValidateOptions`] | `pomc validate` |
 //! | mesh | [`mesh_layer`] with [`MeshParams`] | `pomc mesh` |
 //! | render | [`Renderer::render`] | `pomc render` |
-//! | convert | [`convert_layer`] with [`SampleOptions`] | `pomc convert` |
+//! | convert | [`convert_file`] with [`ConvertSettings`] (or [`convert_layer`] in memory) | `pomc convert` |
 //! | view | [`viewer::site`] with [`SiteOptions`], then [`Site::write`] | `pomc view` |
 //!
 //! ```
@@ -37,6 +37,7 @@
 //! ```
 
 pub use crate::colour::ColourSpace;
+pub use crate::convert::{convert_file, ConvertReport, ConvertSettings};
 pub use crate::error::{Error, Result};
 pub use crate::jobs::{
     build_panorama, build_panorama_with_progress, prepare_depth_files, write_depth, BuildSettings,

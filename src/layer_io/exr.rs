@@ -456,3 +456,15 @@ fn map_exr_error(path: &Path, e: exr::error::Error) -> LayerIoError {
         exr::error::Error::Aborted => unreadable(path, "decoding aborted".into()),
     }
 }
+
+/// Whether `path` is a layer EXR: an `.exr` whose header has a `Z` channel (spec §4); plain EXRs
+/// are colour images. Only the header is read; an unreadable file is not a layer.
+pub fn is_layer_exr(path: &Path) -> bool {
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    if ext.as_deref() != Some("exr") || crate::fsutil::check_regular(path).is_err() {
+        return false;
+    }
+    exr::meta::MetaData::read_from_file(path, false)
+        .map(|m| m.headers.iter().any(|h| h.channels.list.iter().any(|c| c.name.to_string() == "Z")))
+        .unwrap_or(false)
+}

@@ -18,7 +18,8 @@ use std::path::PathBuf;
 use crate::layer::SampleType;
 
 pub use self::exr::{
-    read_exr, read_exr_bytes, read_header, read_header_bytes, write_exr, write_exr_bytes, write_exr_owned,
+    is_layer_exr, read_exr, read_exr_bytes, read_header, read_header_bytes, write_exr, write_exr_bytes,
+    write_exr_owned,
 };
 pub use self::thesis::read_thesis_layer;
 

@@ -1,6 +1,6 @@
+use super::layer::convert_layer_in_bands;
 use super::*;
 use crate::layer::{LayerImage, SampleType};
-use super::layer::convert_layer_in_bands;
 
 #[test]
 fn fast_atan2_is_accurate() {
