@@ -118,7 +118,9 @@ async function main() {
     eye: vec3Param('eye') || centre.clone(),
     look: vec3Param('look'),
   };
-  if (!start.look) start.look = start.eye.clone().add(new THREE.Vector3(0, 1, 0));
+  // By default, the centre of the panorama image (azimuth 180°, local −X) as `pomc render`;
+  // +X is the image's left/right seam.
+  if (!start.look) start.look = start.eye.clone().add(new THREE.Vector3(-1, 0, 0).transformDirection(localToWorld));
   const state = { eye: new THREE.Vector3(), yaw: 0, pitch: 0 };
   // A frame around `up`: forward reference and side.
   const ref = Math.abs(up.y) < 0.9 ? new THREE.Vector3(0, 1, 0) : new THREE.Vector3(1, 0, 0);

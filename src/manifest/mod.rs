@@ -15,7 +15,7 @@ mod read_layer;
 mod transform;
 mod write;
 
-use glam::DMat4;
+use glam::{DMat4, DVec3};
 
 use crate::pack::Patch;
 
@@ -266,6 +266,29 @@ impl Manifest {
     /// listed last is applied to points first (spec §2.4).
     pub fn local_to_world(&self) -> DMat4 {
         transform::compose(&self.transforms)
+    }
+
+    /// The panorama centre in the world: the default eye.
+    pub fn centre(&self) -> DVec3 {
+        self.local_to_world().transform_point3(DVec3::ZERO)
+    }
+
+    /// How far `eye` (world) is from the centre, in the panorama's own frame, where the freedom
+    /// radius is measured.
+    pub fn eye_offset(&self, eye: DVec3) -> f64 {
+        self.local_to_world().inverse().transform_point3(eye).length()
+    }
+
+    /// Whether views from `eye` (world) are inside the freedom radius, where the layers promise
+    /// no holes (with a relative tolerance of 1e-9 for eyes placed exactly on it).
+    pub fn inside_freedom(&self, eye: DVec3) -> bool {
+        self.eye_offset(eye) <= self.freedom_radius * (1.0 + 1e-9)
+    }
+
+    /// The world direction of the centre of the panorama image (azimuth 180°, local −X), where
+    /// `render` and the viewer look by default; +X, azimuth 0, is the image's left/right seam.
+    pub fn default_look(&self) -> DVec3 {
+        self.local_to_world().transform_vector3(DVec3::NEG_X).normalize_or(DVec3::NEG_X)
     }
 
     /// Layer indices in painter's order (spec §2: smaller `order` first, i.e. farthest first; layers

@@ -6,7 +6,7 @@ use std::time::Instant;
 use glam::DVec3;
 use pomc::jobs::{RenderMethod, Renderer, View};
 use pomc::panorama::Panorama;
-use pomc::render::{self, frame, Camera, EquirectCamera, Perspective};
+use pomc::render::{frame, Camera, EquirectCamera, Perspective};
 
 use crate::args::{parse_vec3, Range};
 use crate::output::Output;
@@ -32,7 +32,8 @@ pub struct Args {
     /// Eye position in the world, metres: x,y,z (default: the panorama centre).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     eye: Option<DVec3>,
-    /// Point looked at, world: x,y,z (default: eye + 1,0,0).
+    /// Point looked at, world: x,y,z (default: the centre of the panorama image, eye − 1,0,0 in the
+    /// panorama's frame; +X is the image's left/right seam).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     look_at: Option<DVec3>,
     /// Up direction, world: x,y,z.
@@ -110,12 +111,13 @@ fn parse_size(s: &str) -> Result<(usize, usize), String> {
     Ok((w, h))
 }
 
-fn camera(args: &Args, shot: Shot) -> Result<Camera, pomc::Error> {
+/// The camera of one shot; without a look-at, it looks at the centre of the panorama image.
+fn camera(args: &Args, shot: Shot, look: DVec3) -> Result<Camera, pomc::Error> {
     let eye = shot.eye;
     Ok(match args.camera {
         CameraArg::Perspective => {
             let (w, h) = args.size.unwrap_or((960, 540));
-            let at = shot.look_at.unwrap_or(eye + DVec3::X);
+            let at = shot.look_at.unwrap_or(eye + look);
             Camera::Perspective(Perspective::new(eye, at, args.up, args.fov, w, h)?)
         }
         CameraArg::Equirect => {
@@ -159,16 +161,15 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     };
     let bar = out.spinner("reading");
     let pano = Panorama::open(&args.pano)?;
-    let to_world = pano.manifest.local_to_world();
-    let centre = render::centre(to_world);
-    // Distance of an eye from the centre in the panorama's own frame, where the freedom radius is.
-    let (to_local, radius) = (to_world.inverse(), pano.manifest.freedom_radius);
-    let offset = |eye: DVec3| to_local.transform_point3(eye).length();
-    let outside = |eye: DVec3| offset(eye) > radius * (1.0 + 1e-9);
-    let single = [Shot { eye: args.eye.unwrap_or(centre), look_at: args.look_at }];
+    let m = &pano.manifest;
+    let radius = m.freedom_radius;
+    let offset = |eye: DVec3| m.eye_offset(eye);
+    let outside = |eye: DVec3| !m.inside_freedom(eye);
+    let single = [Shot { eye: args.eye.unwrap_or(m.centre()), look_at: args.look_at }];
     let shots: &[Shot] = shots.as_deref().unwrap_or(&single);
     // Every camera is checked before the layers are read.
-    let cams: Vec<Camera> = shots.iter().map(|s| camera(&args, *s)).collect::<Result<_, _>>()?;
+    let look = m.default_look();
+    let cams: Vec<Camera> = shots.iter().map(|s| camera(&args, *s, look)).collect::<Result<_, _>>()?;
     if args.method == RenderMethod::Mesh {
         bar.set_message("reading and meshing");
     }

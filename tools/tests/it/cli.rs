@@ -284,6 +284,53 @@ fn render_says_when_the_eye_is_outside_the_freedom_radius() {
     assert!(!String::from_utf8_lossy(&view(&near, false).stdout).contains("outside"));
 }
 
+/// Without `--look-at`, `render` looks at the centre of the panorama image (issue 32), not at its
+/// left/right seam: the view's centre shows the colour of the input's centre pixel.
+#[test]
+fn render_looks_at_the_centre_of_the_image_by_default() {
+    let dir = tempfile::tempdir().unwrap();
+    // The bundled room's depth under a colour that tells azimuths apart: red grows from the
+    // left edge (azimuth 0, +X) to the right, blue falls.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/data/room-rgbd");
+    let (w, h) = (512, 256);
+    let ramp = image::RgbImage::from_fn(w, h, |x, _| {
+        let r = (255 * x / (w - 1)) as u8;
+        image::Rgb([r, 128, 255 - r])
+    });
+    let colour = dir.path().join("ramp.png");
+    ramp.save(&colour).unwrap();
+    let built = dir.path().join("built");
+    let depth = root.join("depth.exr");
+    let run = pomc(&[
+        "build",
+        "--colour",
+        colour.to_str().unwrap(),
+        "--depth",
+        depth.to_str().unwrap(),
+        "-o",
+        built.to_str().unwrap(),
+    ]);
+    assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
+    let out = dir.path().join("v.png");
+    let run = pomc(&[
+        "render",
+        built.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "64x64",
+        "--fov",
+        "10",
+    ]);
+    assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
+    let centre = image::open(&out).unwrap().to_rgb8().get_pixel(32, 32).0;
+    // The image's centre column has red ≈ blue ≈ 128; the seam has red 0 or 255.
+    assert!(
+        (centre[0] as i32 - 128).abs() <= 6 && (centre[2] as i32 - 128).abs() <= 6,
+        "the default view's centre is {centre:?}, not the image centre's colour (128, 128, 128)"
+    );
+}
+
 /// Human output prints numbers as a person reads them: no Rust debug formatting.
 #[test]
 fn human_output_has_no_debug_formatting() {
