@@ -13,7 +13,7 @@ use crate::layering::input::{self, Convention, DepthEncoding};
 use crate::layering::{self, BuildOptions, BuildReport};
 use crate::manifest::{Manifest, Transform};
 use crate::mapping::AnyMapping;
-use crate::mesh::{self, MeshParams};
+use crate::mesh::MeshParams;
 use crate::panorama::{self, Panorama, SaveOptions};
 use crate::prepare::{self, DepthSamples, PrepareReport, PrepareSettings, PreparedDepth, SampleFormat};
 use crate::render::{self, rasterize, Camera, Frame, MeshOptions, RenderLayer, SplatOptions, Stage};
@@ -406,95 +406,4 @@ fn view<C: serde::Serialize, O>(r: render::Rendered<C, O>) -> View {
         counts: serde_json::json!(s.counts),
         stages: s.stages,
     }
-}
-
-/// One layer meshed for a scene, as `pomc mesh` exports it.
-#[derive(Clone, Debug)]
-pub struct SceneMesh {
-    /// Index in the manifest, and the layer's name (`layerK` when it has none).
-    pub index: usize,
-    /// The layer's name in the manifest, or `layerK` when it has none.
-    pub name: String,
-    /// The meshed pixels: the layer, or for the infinity layer its sky on the dome.
-    pub image: LayerImage,
-    /// The dome's radius when this is the sky.
-    pub sky_radius: Option<f64>,
-    /// The layer's mesh and the quadtrees it came from.
-    pub meshed: mesh::Meshed,
-}
-
-/// Mesh the layers of a panorama held in memory (`images` in manifest order), in painter's order,
-/// or only layer `only`; infinitely far samples go on a sky dome of `sky_radius` (default
-/// [`mesh::default_sky_radius`] of all layers), as `pomc mesh` does.
-///
-/// ```
-/// use pomc::prelude::*;
-/// let pano = Panorama::open("fixtures/data/room-equirect".as_ref())?;
-/// let images = (0..pano.manifest.layers.len())
-///     .map(|k| pano.read_layer(k, &ReadLimits::default()))
-///     .collect::<Result<Vec<_>, _>>()?;
-/// let scene = pomc::jobs::mesh_scene(&pano.manifest, &images, None, &MeshParams::default(), None)?;
-/// assert_eq!(scene.len(), images.len());
-/// assert!(scene.iter().all(|m| !m.meshed.mesh.triangles.is_empty()));
-/// # Ok::<(), pomc::Error>(())
-/// ```
-pub fn mesh_scene(
-    manifest: &Manifest,
-    images: &[LayerImage],
-    only: Option<usize>,
-    params: &MeshParams,
-    sky_radius: Option<f64>,
-) -> crate::Result<Vec<SceneMesh>> {
-    use rayon::prelude::*;
-    params.check()?;
-    let order = match only {
-        Some(k) if k >= images.len() => {
-            let manifest = PathBuf::from(crate::panorama::MANIFEST_NAME);
-            return Err(
-                panorama::PanoramaError::NoSuchLayer { manifest, index: k, count: images.len() }.into()
-            );
-        }
-        Some(k) => vec![k],
-        None => manifest.painter_order().into_iter().filter(|&k| k < images.len()).collect(),
-    };
-    let radius = sky_radius.unwrap_or_else(|| mesh::default_sky_radius(images));
-    let kind = manifest.mapping.kind;
-    order
-        .par_iter()
-        .map(|&k| {
-            let image = &images[k];
-            let (w, h) = (image.width, image.height);
-            let want_h = if kind == crate::mapping::MappingKind::Equirect { w / 2 } else { w * 2 / 3 };
-            let mapping = AnyMapping::new(kind, w, h).map_err(|_| mesh::MeshError::CanvasMismatch {
-                got_w: w,
-                got_h: h,
-                want_w: w,
-                want_h,
-            })?;
-            let (meshed, dome) = mesh::mesh_scene_layer(image, &mapping, params, radius)?;
-            let name = manifest.layer_name(k);
-            let sky_radius = dome.is_some().then_some(radius);
-            Ok(SceneMesh { index: k, name, image: dome.unwrap_or_else(|| image.clone()), sky_radius, meshed })
-        })
-        .collect()
-}
-
-/// Write `meshes` as one scene file (`.glb`, `.obj` + `.mtl` + textures, `.ply`, by extension),
-/// in world coordinates when `local_to_world` is given.
-pub fn export_scene(
-    path: &Path,
-    meshes: &[SceneMesh],
-    local_to_world: Option<DMat4>,
-) -> crate::Result<mesh::export::Exported> {
-    let scene: Vec<mesh::export::SceneLayer> = meshes
-        .iter()
-        .map(|m| mesh::export::SceneLayer {
-            name: m.name.clone(),
-            index: m.index,
-            mesh: &m.meshed.mesh,
-            image: &m.image,
-            sky_radius: m.sky_radius,
-        })
-        .collect();
-    mesh::export::export_scene(path, &scene, local_to_world)
 }

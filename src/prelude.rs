@@ -6,7 +6,7 @@
 //! | open | [`Panorama::open`] | `pomc info` |
 //! | build | [`build_panorama`] with [`BuildSettings`] | `pomc build` |
 //! | validate | [`validate()`] with [`ValidateOptions`] | `pomc validate` |
-//! | mesh | [`mesh_layer`] with [`MeshParams`] | `pomc mesh` |
+//! | mesh | [`mesh_panorama`] with [`SceneSettings`] (one layer: [`mesh_layer`] with [`MeshParams`]) | `pomc mesh` |
 //! | render | [`Renderer::render`] | `pomc render` |
 //! | convert | [`convert_file`] with [`ConvertSettings`] (or [`convert_layer`] in memory) | `pomc convert` |
 //! | view | [`viewer::site`] with [`SiteOptions`], then [`Site::write`] | `pomc view` |
@@ -49,6 +49,7 @@ pub use crate::layering::input::{Convention, DepthEncoding, Preset};
 pub use crate::layering::{BuildOptions, BuildReport};
 pub use crate::manifest::Manifest;
 pub use crate::mapping::{layout::CubeLayout, AnyMapping, MappingKind};
+pub use crate::mesh::scene::{mesh_panorama, Scene, SceneSettings};
 pub use crate::mesh::{mesh_layer, MeshParams};
 pub use crate::panorama::{write_panorama, Panorama, SaveOptions};
 pub use crate::prepare::{DepthKind, PrepareReport, PrepareSettings, PreparedDepth, Refine, UnknownDepth};

@@ -184,18 +184,12 @@ fn site_from(
     let mut nodes = domes;
     for &k in &order {
         let Some(g) = geometry.get_mut(k).and_then(Option::take) else { continue };
-        if g.triangles.is_empty() {
+        if g.mesh.triangles.is_empty() {
             continue;
         }
         let image = &images[k];
         let keep = surface_pixels(image);
-        let mesh = LayerMesh {
-            width: g.width,
-            height: g.height,
-            sources: g.sources,
-            positions: g.positions,
-            triangles: g.triangles,
-        };
+        let mesh = g.mesh;
         nodes.push(Node { index: k, name: name_of(k), mesh, image: padded(image, keep), sky_radius: None });
     }
     let to_world = manifest.local_to_world();

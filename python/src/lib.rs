@@ -23,6 +23,7 @@ use pomc::layering::input::{ColourSamples, Convention, DepthKind, Preset};
 use pomc::layering::{Classify, FillColour};
 use pomc::manifest::Manifest;
 use pomc::mesh::normals::NormalWeighting;
+use pomc::mesh::scene::{self, SceneSettings};
 use pomc::mesh::{MeshParams, MeshSettings};
 use pomc::panorama::{Panorama, SaveOptions};
 use pomc::prepare::{Refine, UnknownDepth};
@@ -232,10 +233,12 @@ impl PyPanorama {
         options: &Bound<'py, PyDict>,
     ) -> PyResult<Vec<Bound<'py, PyDict>>> {
         let (params, sky_radius) = mesh_settings(options)?;
-        let meshes = py
-            .allow_threads(|| jobs::mesh_scene(&self.manifest, &self.layers, layer, &params, sky_radius))
+        let settings = SceneSettings { params, only: layer, sky_radius, metric: false, ..Default::default() };
+        let scene = py
+            .allow_threads(|| scene::mesh_images(&self.manifest, &self.layers, &settings))
             .map_err(to_py)?;
-        meshes
+        scene
+            .layers
             .into_iter()
             .map(|m| {
                 let d = PyDict::new(py);
@@ -272,8 +275,9 @@ impl PyPanorama {
         let (params, sky_radius) = mesh_settings(options)?;
         let exported = py
             .allow_threads(|| {
-                let meshes = jobs::mesh_scene(&self.manifest, &self.layers, None, &params, sky_radius)?;
-                jobs::export_scene(&path, &meshes, (!local).then(|| self.manifest.local_to_world()))
+                let settings = SceneSettings { params, sky_radius, metric: false, ..Default::default() };
+                let scene = scene::mesh_images(&self.manifest, &self.layers, &settings)?;
+                scene::export_scene(&path, &scene.layers, (!local).then(|| self.manifest.local_to_world()))
             })
             .map_err(to_py)?;
         Ok(exported.files)

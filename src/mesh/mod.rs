@@ -17,6 +17,7 @@ pub mod grid;
 pub mod normals;
 pub mod quadtree;
 pub(crate) mod sat;
+pub mod scene;
 pub mod simplify;
 pub(crate) mod stitch;
 pub mod stored;

@@ -331,15 +331,11 @@ fn floor_geometry(n: usize) -> (LayerImage, AnyMapping, LayerGeometry) {
     }
     let mesh = LayerMesh { width: 16, height: 8, sources: vec![0; positions.len()], positions, triangles };
     let g = LayerGeometry {
-        width: 16,
-        height: 8,
         mesh_triangles: mesh.triangles.len(),
         jump_triangles: 0,
         border_pixels: 0,
         has_infinity: false,
-        positions: mesh.positions,
-        sources: mesh.sources,
-        triangles: mesh.triangles,
+        mesh,
     };
     (img, m, g)
 }
@@ -348,8 +344,8 @@ fn floor_geometry(n: usize) -> (LayerImage, AnyMapping, LayerGeometry) {
 /// how close to a triangle edge (barycentric margin) the nearest decision was.
 fn brute(g: &LayerGeometry, eye: DVec3, d: DVec3) -> (bool, f64) {
     let (mut hit, mut margin) = (false, f64::INFINITY);
-    for t in &g.triangles {
-        let [a, b, c] = t.map(|i| g.positions[i as usize]);
+    for t in &g.mesh.triangles {
+        let [a, b, c] = t.map(|i| g.mesh.positions[i as usize]);
         let (e1, e2) = (b - a, c - a);
         let p = d.cross(e2);
         let det = e1.dot(p);

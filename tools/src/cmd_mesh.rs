@@ -5,12 +5,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use rayon::prelude::*;
-
-use pomc::layer::LayerImage;
-use pomc::layer_io::ReadLimits;
-use pomc::mapping::AnyMapping;
-use pomc::mesh::{self, accuracy, encode, export, MeshParams};
+use pomc::mesh::scene::{self, SceneMesh, SceneSettings};
+use pomc::mesh::{self, export, MeshParams};
 use pomc::panorama::Panorama;
 
 use crate::args::Range;
@@ -73,16 +69,6 @@ pub struct Args {
     no_greedy: bool,
 }
 
-fn fail(code: &'static str, message: String) -> Failure {
-    Failure { code, message, exit: 2 }
-}
-
-impl From<mesh::MeshError> for Failure {
-    fn from(e: mesh::MeshError) -> Self {
-        pomc::Error::from(e).into()
-    }
-}
-
 fn params(a: &Args) -> MeshParams {
     mesh::MeshSettings {
         max_error: a.max_error,
@@ -101,97 +87,32 @@ fn params(a: &Args) -> MeshParams {
     .params()
 }
 
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
-}
-
-/// One meshed layer.
-struct Layer {
-    index: usize,
-    name: String,
-    role: Option<&'static str>,
-    /// The meshed pixels: the layer, or its sky-dome version.
-    image: LayerImage,
-    sky: bool,
-    meshed: mesh::Meshed,
-    encoded: Option<Vec<u8>>,
-    stats: Option<(accuracy::ErrorStats, f64)>,
-    /// Read and encode times (ms).
-    times: [f64; 2],
-}
-
-fn mapping_of(pano: &Panorama, image: &LayerImage) -> Result<AnyMapping, Failure> {
-    let kind = pano.manifest.mapping.kind;
-    AnyMapping::new(kind, image.width, image.height)
-        .map_err(|e| fail(pomc::codes::MESH_CANVAS_MISMATCH, e.to_string()))
-}
-
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
-    let params = params(&args);
-    params.check()?;
-    let spin = out.spinner("reading layers");
+    let settings = SceneSettings {
+        params: params(&args),
+        only: args.layer,
+        sky_radius: args.sky_radius,
+        store: args.store,
+        metric: !args.no_metric,
+    };
+    let spin = out.spinner("reading and meshing layers");
     let pano = Panorama::open(&args.pano)?;
-    let limits = ReadLimits::default();
-    let order = match args.layer {
-        Some(k) => vec![k],
-        None => pano.manifest.painter_order(),
-    };
-    // Layers are read and meshed in parallel: one layer's stages do not keep both cores busy.
-    let images = order
-        .par_iter()
-        .map(|&k| {
-            let t = Instant::now();
-            Ok((pano.read_layer(k, &limits)?, ms(t)))
-        })
-        .collect::<Result<Vec<_>, Failure>>()?;
-    // The default radius depends on every layer's depths, also when one layer is meshed.
-    let sky_radius = match args.sky_radius {
-        Some(r) => r,
-        None if args.layer.is_some() && images.iter().any(|(im, _)| mesh::has_sky(im)) => {
-            let others = (0..pano.manifest.layers.len()).filter(|k| !order.contains(k));
-            let others = others.map(|k| pano.read_layer(k, &limits)).collect::<Result<Vec<_>, _>>()?;
-            mesh::default_sky_radius(images.iter().map(|i| &i.0).chain(&others))
-        }
-        None => mesh::default_sky_radius(images.iter().map(|i| &i.0)),
-    };
-    spin.set_message(format!("meshing {} layer(s)", order.len()));
-    let layers = order
-        .par_iter()
-        .zip(images)
-        .map(|(&k, (image, read_ms))| {
-            let decl = &pano.manifest.layers[k];
-            let mut l = mesh_one(&args, &params, &pano, image, sky_radius)?;
-            l.name = pano.manifest.layer_name(k);
-            (l.index, l.role, l.times[0]) = (k, decl.role.map(|r| r.as_str()), read_ms);
-            Ok(l)
-        })
-        .collect::<Result<Vec<_>, Failure>>()?;
+    let scene = scene::mesh_panorama(&pano, &settings)?;
+    let layers = &scene.layers;
     let mut export_ms = 0.0;
     let mut exported = export::Exported::default();
     if let Some(path) = &args.output {
         spin.set_message("exporting");
         let t = Instant::now();
-        let scene: Vec<export::SceneLayer> = layers
-            .iter()
-            .map(|l| export::SceneLayer {
-                name: l.name.clone(),
-                index: l.index,
-                mesh: &l.meshed.mesh,
-                image: &l.image,
-                sky_radius: l.sky.then_some(sky_radius),
-            })
-            .collect();
         let transform = (!args.local).then(|| pano.manifest.local_to_world());
-        exported = export::export_scene(path, &scene, transform)?;
-        export_ms = ms(t);
+        exported = scene::export_scene(path, layers, transform)?;
+        export_ms = t.elapsed().as_secs_f64() * 1e3;
     }
     if args.store {
-        let encoded: Vec<(usize, &[u8])> =
-            layers.iter().filter_map(|l| Some((l.index, l.encoded.as_deref()?))).collect();
-        pomc::mesh::stored::store(&pano, &encoded)?;
+        scene::store(&pano, layers)?;
     }
     spin.finish_and_clear();
-    let sky = Some(sky_radius).filter(|_| layers.iter().any(|l| l.sky));
+    let sky = Some(scene.sky_radius).filter(|_| scene.has_sky());
     let mut reports: Vec<serde_json::Value> = layers.iter().map(|l| report(&args, out, l, sky)).collect();
     for (r, v) in reports.iter_mut().zip(&exported.vertices) {
         r["exported_vertices"] = serde_json::json!(v);
@@ -213,13 +134,13 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let count =
         |f: &dyn Fn(&mesh::LayerMesh) -> usize| layers.iter().map(|l| f(&l.meshed.mesh)).sum::<usize>();
     let (tris, verts) = (count(&|m| m.triangles.len()), count(&|m| m.positions.len()));
-    let sum = |f: &dyn Fn(&Layer) -> f64| layers.iter().map(f).sum::<f64>();
-    let read_ms = sum(&|l| l.times[0]);
+    let sum = |f: &dyn Fn(&SceneMesh) -> f64| layers.iter().map(f).sum::<f64>();
+    let read_ms = sum(&|l| l.read_ms);
     let mesh_ms = sum(&|l| {
         let t = &l.meshed.times;
         t.sample_ms + t.greedy_ms + t.quadtree_ms + t.triangulate_ms + t.assemble_ms + t.simplify_ms
     });
-    let metric_ms = sum(&|l| l.stats.as_ref().map_or(0.0, |s| s.1));
+    let metric_ms = sum(&|l| l.metric_ms.unwrap_or(0.0));
     out.json(&serde_json::json!({
         "layers": reports,
         "triangles": tris, "vertices": verts,
@@ -227,7 +148,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         "skipped": skipped,
         "sky_radius": sky,
         "times_ms": {
-            "read": read_ms, "mesh": mesh_ms, "encode": sum(&|l| l.times[1]), "metric": metric_ms,
+            "read": read_ms, "mesh": mesh_ms, "encode": sum(&|l| l.encode_ms), "metric": metric_ms,
             "export": export_ms,
         },
         "output": args.output, "files": files,
@@ -240,52 +161,11 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     Ok(0)
 }
 
-/// Mesh one layer (its sky on the dome of `sky_radius`), encode and measure it.
-fn mesh_one(
-    args: &Args,
-    params: &MeshParams,
-    pano: &Panorama,
-    image: LayerImage,
-    sky_radius: f64,
-) -> Result<Layer, Failure> {
-    let mapping = mapping_of(pano, &image)?;
-    let (meshed, dome) = mesh::mesh_scene_layer(&image, &mapping, params, sky_radius)?;
-    let t = Instant::now();
-    // The encoding stores the quadtrees of the layer itself (the dome is not part of it); lattices
-    // meshed by greedy insertion have none yet, so they are built only when the encoding is stored.
-    let greedy = meshed.greedy.iter().any(Option::is_some);
-    let encoded = if !greedy && dome.is_none() {
-        Some(encode::encode(&meshed.trees, &mapping)?)
-    } else if args.store {
-        Some(encode::encode(&mesh::quadtrees(&image, &mapping, params)?, &mapping)?)
-    } else {
-        None
-    };
-    let encode_ms = ms(t);
-    let sky = dome.is_some();
-    let image = dome.unwrap_or(image);
-    let m = &meshed.mesh;
-    let stats = (!args.no_metric).then(|| {
-        let t = Instant::now();
-        (accuracy::measure(&m.positions, &m.triangles, &image, &mapping), ms(t))
-    });
-    Ok(Layer {
-        index: 0,
-        name: String::new(),
-        role: None,
-        image,
-        sky,
-        meshed,
-        encoded,
-        stats,
-        times: [0.0, encode_ms],
-    })
-}
-
-/// Print one layer's lines and return its JSON (`sky`: the dome's radius, when the scene has one).
-fn report(args: &Args, out: Output, l: &Layer, sky: Option<f64>) -> serde_json::Value {
-    let (meshed, stats) = (&l.meshed, &l.stats);
-    let [read_ms, encode_ms] = l.times;
+fn report(args: &Args, out: Output, l: &SceneMesh, sky: Option<f64>) -> serde_json::Value {
+    let meshed = &l.meshed;
+    let stats = l.error.as_ref().zip(l.metric_ms);
+    let (read_ms, encode_ms) = (l.read_ms, l.encode_ms);
+    let is_sky = l.sky_radius.is_some();
     let encoded = l.encoded.as_ref().map(Vec::len);
     let m = &meshed.mesh;
     let tris = m.triangles.len();
@@ -297,7 +177,7 @@ fn report(args: &Args, out: Output, l: &Layer, sky: Option<f64>) -> serde_json::
     let t = &meshed.times;
     let json = serde_json::json!({
         "layer": l.index, "name": l.name, "role": l.role,
-        "sky_radius": sky.filter(|_| l.sky),
+        "sky_radius": sky.filter(|_| is_sky),
         "width": m.width, "height": m.height,
         "triangles": tris, "vertices": m.positions.len(),
         "quadtree_triangles": (greedy_faces == 0).then_some(qt),
@@ -320,7 +200,7 @@ fn report(args: &Args, out: Output, l: &Layer, sky: Option<f64>) -> serde_json::
         l.name,
         m.width,
         m.height,
-        sky.filter(|_| l.sky).map_or(String::new(), |r| format!(", sky dome at {r:.2} m")),
+        sky.filter(|_| is_sky).map_or(String::new(), |r| format!(", sky dome at {r:.2} m")),
         tris,
         m.positions.len(),
         match &meshed.simplify {
@@ -338,7 +218,7 @@ fn report(args: &Args, out: Output, l: &Layer, sky: Option<f64>) -> serde_json::
         }
     ));
     match (encoded, per_million) {
-        (None, _) if l.sky => {
+        (None, _) if is_sky => {
             out.say("encoded: not computed (the sky dome is no part of the layer's mesh, spec §8.9)")
         }
         (Some(e), Some(p)) => {

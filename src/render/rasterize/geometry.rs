@@ -107,16 +107,9 @@ const FOOTPRINT: f64 = 0.75;
 /// (clamped within the jump), never reaching past a discontinuity by more than the footprint.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LayerGeometry {
-    /// Width of the layer's canvas, pixels.
-    pub width: usize,
-    /// Height of the layer's canvas, pixels.
-    pub height: usize,
-    /// Mesh vertices, then four corners per border pixel.
-    pub positions: Vec<DVec3>,
-    /// Canvas pixel of each vertex (`≥ W·H` for the equirect poles).
-    pub sources: Vec<u32>,
-    /// Triangles to draw: the mesh's kept triangles, then two per border pixel.
-    pub triangles: Vec<[u32; 3]>,
+    /// What is drawn: the mesh's vertices then four corners per border pixel, the mesh's kept
+    /// triangles then two per border pixel.
+    pub mesh: LayerMesh,
     /// Triangles of the mesh.
     pub mesh_triangles: usize,
     /// Mesh triangles not drawn: an edge crosses a depth discontinuity.
@@ -378,11 +371,7 @@ impl LayerGeometry {
         }
         Ok(LayerGeometry {
             has_infinity,
-            width: w,
-            height: h,
-            positions,
-            sources,
-            triangles: kept,
+            mesh: LayerMesh { width: w, height: h, positions, sources, triangles: kept },
             mesh_triangles,
             jump_triangles,
             border_pixels: corners.len(),

@@ -153,6 +153,7 @@ pub fn render_mesh(
         )));
     }
     for (index, (m, l)) in meshes.iter().zip(layers).enumerate() {
+        let m = &m.mesh;
         let (w, h) = (l.mapping.width(), l.mapping.height());
         let bad_vertex = m.triangles.iter().flatten().any(|&v| v as usize >= m.positions.len());
         if (m.width, m.height) != (w, h) || m.sources.len() != m.positions.len() || bad_vertex {
@@ -187,9 +188,10 @@ pub fn render_mesh(
     let mut preps: Vec<Prep> = Vec::new();
     for (k, m) in meshes.iter().enumerate() {
         counts.triangles_jump += m.jump_triangles as u64;
-        let lv: Vec<DVec3> = m.positions.par_iter().map(|&p| to_cam.transform_point3(p)).collect();
+        let lv: Vec<DVec3> = m.mesh.positions.par_iter().map(|&p| to_cam.transform_point3(p)).collect();
         let lv = &lv;
         let parts: Vec<(Vec<Prep>, RasterCounts)> = m
+            .mesh
             .triangles
             .par_chunks(4096)
             .enumerate()

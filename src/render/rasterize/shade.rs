@@ -128,6 +128,7 @@ impl<'a> Planes<'a> {
 /// Fallback colour of a fragment whose bilinear taps are all of another surface: the colour of the
 /// triangle's vertex nearest in direction (pole vertices have no pixel).
 pub(super) fn nearest_vertex_colour(p: &Planes, m: &LayerGeometry, tri: u32, local: DVec3) -> [f32; 3] {
+    let m = &m.mesh;
     let Some(t) = m.triangles.get(tri as usize) else { return [0.0; 3] };
     let d = local.normalize_or_zero();
     let mut best: Option<(f64, usize)> = None;
