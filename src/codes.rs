@@ -174,11 +174,13 @@ declare_codes! {
     RENDER_MESH, Error, "A layer could not be meshed, or a given mesh does not belong to its layer.";
     RENDER_NO_LAYERS, Error, "The panorama declares no layer.";
     RENDER_OUTPUT_FORMAT, Error, "The output file's extension is not one the writer supports.";
-    CONVERT_IO, Error, "Opening, reading or writing an image failed (or it is not a regular file).";
-    CONVERT_ENCODE, Error, "The encoder failed to produce the output bytes.";
-    CONVERT_TOO_LARGE, Error, "An image declares more pixels than the read limits; refused before decoding.";
-    CONVERT_UNREADABLE, Error, "An image cannot be decoded (corrupt data, an EXR without parts or channels).";
-    CONVERT_UNSUPPORTED, Error, "The decoder does not support the file's format or a feature of it.";
+    IMAGE_IO, Error, "Opening, reading or writing a plain image failed (or it is not a regular file).";
+    IMAGE_ENCODE, Error, "The encoder failed to produce an image's bytes.";
+    IMAGE_TOO_LARGE, Error, "An image declares more pixels than the read limits; refused before decoding.";
+    IMAGE_UNREADABLE, Error, "An image cannot be decoded (corrupt data, an EXR without parts or channels).";
+    IMAGE_UNSUPPORTED, Error, "The decoder does not support the file's format or a feature of it.";
+    IMAGE_UNKNOWN_FORMAT, Error, "An image output's extension is not .png, .jpg/.jpeg, .exr or .hdr.";
+    CONVERT_TOO_LARGE, Error, "A conversion's output would have more pixels than readers accept; refused before resampling.";
     CONVERT_USAGE, Error, "A conversion was asked that cannot be made (an output extension, a mapping or options that do not fit).";
     CONVERT_NOT_FOUND, Error, "A file to convert does not exist.";
     CLI_USAGE, Error, "The command line could not be parsed, or a value is out of its range.";

@@ -15,7 +15,7 @@ use crate::resample::Texel;
 /// Reading or writing a plain image failed.
 #[derive(Debug, thiserror::Error)]
 pub enum ImageIoError {
-    /// The file cannot be decoded (corrupt data, an EXR without parts or channels); `CONVERT_UNREADABLE`.
+    /// The file cannot be decoded (corrupt data, an EXR without parts or channels); `IMAGE_UNREADABLE`.
     #[error("{path}: {reason}")]
     Unreadable {
         /// The image file.
@@ -23,7 +23,7 @@ pub enum ImageIoError {
         /// What went wrong, from the decoder.
         reason: String,
     },
-    /// The image declares more pixels than [`ReadLimits`] allow; refused before decoding.
+    /// The image declares more pixels than [`ReadLimits`] allow; refused before decoding; `IMAGE_TOO_LARGE`.
     #[error("{path}: {reason}")]
     TooLarge {
         /// The image file.
@@ -31,7 +31,7 @@ pub enum ImageIoError {
         /// The declared size and the limit it exceeds.
         reason: String,
     },
-    /// The decoder does not support the file's format or a feature of it; `CONVERT_UNSUPPORTED`.
+    /// The decoder does not support the file's format or a feature of it; `IMAGE_UNSUPPORTED`.
     #[error("{path}: cannot decode ({reason}); supported inputs are PNG, JPEG, EXR and HDR")]
     Unsupported {
         /// The image file.
@@ -39,7 +39,7 @@ pub enum ImageIoError {
         /// What the decoder does not support.
         reason: String,
     },
-    /// Opening, reading or writing the file failed (or it is not a regular file); `CONVERT_IO`.
+    /// Opening, reading or writing the file failed (or it is not a regular file); `IMAGE_IO`.
     #[error("{path}: {source}")]
     Io {
         /// The file the operation was on.
@@ -48,13 +48,13 @@ pub enum ImageIoError {
         #[source]
         source: std::io::Error,
     },
-    /// The output path's extension is not `.png`, `.jpg`/`.jpeg`, `.exr` or `.hdr`; `CONVERT_USAGE`.
+    /// The output path's extension is not `.png`, `.jpg`/`.jpeg`, `.exr` or `.hdr`; `IMAGE_UNKNOWN_FORMAT`.
     #[error("{path}: unknown output format; use a .png, .jpg, .exr or .hdr extension")]
     UnknownFormat {
         /// The output file.
         path: PathBuf,
     },
-    /// The encoder failed to produce the output bytes; `CONVERT_ENCODE`.
+    /// The encoder failed to produce the output bytes; `IMAGE_ENCODE`.
     #[error("{path}: cannot encode ({reason})")]
     Encode {
         /// The output file.
@@ -65,15 +65,15 @@ pub enum ImageIoError {
 }
 
 impl ImageIoError {
-    /// Stable code (the `convert` command's, where these errors were first reported).
+    /// Stable code: `IMAGE_*`.
     pub fn code(&self) -> &'static str {
         match self {
-            ImageIoError::Unreadable { .. } => crate::codes::CONVERT_UNREADABLE,
-            ImageIoError::TooLarge { .. } => crate::codes::CONVERT_TOO_LARGE,
-            ImageIoError::Unsupported { .. } => crate::codes::CONVERT_UNSUPPORTED,
-            ImageIoError::Io { .. } => crate::codes::CONVERT_IO,
-            ImageIoError::UnknownFormat { .. } => crate::codes::CONVERT_USAGE,
-            ImageIoError::Encode { .. } => crate::codes::CONVERT_ENCODE,
+            ImageIoError::Unreadable { .. } => crate::codes::IMAGE_UNREADABLE,
+            ImageIoError::TooLarge { .. } => crate::codes::IMAGE_TOO_LARGE,
+            ImageIoError::Unsupported { .. } => crate::codes::IMAGE_UNSUPPORTED,
+            ImageIoError::Io { .. } => crate::codes::IMAGE_IO,
+            ImageIoError::UnknownFormat { .. } => crate::codes::IMAGE_UNKNOWN_FORMAT,
+            ImageIoError::Encode { .. } => crate::codes::IMAGE_ENCODE,
         }
     }
 }
