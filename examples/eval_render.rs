@@ -19,8 +19,8 @@ use glam::{DMat4, DVec3};
 use pomc::layer::LayerImage;
 use pomc::layering::{self, BuildOptions};
 use pomc::mapping::{AnyMapping, MappingKind};
-use pomc::mesh::{self, MeshParams};
-use pomc::render::rasterize::{self, LayerGeometry, MeshOptions};
+use pomc::mesh::{self, MeshOptions};
+use pomc::render::rasterize::{self, LayerGeometry, RasterOptions};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
 use pomc_fixtures::layers::{render_on, rgbd_input, to_layer};
 use pomc_fixtures::Scene;
@@ -229,11 +229,11 @@ fn bench(width: usize) -> Res<()> {
 
 /// The mesh method on the same views: mesh stages (per layer), then rasterisation medians.
 fn bench_mesh(layers: &[RenderLayer]) -> Res<()> {
-    let o = MeshOptions::default();
+    let o = RasterOptions::default();
     let mut geoms: Vec<LayerGeometry> = Vec::new();
     for (k, l) in layers.iter().enumerate() {
         let t = Instant::now();
-        let m = mesh::mesh_layer(l.image, &l.mapping, &MeshParams::quadtree())?;
+        let m = mesh::mesh_layer(l.image, &l.mapping, &MeshOptions::quadtree())?;
         let mesh_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let g = LayerGeometry::new(k, m.mesh, l, o.jump)?;
@@ -248,7 +248,7 @@ fn bench_mesh(layers: &[RenderLayer]) -> Res<()> {
         geoms.push(g);
     }
     let t = Instant::now();
-    let again = rasterize::mesh_layers(layers, &MeshParams::quadtree(), &o)?;
+    let again = rasterize::mesh_layers(layers, &MeshOptions::quadtree(), &o)?;
     println!("mesh stage (both layers in parallel): {:.3} s", t.elapsed().as_secs_f64());
     drop(again);
     for (eye, at) in [

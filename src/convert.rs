@@ -179,7 +179,7 @@ fn ms(t: Instant) -> f64 {
 /// let settings = ConvertSettings { face_size: Some(64), ..Default::default() };
 /// let report = convert_file("fixtures/data/room-equirect".as_ref(), &out, MappingKind::Cube3x2, &settings)?;
 /// assert_eq!(report.output_size, (192, 128));
-/// assert!(validate(&out, &ValidateOptions::default())?.valid);
+/// assert!(validate(&out, &ValidateSettings::default())?.valid);
 /// # std::fs::remove_dir_all(&out).ok();
 /// # Ok::<(), pomc::Error>(())
 /// ```

@@ -13,10 +13,10 @@ use crate::layering::input::{self, Convention, DepthEncoding};
 use crate::layering::{self, BuildOptions, BuildReport};
 use crate::manifest::{Manifest, Transform};
 use crate::mapping::AnyMapping;
-use crate::mesh::MeshParams;
+use crate::mesh::MeshOptions;
 use crate::panorama::{self, Panorama, SaveOptions};
-use crate::prepare::{self, DepthSamples, PrepareReport, PrepareSettings, PreparedDepth, SampleFormat};
-use crate::render::{self, rasterize, Camera, Frame, MeshOptions, RenderLayer, SplatOptions, Stage};
+use crate::prepare::{self, DepthSamples, PrepareOptions, PrepareReport, PreparedDepth, SampleFormat};
+use crate::render::{self, rasterize, Camera, Frame, RasterOptions, RenderLayer, SplatOptions, Stage};
 
 /// Everything `pomc build` takes besides its input and output paths.
 #[derive(Clone, Debug, Default)]
@@ -27,7 +27,7 @@ pub struct BuildSettings {
     /// `--depth-range`, `--camera-height`).
     pub depth: DepthEncoding,
     /// How the depth is prepared for layering (`--refine`, `--unknown-depth`).
-    pub prepare: PrepareSettings,
+    pub prepare: PrepareOptions,
     /// Normals image (`--normals-in`).
     pub normals_in: Option<PathBuf>,
     /// Azimuth convention of the input (`--convention`).
@@ -69,7 +69,7 @@ pub struct BuildSummary {
 /// settings.options.freedom_radius = 0.5;
 /// let built = build_panorama(&dir.join("colour.png"), &dir.join("depth.exr"), &out, &settings)?;
 /// assert!(built.manifest.layers.len() >= 2, "background and objects");
-/// assert!(validate(&out, &ValidateOptions::default())?.valid);
+/// assert!(validate(&out, &ValidateSettings::default())?.valid);
 /// # std::fs::remove_dir_all(&out).ok();
 /// # Ok::<(), pomc::Error>(())
 /// ```
@@ -314,8 +314,8 @@ impl Renderer {
                 Some(rasterize::panorama_meshes(
                     pano,
                     &refs,
-                    &MeshParams::quadtree(),
-                    &MeshOptions::default(),
+                    &MeshOptions::quadtree(),
+                    &RasterOptions::default(),
                 )?)
             }
         };
@@ -348,8 +348,8 @@ impl Renderer {
             RenderMethod::Mesh => {
                 let geometry = rasterize::mesh_layers(
                     &RenderLayer::all(&layers),
-                    &MeshParams::quadtree(),
-                    &MeshOptions::default(),
+                    &MeshOptions::quadtree(),
+                    &RasterOptions::default(),
                 )?;
                 let sources = vec![rasterize::MeshSource::Built; geometry.len()];
                 Some((geometry, sources, Vec::new()))
@@ -391,7 +391,7 @@ impl Renderer {
         Ok(match &self.meshes {
             None => view(render::render(&refs, to_world, camera, &SplatOptions::default())?),
             Some((geometry, ..)) => {
-                view(rasterize::render_mesh(&refs, geometry, to_world, camera, &MeshOptions::default())?)
+                view(rasterize::render_mesh(&refs, geometry, to_world, camera, &RasterOptions::default())?)
             }
         })
     }

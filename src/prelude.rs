@@ -5,22 +5,22 @@
 //! |---|---|---|
 //! | open | [`Panorama::open`] | `pomc info` |
 //! | build | [`build_panorama`] with [`BuildSettings`] | `pomc build` |
-//! | validate | [`validate()`] with [`ValidateOptions`] | `pomc validate` |
-//! | mesh | [`mesh_panorama`] with [`SceneSettings`] (one layer: [`mesh_layer`] with [`MeshParams`]) | `pomc mesh` |
+//! | validate | [`validate()`] with [`ValidateSettings`] | `pomc validate` |
+//! | mesh | [`mesh_panorama`] with [`SceneSettings`] (one layer: [`mesh_layer`] with [`MeshOptions`]) | `pomc mesh` |
 //! | render | [`Renderer::render`] | `pomc render` |
 //! | convert | [`convert_file`] with [`ConvertSettings`] (or [`convert_layer`] in memory) | `pomc convert` |
-//! | view | [`viewer::site`] with [`SiteOptions`], then [`Site::write`] | `pomc view` |
+//! | view | [`viewer::site`] with [`SiteSettings`], then [`Site::write`] | `pomc view` |
 //!
 //! ```
 //! use pomc::prelude::*;
 //! let pano = Panorama::open("fixtures/data/room-equirect".as_ref())?;
-//! let report = validate(&pano.dir, &ValidateOptions::default())?;
+//! let report = validate(&pano.dir, &ValidateSettings::default())?;
 //! assert!(report.valid, "{:?}", report.issues);
 //!
 //! // Mesh the background layer as `pomc mesh` does.
 //! let layer = pano.read_layer(0, &ReadLimits::default())?;
 //! let mapping = AnyMapping::new(MappingKind::Equirect, layer.width, layer.height)?;
-//! let meshed = mesh_layer(&layer, &mapping, &MeshParams::default())?;
+//! let meshed = mesh_layer(&layer, &mapping, &MeshOptions::default())?;
 //! assert!(meshed.mesh.triangles.len() > 100);
 //!
 //! // A view 20 cm off-centre, looking along +Y.
@@ -50,11 +50,11 @@ pub use crate::layering::{BuildOptions, BuildReport};
 pub use crate::manifest::Manifest;
 pub use crate::mapping::{layout::CubeLayout, AnyMapping, MappingKind};
 pub use crate::mesh::scene::{mesh_panorama, Scene, SceneSettings};
-pub use crate::mesh::{mesh_layer, MeshParams};
+pub use crate::mesh::{mesh_layer, MeshOptions};
 pub use crate::panorama::{write_panorama, Panorama, SaveOptions};
-pub use crate::prepare::{DepthKind, PrepareReport, PrepareSettings, PreparedDepth, Refine, UnknownDepth};
+pub use crate::prepare::{DepthKind, PrepareOptions, PrepareReport, PreparedDepth, Refine, UnknownDepth};
 pub use crate::render::{Camera, EquirectCamera, Frame, Perspective};
 pub use crate::resample::{convert_layer, Canvas, Filter, SampleOptions};
-pub use crate::validate::{validate, Report, Severity, ValidateOptions};
-pub use crate::viewer::{self, Site, SiteOptions};
+pub use crate::validate::{validate, Report, Severity, ValidateSettings};
+pub use crate::viewer::{self, Site, SiteSettings};
 pub use glam::DVec3;

@@ -12,10 +12,10 @@ use crate::layer::{LayerImage, Sample};
 use crate::manifest::Manifest;
 use crate::mapping::{CubeFace, MappingKind};
 use crate::mesh::export::{gltf, scene_files_with, Format, SceneLayer};
-use crate::mesh::MeshParams;
+use crate::mesh::MeshOptions;
 use crate::mesh::{self, LayerMesh};
 use crate::panorama::Panorama;
-use crate::render::rasterize::{self, LayerGeometry, MeshOptions};
+use crate::render::rasterize::{self, LayerGeometry, RasterOptions};
 use crate::render::RenderLayer;
 
 /// The bundled files of the page, `(path in the site, bytes)`: the viewer and three.js r180 (MIT,
@@ -48,19 +48,19 @@ pub const ASSETS: &[(&str, &[u8])] = &[
 
 /// Options of a site.
 #[derive(Clone, Debug)]
-pub struct SiteOptions {
+pub struct SiteSettings {
     /// Mesh parameters of the layers without a stored mesh (default: `pomc render --method
     /// mesh`'s, so that the page shows what the renderer draws).
-    pub mesh: MeshParams,
+    pub mesh: MeshOptions,
     /// Radius of the sky dome (default: [`crate::mesh::default_sky_radius`]).
     pub sky_radius: Option<f64>,
     /// The page title (default: the panorama directory's name).
     pub title: Option<String>,
 }
 
-impl Default for SiteOptions {
+impl Default for SiteSettings {
     fn default() -> Self {
-        SiteOptions { mesh: MeshParams::quadtree(), sky_radius: None, title: None }
+        SiteSettings { mesh: MeshOptions::quadtree(), sky_radius: None, title: None }
     }
 }
 
@@ -124,15 +124,15 @@ pub fn mime_type(path: &str) -> &'static str {
 /// ```
 /// use pomc::prelude::*;
 /// let pano = Panorama::open("fixtures/data/room-equirect".as_ref())?;
-/// let site = viewer::site(&pano, &SiteOptions::default())?;
+/// let site = viewer::site(&pano, &SiteSettings::default())?;
 /// assert_eq!(site.files[0].0, "index.html");
 /// assert!(site.get("index.html").is_some());
 /// # Ok::<(), pomc::Error>(())
 /// ```
-pub fn site(pano: &Panorama, options: &SiteOptions) -> crate::Result<Site> {
+pub fn site(pano: &Panorama, options: &SiteSettings) -> crate::Result<Site> {
     let layers = crate::render::read_layers(pano, &crate::layer_io::ReadLimits::default())?;
     let refs = RenderLayer::all(&layers);
-    let (geometry, ..) = rasterize::panorama_meshes(pano, &refs, &options.mesh, &MeshOptions::default())?;
+    let (geometry, ..) = rasterize::panorama_meshes(pano, &refs, &options.mesh, &RasterOptions::default())?;
     let title = options.title.clone().unwrap_or_else(|| {
         pano.dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "panorama".into())
     });
@@ -160,7 +160,7 @@ fn site_from(
     images: &[LayerImage],
     geometry: Vec<LayerGeometry>,
     title: &str,
-    options: &SiteOptions,
+    options: &SiteSettings,
 ) -> crate::Result<Site> {
     let kind = manifest.mapping.kind;
     let radius = options.sky_radius.unwrap_or_else(|| mesh::default_sky_radius(images));
@@ -170,7 +170,7 @@ fn site_from(
     for &k in &order {
         let Some(dome) = infinite_only(&images[k], radius)? else { continue };
         let mapping = crate::render::layer_mapping(kind, k, &dome)?;
-        let meshed = mesh::mesh_layer(&dome, &mapping, &mesh::sky_params(&MeshParams::default()))?;
+        let meshed = mesh::mesh_layer(&dome, &mapping, &mesh::sky_params(&MeshOptions::default()))?;
         let image = padded(&dome, surface_pixels(&dome));
         domes.push(Node {
             index: k,

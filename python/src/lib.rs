@@ -24,7 +24,7 @@ use pomc::layering::{Classify, FillColour};
 use pomc::manifest::Manifest;
 use pomc::mesh::normals::NormalWeighting;
 use pomc::mesh::scene::{self, SceneSettings};
-use pomc::mesh::{MeshParams, MeshSettings};
+use pomc::mesh::{MeshFlags, MeshOptions};
 use pomc::panorama::{Panorama, SaveOptions};
 use pomc::prepare::{Refine, UnknownDepth};
 use pomc::render::{Camera, Perspective};
@@ -161,7 +161,7 @@ impl PyPanorama {
     fn validate_json(&self, py: Python<'_>) -> PyResult<String> {
         let report = py
             .allow_threads(|| -> Result<_, pomc::Error> {
-                let options = pomc::validate::ValidateOptions::default();
+                let options = pomc::validate::ValidateSettings::default();
                 match &self.dir {
                     Some(dir) => pomc::validate::validate(dir, &options),
                     None => {
@@ -233,7 +233,8 @@ impl PyPanorama {
         options: &Bound<'py, PyDict>,
     ) -> PyResult<Vec<Bound<'py, PyDict>>> {
         let (params, sky_radius) = mesh_settings(options)?;
-        let settings = SceneSettings { params, only: layer, sky_radius, metric: false, ..Default::default() };
+        let settings =
+            SceneSettings { mesh: params, only: layer, sky_radius, metric: false, ..Default::default() };
         let scene = py
             .allow_threads(|| scene::mesh_images(&self.manifest, &self.layers, &settings))
             .map_err(to_py)?;
@@ -275,7 +276,8 @@ impl PyPanorama {
         let (params, sky_radius) = mesh_settings(options)?;
         let exported = py
             .allow_threads(|| {
-                let settings = SceneSettings { params, sky_radius, metric: false, ..Default::default() };
+                let settings =
+                    SceneSettings { mesh: params, sky_radius, metric: false, ..Default::default() };
                 let scene = scene::mesh_images(&self.manifest, &self.layers, &settings)?;
                 scene::export_scene(&path, &scene.layers, (!local).then(|| self.manifest.local_to_world()))
             })
@@ -286,8 +288,8 @@ impl PyPanorama {
 
 /// Mesh parameters and the sky radius from the checked keyword options (names as `pomc mesh`'s,
 /// `-` as `_`; `simplify` and `greedy` for `--no-simplify` and `--no-greedy`).
-fn mesh_settings(o: &Bound<'_, PyDict>) -> PyResult<(MeshParams, Option<f64>)> {
-    let mut m = MeshSettings::default();
+fn mesh_settings(o: &Bound<'_, PyDict>) -> PyResult<(MeshOptions, Option<f64>)> {
+    let mut m = MeshFlags::default();
     let get = |k: &str| o.get_item(k);
     if let Some(v) = get("max_error")? {
         m.max_error = v.extract()?;

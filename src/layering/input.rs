@@ -12,7 +12,7 @@ use crate::colour::{srgb_to_linear, ColourSpace};
 use crate::layer_io::{self, ReadLimits};
 use crate::manifest::Transform;
 use crate::mapping::{AnyMapping, MappingKind};
-use crate::prepare::{self, DepthSamples, PrepareError, PrepareReport, PrepareSettings, SampleFormat};
+use crate::prepare::{self, DepthSamples, PrepareError, PrepareOptions, PrepareReport, SampleFormat};
 
 pub use crate::prepare::{DepthEncoding, DepthKind, Preset};
 
@@ -396,7 +396,7 @@ impl RgbdFiles {
         self,
         depth: &Path,
         enc: &DepthEncoding,
-        s: &PrepareSettings,
+        s: &PrepareOptions,
     ) -> Result<(RgbdInput, PrepareReport), PrepareError> {
         let prepared = prepare::prepare_depth(depth, &self.mapping, &self.rgb, &self.depth, enc, s)?;
         let input =
@@ -436,7 +436,7 @@ pub fn load(
     depth: &Path,
     normals: Option<&Path>,
     enc: &DepthEncoding,
-    prep: &PrepareSettings,
+    prep: &PrepareOptions,
     limits: &ReadLimits,
 ) -> crate::Result<(RgbdInput, PrepareReport)> {
     Ok(read(colour, space, depth, normals, limits)?.prepare(depth, enc, prep)?)

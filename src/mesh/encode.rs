@@ -11,7 +11,7 @@
 
 use super::quadtree::Tree;
 use super::subdivide::Criterion;
-use super::{lattices, mesh_from_trees, LayerMesh, MeshError, MeshParams};
+use super::{lattices, mesh_from_trees, LayerMesh, MeshError, MeshOptions};
 use crate::layer::LayerImage;
 use crate::mapping::{AnyMapping, Mapping};
 
@@ -124,7 +124,7 @@ pub fn decode_bits(bytes: &[u8], mapping: &AnyMapping) -> Result<Vec<Vec<bool>>,
 pub fn decode(bytes: &[u8], image: &LayerImage, mapping: &AnyMapping) -> Result<LayerMesh, MeshError> {
     let bits = decode_bits(bytes, mapping)?;
     let grids = lattices(image, mapping)?;
-    let params = MeshParams { feature_angle_deg: None, ..MeshParams::quadtree() };
+    let params = MeshOptions { feature_angle_deg: None, ..MeshOptions::quadtree() };
     let mut trees = Vec::with_capacity(grids.len());
     for (g, b) in grids.iter().zip(&bits) {
         let c = Criterion::new(g, image, &params);

@@ -91,7 +91,7 @@ impl MeshError {
 
 /// What drives the subdivision. Several tests may be combined; `uniform` overrides the others.
 #[derive(Clone, Debug, PartialEq)]
-pub struct MeshParams {
+pub struct MeshOptions {
     /// Maximum relative distance, along each pixel's ray, between the mesh and the sample.
     pub max_error: Option<f64>,
     /// Thesis feature test: split where adjacent normals differ by more than this angle (degrees).
@@ -106,7 +106,7 @@ pub struct MeshParams {
     pub uniform: Option<u32>,
     /// Second stage: error-bounded edge collapses of the quadtree mesh ([`simplify`]). The trees
     /// (and so the encoding) are those of the quadtree mesh either way.
-    pub simplify: Option<simplify::SimplifyParams>,
+    pub simplify: Option<simplify::SimplifyOptions>,
 }
 
 /// `pomc mesh --max-error` default: 0.5 % of the distance along the ray.
@@ -118,24 +118,24 @@ pub const DEFAULT_MAX_ANGLE_DEG: f64 = 20.0;
 
 /// What `pomc mesh` does by default: the quadtree mesh, then error-bounded simplification with
 /// greedy re-meshing of clean cube faces, both within [`DEFAULT_MAX_ERROR`].
-impl Default for MeshParams {
+impl Default for MeshOptions {
     fn default() -> Self {
-        MeshParams {
-            simplify: Some(simplify::SimplifyParams {
+        MeshOptions {
+            simplify: Some(simplify::SimplifyOptions {
                 max_error: DEFAULT_MAX_ERROR,
                 max_angle_deg: Some(DEFAULT_MAX_ANGLE_DEG),
                 greedy: true,
             }),
-            ..MeshParams::quadtree()
+            ..MeshOptions::quadtree()
         }
     }
 }
 
-impl MeshParams {
+impl MeshOptions {
     /// The adaptive quadtree mesh alone (thesis 7.4), no simplification: what `render --method
     /// mesh` triangulates and `mesh --store` encodes.
     pub fn quadtree() -> Self {
-        MeshParams {
+        MeshOptions {
             max_error: Some(DEFAULT_MAX_ERROR),
             feature_angle_deg: None,
             residual_threshold: DEFAULT_RESIDUAL,
@@ -147,10 +147,10 @@ impl MeshParams {
     }
 }
 
-/// The options of `pomc mesh` as a user gives them (`0` disables a tolerance); [`MeshSettings::params`]
-/// turns them into [`MeshParams`]. `Default` is the command's default.
+/// The options of `pomc mesh` as a user gives them (`0` disables a tolerance); [`MeshFlags::params`]
+/// turns them into [`MeshOptions`]. `Default` is the command's default.
 #[derive(Clone, Debug, PartialEq)]
-pub struct MeshSettings {
+pub struct MeshFlags {
     /// `--max-error`: relative distance along the ray (0 disables the test and simplification).
     pub max_error: f64,
     /// `--feature-angle`, degrees.
@@ -169,9 +169,9 @@ pub struct MeshSettings {
     pub greedy: bool,
 }
 
-impl Default for MeshSettings {
+impl Default for MeshFlags {
     fn default() -> Self {
-        MeshSettings {
+        MeshFlags {
             max_error: DEFAULT_MAX_ERROR,
             feature_angle: None,
             residual: DEFAULT_RESIDUAL,
@@ -184,12 +184,12 @@ impl Default for MeshSettings {
     }
 }
 
-impl MeshSettings {
+impl MeshFlags {
     /// The mesher's parameters: simplification runs unless turned off, uniform, or without a
     /// tolerance.
-    pub fn params(&self) -> MeshParams {
+    pub fn params(&self) -> MeshOptions {
         let max_angle_deg = (self.max_angle > 0.0).then_some(self.max_angle);
-        MeshParams {
+        MeshOptions {
             max_error: (self.max_error > 0.0).then_some(self.max_error),
             feature_angle_deg: self.feature_angle,
             residual_threshold: self.residual,
@@ -197,13 +197,13 @@ impl MeshSettings {
             max_angle_deg,
             uniform: self.uniform,
             simplify: (self.simplify && self.uniform.is_none() && self.max_error > 0.0).then_some(
-                simplify::SimplifyParams { max_error: self.max_error, max_angle_deg, greedy: self.greedy },
+                simplify::SimplifyOptions { max_error: self.max_error, max_angle_deg, greedy: self.greedy },
             ),
         }
     }
 }
 
-impl MeshParams {
+impl MeshOptions {
     /// Reject non-finite or out-of-range values.
     pub fn check(&self) -> Result<(), MeshError> {
         let bad = |what: &str| Err(MeshError::Params(what.to_string()));
@@ -270,7 +270,7 @@ pub fn default_sky_radius<'a>(images: impl IntoIterator<Item = &'a LayerImage>) 
 pub const SKY_MAX_ERROR: f64 = 0.05;
 
 /// `p` for the sky dome: [`SKY_MAX_ERROR`] (or `p`'s own, if looser) in both stages, the rest as given.
-pub fn sky_params(p: &MeshParams) -> MeshParams {
+pub fn sky_params(p: &MeshOptions) -> MeshOptions {
     let loose = |e: f64| e.max(SKY_MAX_ERROR);
     let mut q = p.clone();
     q.max_error = q.max_error.map(loose);
@@ -311,7 +311,7 @@ pub fn sky_at(image: &LayerImage, radius: f64) -> Result<Option<LayerImage>, Mes
 pub fn mesh_scene_layer(
     image: &LayerImage,
     mapping: &AnyMapping,
-    params: &MeshParams,
+    params: &MeshOptions,
     sky_radius: f64,
 ) -> Result<(Meshed, Option<LayerImage>), MeshError> {
     let dome = sky_at(image, sky_radius)?;
@@ -353,16 +353,16 @@ pub struct StageTimes {
     pub triangulate_ms: f64,
     /// Compacting vertices, computing positions and orienting the triangles.
     pub assemble_ms: f64,
-    /// Error-bounded edge collapses (0 when [`MeshParams::simplify`] is `None`).
+    /// Error-bounded edge collapses (0 when [`MeshOptions::simplify`] is `None`).
     pub simplify_ms: f64,
-    /// Greedy insertion of the clean cube faces (when [`simplify::SimplifyParams::greedy`]).
+    /// Greedy insertion of the clean cube faces (when [`simplify::SimplifyOptions::greedy`]).
     pub greedy_ms: f64,
 }
 
 /// A mesh with the quadtrees it came from.
 #[derive(Clone, Debug)]
 pub struct Meshed {
-    /// The quadtree mesh, or its simplification when [`MeshParams::simplify`] is set.
+    /// The quadtree mesh, or its simplification when [`MeshOptions::simplify`] is set.
     pub mesh: LayerMesh,
     /// Triangles before the collapse stage: the quadtree mesh, with the greedy faces' meshes when
     /// some lattices were meshed by greedy insertion.
@@ -414,7 +414,7 @@ pub fn lattices(image: &LayerImage, mapping: &AnyMapping) -> Result<Vec<Grid>, M
 pub fn mesh_layer(
     image: &LayerImage,
     mapping: &AnyMapping,
-    params: &MeshParams,
+    params: &MeshOptions,
 ) -> Result<Meshed, MeshError> {
     params.check()?;
     let t = Instant::now();
@@ -487,7 +487,7 @@ pub fn mesh_layer(
 }
 
 /// The balanced quadtree of every lattice not flagged in `skip` (`None`: no cells, or skipped).
-fn build_trees(grids: &[Grid], image: &LayerImage, params: &MeshParams, skip: &[bool]) -> Vec<Option<Tree>> {
+fn build_trees(grids: &[Grid], image: &LayerImage, params: &MeshOptions, skip: &[bool]) -> Vec<Option<Tree>> {
     grids
         .par_iter()
         .enumerate()
@@ -508,7 +508,7 @@ fn build_trees(grids: &[Grid], image: &LayerImage, params: &MeshParams, skip: &[
 pub fn quadtrees(
     image: &LayerImage,
     mapping: &AnyMapping,
-    params: &MeshParams,
+    params: &MeshOptions,
 ) -> Result<Vec<Option<Tree>>, MeshError> {
     params.check()?;
     let grids = lattices(image, mapping)?;
@@ -600,12 +600,12 @@ mod settings_tests {
 
     #[test]
     fn mesh_settings_default_to_the_command_and_turn_off_as_the_flags_do() {
-        assert_eq!(MeshSettings::default().params(), MeshParams::default());
-        assert_eq!(MeshSettings { simplify: false, ..Default::default() }.params(), MeshParams::quadtree());
-        let p = MeshSettings { max_error: 0.0, max_angle: 0.0, ..Default::default() }.params();
+        assert_eq!(MeshFlags::default().params(), MeshOptions::default());
+        assert_eq!(MeshFlags { simplify: false, ..Default::default() }.params(), MeshOptions::quadtree());
+        let p = MeshFlags { max_error: 0.0, max_angle: 0.0, ..Default::default() }.params();
         assert_eq!((p.max_error, p.max_angle_deg, p.simplify), (None, None, None));
-        assert!(MeshSettings { uniform: Some(4), ..Default::default() }.params().simplify.is_none());
-        let g = MeshSettings { greedy: false, ..Default::default() }.params();
+        assert!(MeshFlags { uniform: Some(4), ..Default::default() }.params().simplify.is_none());
+        let g = MeshFlags { greedy: false, ..Default::default() }.params();
         assert!(!g.simplify.unwrap().greedy);
     }
 }

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 
 use super::accuracy::{self, ErrorStats};
 use super::export::{self, Exported, SceneLayer};
-use super::{encode, MeshError, MeshParams, Meshed};
+use super::{encode, MeshError, MeshOptions, Meshed};
 use crate::layer::LayerImage;
 use crate::layer_io::ReadLimits;
 use crate::manifest::Manifest;
@@ -23,7 +23,7 @@ use crate::panorama::{Panorama, PanoramaError};
 pub struct SceneSettings {
     /// The quadtree and simplification parameters of every layer (the sky dome's are loosened,
     /// [`super::sky_params`]).
-    pub params: MeshParams,
+    pub mesh: MeshOptions,
     /// Mesh only this layer (manifest index); the sky radius still comes from every layer.
     pub only: Option<usize>,
     /// Radius of the sky dome (`None`: [`super::default_sky_radius`] of every layer).
@@ -38,7 +38,7 @@ pub struct SceneSettings {
 impl Default for SceneSettings {
     fn default() -> Self {
         SceneSettings {
-            params: MeshParams::default(),
+            mesh: MeshOptions::default(),
             only: None,
             sky_radius: None,
             store: false,
@@ -108,7 +108,7 @@ fn ms(t: Instant) -> f64 {
 /// # Ok::<(), pomc::Error>(())
 /// ```
 pub fn mesh_panorama(pano: &Panorama, s: &SceneSettings) -> crate::Result<Scene> {
-    s.params.check()?;
+    s.mesh.check()?;
     let limits = ReadLimits::default();
     let order = order(&pano.manifest, &pano.manifest_path, pano.manifest.layers.len(), s.only)?;
     // Layers are read and meshed in parallel: one layer's stages do not keep both cores busy.
@@ -143,7 +143,7 @@ pub fn mesh_panorama(pano: &Panorama, s: &SceneSettings) -> crate::Result<Scene>
 
 /// [`mesh_panorama`] of a panorama held in memory: `images` in manifest order.
 pub fn mesh_images(manifest: &Manifest, images: &[LayerImage], s: &SceneSettings) -> crate::Result<Scene> {
-    s.params.check()?;
+    s.mesh.check()?;
     let order = order(manifest, Path::new(crate::panorama::MANIFEST_NAME), images.len(), s.only)?;
     let sky_radius = s.sky_radius.unwrap_or_else(|| super::default_sky_radius(images));
     let layers = order
@@ -180,7 +180,7 @@ fn mesh_one(
         want_w: w,
         want_h,
     })?;
-    let (meshed, dome) = super::mesh_scene_layer(&image, &mapping, &s.params, sky_radius)?;
+    let (meshed, dome) = super::mesh_scene_layer(&image, &mapping, &s.mesh, sky_radius)?;
     let t = Instant::now();
     // The encoding stores the quadtrees of the layer itself (the dome is not part of it); lattices
     // meshed by greedy insertion have none yet, so they are built only when the encoding is stored.
@@ -188,7 +188,7 @@ fn mesh_one(
     let encoded = if !greedy && dome.is_none() {
         Some(encode::encode(&meshed.trees, &mapping)?)
     } else if s.store {
-        Some(encode::encode(&super::quadtrees(&image, &mapping, &s.params)?, &mapping)?)
+        Some(encode::encode(&super::quadtrees(&image, &mapping, &s.mesh)?, &mapping)?)
     } else {
         None
     };

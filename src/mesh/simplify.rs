@@ -20,7 +20,7 @@ use crate::mapping::{AnyMapping, DirTable};
 
 /// Tolerances of the simplification stage.
 #[derive(Clone, Debug, PartialEq)]
-pub struct SimplifyParams {
+pub struct SimplifyOptions {
     /// Maximum relative distance along each pixel's ray between the simplified mesh and the sample.
     pub max_error: f64,
     /// Cap on the angle between the rays of two vertices of a triangle (texture distortion), degrees.
@@ -852,7 +852,7 @@ pub fn simplify(
     mesh: &LayerMesh,
     grids: &[Grid],
     mapping: &AnyMapping,
-    params: &SimplifyParams,
+    params: &SimplifyOptions,
     done: &[Option<Vec<f64>>],
 ) -> (LayerMesh, SimplifyStats) {
     let (w, h) = (mesh.width, mesh.height);

@@ -15,13 +15,13 @@ use super::grid::{Grid, PlaneDot};
 use super::normals;
 use super::quadtree::{NodeKind, Rect, Subdivide};
 use super::sat::{to_fixed, CountSat, Sat};
-use super::MeshParams;
+use super::MeshOptions;
 
 /// Everything `S` needs about one lattice.
 pub struct Criterion<'a> {
     /// The lattice whose quadtree this criterion subdivides.
     pub grid: &'a Grid,
-    params: &'a MeshParams,
+    params: &'a MeshOptions,
     valid: CountSat,
     bad: CountSat,
     /// `(features, residual)` when the thesis normal test is on.
@@ -32,7 +32,7 @@ pub struct Criterion<'a> {
 impl<'a> Criterion<'a> {
     /// Precompute the validity, bad-cell and (with a feature angle) normal-variation tables of
     /// `grid`; `image` supplies the normals (`N.*` channels or estimated from depth).
-    pub fn new(grid: &'a Grid, image: &crate::layer::LayerImage, params: &'a MeshParams) -> Criterion<'a> {
+    pub fn new(grid: &'a Grid, image: &crate::layer::LayerImage, params: &'a MeshOptions) -> Criterion<'a> {
         let (w, h) = (grid.w, grid.h);
         let valid = CountSat::from_fn(w, h, |x, y| grid.valid(x, y));
         let (cw, ch) = (w.saturating_sub(1), h.saturating_sub(1));

@@ -108,7 +108,7 @@ pub enum UnknownDepth {
 
 /// Settings of [`prepare_depth`]; the default is what `pomc build` does.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PrepareSettings {
+pub struct PrepareOptions {
     /// Snapping of soft edges and smoothing of noise.
     pub refine: Refine,
     /// What unknown depth means.
@@ -312,7 +312,7 @@ pub fn prepare_depth(
     rgb: &[Vec<f32>; 3],
     samples: &DepthSamples,
     enc: &DepthEncoding,
-    s: &PrepareSettings,
+    s: &PrepareOptions,
 ) -> Result<PreparedDepth, PrepareError> {
     check_encoding(enc)?;
     let (sw, sh) = (samples.width, samples.height);
@@ -469,7 +469,7 @@ fn refine_depth<'a>(
     guide: &dyn Fn() -> &'a [[f32; 3]],
     depth: &mut [f32],
     unknown: &[bool],
-    s: &PrepareSettings,
+    s: &PrepareOptions,
     report: &mut PrepareReport,
 ) {
     let (w, h) = (nb.width(), nb.height());

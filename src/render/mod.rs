@@ -30,7 +30,7 @@ use serde::Serialize;
 
 pub use camera::{Camera, EquirectCamera, Perspective};
 pub use frame::Frame;
-pub use rasterize::{MeshOptions, MeshRenderStats, MeshRendered, RasterCounts};
+pub use rasterize::{MeshRenderStats, MeshRendered, RasterCounts, RasterOptions};
 pub use splat::{SplatCounts, SplatOptions};
 
 use crate::layer::LayerImage;

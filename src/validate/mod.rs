@@ -28,7 +28,7 @@ const MAX_PATCH_FINDINGS: usize = 100;
 
 /// Tuning of [`validate`].
 #[derive(Clone, Copy, Debug)]
-pub struct ValidateOptions {
+pub struct ValidateSettings {
     /// Size limits for layer files (checked from headers before decoding).
     pub limits: ReadLimits,
     /// Relative depth step between 4-neighbours of one layer above which they are reported as a
@@ -38,9 +38,9 @@ pub struct ValidateOptions {
     pub normal_tolerance: f32,
 }
 
-impl Default for ValidateOptions {
+impl Default for ValidateSettings {
     fn default() -> Self {
-        ValidateOptions {
+        ValidateSettings {
             limits: ReadLimits::default(),
             jump_threshold: continuity::LAYER_JUMP,
             normal_tolerance: 0.01,
@@ -53,13 +53,13 @@ impl Default for ValidateOptions {
 ///
 /// ```
 /// use pomc::prelude::*;
-/// let report = validate("fixtures/data/room-cube".as_ref(), &ValidateOptions::default())?;
+/// let report = validate("fixtures/data/room-cube".as_ref(), &ValidateSettings::default())?;
 /// assert!(report.valid && report.errors == 0, "{:?}", report.issues);
-/// let missing = validate("fixtures/data/no-such-panorama".as_ref(), &ValidateOptions::default());
+/// let missing = validate("fixtures/data/no-such-panorama".as_ref(), &ValidateSettings::default());
 /// assert_eq!(missing.unwrap_err().code(), pomc::codes::PANORAMA_NOT_FOUND);
 /// # Ok::<(), pomc::Error>(())
 /// ```
-pub fn validate(path: &Path, options: &ValidateOptions) -> Result<Report, crate::Error> {
+pub fn validate(path: &Path, options: &ValidateSettings) -> Result<Report, crate::Error> {
     let manifest_path = panorama::manifest_path(path)?;
     let name = manifest_path.display().to_string();
     let mut issues = Vec::new();
@@ -121,7 +121,7 @@ fn check_layer(
     k: usize,
     decl: &LayerDecl,
     kind: MappingKind,
-    options: &ValidateOptions,
+    options: &ValidateSettings,
     issues: &mut Vec<Issue>,
 ) -> Option<(AnyMapping, Vec<bool>)> {
     let label = layer_label(k, decl);
@@ -284,7 +284,7 @@ fn check_pixels(
     image: &LayerImage,
     mapping: &AnyMapping,
     decl: &LayerDecl,
-    options: &ValidateOptions,
+    options: &ValidateSettings,
     loc: &str,
     issues: &mut Vec<Issue>,
 ) {
@@ -408,7 +408,7 @@ fn check_channel_sets(image: &LayerImage, loc: &str, issues: &mut Vec<Issue>) {
     }
 }
 
-fn check_normals(image: &LayerImage, options: &ValidateOptions, loc: &str, issues: &mut Vec<Issue>) {
+fn check_normals(image: &LayerImage, options: &ValidateSettings, loc: &str, issues: &mut Vec<Issue>) {
     let (Some(nx), Some(ny), Some(nz)) = (image.channel("N.X"), image.channel("N.Y"), image.channel("N.Z"))
     else {
         return;
@@ -441,7 +441,7 @@ fn check_normals(image: &LayerImage, options: &ValidateOptions, loc: &str, issue
 fn check_continuity(
     image: &LayerImage,
     mapping: &AnyMapping,
-    options: &ValidateOptions,
+    options: &ValidateSettings,
     loc: &str,
     issues: &mut Vec<Issue>,
 ) {
@@ -550,7 +550,7 @@ mod tests {
 
     fn continuity_issues(img: &LayerImage, m: &AnyMapping) -> usize {
         let mut issues = Vec::new();
-        check_continuity(img, m, &ValidateOptions::default(), "test", &mut issues);
+        check_continuity(img, m, &ValidateSettings::default(), "test", &mut issues);
         issues.len()
     }
 

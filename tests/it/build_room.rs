@@ -7,7 +7,7 @@ use pomc::layering::{self, BuildOptions, Built, FillColour};
 use pomc::manifest::Role;
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::panorama::{self, SaveOptions};
-use pomc::validate::{self, ValidateOptions};
+use pomc::validate::{self, ValidateSettings};
 use pomc_fixtures::{layers::render_on, layers::rgbd_input, Aabb, Rendered, Scene, Shape};
 
 fn front(b: &Built, p: usize) -> bool {
@@ -75,7 +75,7 @@ fn check_room(m: AnyMapping, normals: bool) {
     let manifest = layering::manifest(&b, m.kind(), 0.5, vec![]);
     let images: Vec<_> = b.layers.iter().map(|l| l.image.clone()).collect();
     panorama::write_panorama(dir.path(), &manifest, &images, &SaveOptions::default()).unwrap();
-    let report = validate::validate(dir.path(), &ValidateOptions::default()).unwrap();
+    let report = validate::validate(dir.path(), &ValidateSettings::default()).unwrap();
     assert!(report.valid, "{:?}", report.issues);
 }
 

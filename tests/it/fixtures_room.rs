@@ -9,7 +9,7 @@ use pomc::layer::Sample;
 use pomc::layer_io::ReadLimits;
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::panorama::Panorama;
-use pomc::validate::{self, ValidateOptions};
+use pomc::validate::{self, ValidateSettings};
 use pomc_fixtures::{layers, Scene};
 
 fn mappings() -> [AnyMapping; 2] {
@@ -24,7 +24,7 @@ fn generated_rooms_are_valid_and_exact() {
     for m in mappings() {
         let dir = tempfile::tempdir().unwrap();
         let rendered = layers::write_room(dir.path(), &m).unwrap();
-        let report = validate::validate(dir.path(), &ValidateOptions::default()).unwrap();
+        let report = validate::validate(dir.path(), &ValidateSettings::default()).unwrap();
         assert!(
             report.valid && report.errors == 0 && report.warnings == 0,
             "{:?}: {:?}",

@@ -4,7 +4,7 @@
 use glam::DMat4;
 use pomc::mapping::{AnyMapping, Cube3x2, Equirect};
 use pomc::mesh::export::{self, Format};
-use pomc::mesh::{self, MeshParams};
+use pomc::mesh::{self, MeshOptions};
 use pomc_fixtures::layers::{render_on, to_layer};
 use pomc_fixtures::Scene;
 
@@ -17,7 +17,7 @@ fn meshes() -> Vec<(AnyMapping, pomc::layer::LayerImage, mesh::LayerMesh)> {
         .flat_map(|m| {
             let r = render_on(&Scene::room(), &m);
             [to_layer(&r.background, false), to_layer(&r.objects, false)].map(|img| {
-                let out = mesh::mesh_layer(&img, &m, &MeshParams::quadtree()).unwrap();
+                let out = mesh::mesh_layer(&img, &m, &MeshOptions::quadtree()).unwrap();
                 (m, img, out.mesh)
             })
         })
@@ -157,7 +157,7 @@ fn the_sky_goes_on_a_dome_of_the_given_radius() {
         assert_eq!(mesh::sky_at(&img, bad).unwrap_err().code(), "MESH_PARAMS_INVALID");
     }
     let dome = mesh::sky_at(&img, 250.0).unwrap().unwrap();
-    let out = mesh::mesh_layer(&dome, &m, &MeshParams::quadtree()).unwrap().mesh;
+    let out = mesh::mesh_layer(&dome, &m, &MeshOptions::quadtree()).unwrap().mesh;
     assert!(!out.triangles.is_empty());
     for p in &out.positions {
         assert!((p.length() - 250.0).abs() < 1e-9 && p.z >= 0.0, "{p}");

@@ -5,8 +5,8 @@
 use std::time::Instant;
 
 use pomc::mapping::{AnyMapping, Cube3x2};
-use pomc::mesh::simplify::SimplifyParams;
-use pomc::mesh::{self, accuracy, MeshParams};
+use pomc::mesh::simplify::SimplifyOptions;
+use pomc::mesh::{self, accuracy, MeshOptions};
 use pomc_fixtures::layers::{render_on, to_layer};
 use pomc_fixtures::Scene;
 
@@ -23,7 +23,7 @@ fn background(n: usize) -> (AnyMapping, pomc::layer::LayerImage) {
 fn thesis_reproduction_cube_1024() {
     let (m, bg) = background(1024);
     let uniform =
-        mesh::mesh_layer(&bg, &m, &MeshParams { uniform: Some(1), ..MeshParams::quadtree() }).unwrap();
+        mesh::mesh_layer(&bg, &m, &MeshOptions { uniform: Some(1), ..MeshOptions::quadtree() }).unwrap();
     let nu = uniform.mesh.triangles.len();
     for (name, p) in [
         ("pomc mesh default: max-error 0.005 + max-angle 20, simplified", simplified(0.005, Some(20.0))),
@@ -35,11 +35,11 @@ fn thesis_reproduction_cube_1024() {
             }
             p
         }),
-        ("max-error 0.005 + max-angle 20", MeshParams::quadtree()),
-        ("max-error 0.005", MeshParams { max_angle_deg: None, ..MeshParams::quadtree() }),
+        ("max-error 0.005 + max-angle 20", MeshOptions::quadtree()),
+        ("max-error 0.005", MeshOptions { max_angle_deg: None, ..MeshOptions::quadtree() }),
         (
             "thesis: feature 10deg + max-angle 20",
-            MeshParams { max_error: None, feature_angle_deg: Some(10.0), ..MeshParams::quadtree() },
+            MeshOptions { max_error: None, feature_angle_deg: Some(10.0), ..MeshOptions::quadtree() },
         ),
     ] {
         let t = Instant::now();
@@ -68,12 +68,12 @@ fn thesis_reproduction_cube_1024() {
     }
 }
 
-fn simplified(e: f64, max_angle_deg: Option<f64>) -> MeshParams {
-    MeshParams {
+fn simplified(e: f64, max_angle_deg: Option<f64>) -> MeshOptions {
+    MeshOptions {
         max_error: Some(e),
         max_angle_deg,
-        simplify: Some(SimplifyParams { max_error: e, max_angle_deg, greedy: true }),
-        ..MeshParams::quadtree()
+        simplify: Some(SimplifyOptions { max_error: e, max_angle_deg, greedy: true }),
+        ..MeshOptions::quadtree()
     }
 }
 
@@ -95,7 +95,7 @@ fn sweep_max_error() {
         .map(|v| v.split(',').filter_map(|e| e.parse().ok()).collect())
         .unwrap_or_else(|_| vec![0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002, 0.0001]);
     for e in es {
-        let raw = MeshParams { max_error: Some(e), max_angle_deg: None, ..MeshParams::quadtree() };
+        let raw = MeshOptions { max_error: Some(e), max_angle_deg: None, ..MeshOptions::quadtree() };
         let mut collapse = simplified(e, None);
         if let Some(s) = collapse.simplify.as_mut() {
             s.greedy = false;

@@ -2,8 +2,8 @@
 
 use pomc::layer::{LayerImage, SampleType};
 use pomc::mapping::{AnyMapping, Cube3x2, Equirect};
-use pomc::mesh::simplify::SimplifyParams;
-use pomc::mesh::{self, accuracy, encode, export, MeshParams};
+use pomc::mesh::simplify::SimplifyOptions;
+use pomc::mesh::{self, accuracy, encode, export, MeshOptions};
 use proptest::prelude::*;
 
 fn image(w: usize, h: usize, z: Vec<f32>) -> LayerImage {
@@ -12,7 +12,7 @@ fn image(w: usize, h: usize, z: Vec<f32>) -> LayerImage {
     img
 }
 
-fn check(m: AnyMapping, z: Vec<f32>, p: &MeshParams) {
+fn check(m: AnyMapping, z: Vec<f32>, p: &MeshOptions) {
     let img = image(m_w(&m), m_h(&m), z);
     simplified_is_sound(&m, &img, p);
     let out = mesh::mesh_layer(&img, &m, p).unwrap();
@@ -27,11 +27,11 @@ fn check(m: AnyMapping, z: Vec<f32>, p: &MeshParams) {
 
 /// The simplified mesh of a hostile layer: finite, every edge in at most two triangles, no flipped
 /// or edge-on triangle, within the bound wherever the quadtree mesh was, covering the same pixels.
-fn simplified_is_sound(m: &AnyMapping, img: &LayerImage, p: &MeshParams) {
+fn simplified_is_sound(m: &AnyMapping, img: &LayerImage, p: &MeshOptions) {
     let e = p.max_error.unwrap_or(0.005);
-    let raw = mesh::mesh_layer(img, m, &MeshParams { simplify: None, ..p.clone() }).unwrap();
-    let sp = SimplifyParams { max_error: e, max_angle_deg: None, greedy: true };
-    let out = mesh::mesh_layer(img, m, &MeshParams { simplify: Some(sp), ..p.clone() }).unwrap().mesh;
+    let raw = mesh::mesh_layer(img, m, &MeshOptions { simplify: None, ..p.clone() }).unwrap();
+    let sp = SimplifyOptions { max_error: e, max_angle_deg: None, greedy: true };
+    let out = mesh::mesh_layer(img, m, &MeshOptions { simplify: Some(sp), ..p.clone() }).unwrap().mesh;
     assert!(out.positions.iter().all(|v| v.is_finite()));
     assert!(out.triangles.len() <= raw.mesh.triangles.len());
     let mut edges = std::collections::BTreeMap::new();
@@ -81,20 +81,20 @@ proptest! {
     fn cube_layers_never_panic(n in 1usize..7, seed in proptest::collection::vec(depth(), 6 * 6 * 6)) {
         let m = AnyMapping::Cube(Cube3x2::new(3 * n, 2 * n).unwrap());
         let z: Vec<f32> = (0..6 * n * n).map(|i| seed[i % seed.len()]).collect();
-        check(m, z, &MeshParams::quadtree());
+        check(m, z, &MeshOptions::quadtree());
     }
 
     #[test]
     fn equirect_layers_never_panic(h in 1usize..7, seed in proptest::collection::vec(depth(), 72)) {
         let m = AnyMapping::Equirect(Equirect::new(2 * h, h).unwrap());
         let z: Vec<f32> = (0..2 * h * h).map(|i| seed[i % seed.len()]).collect();
-        check(m, z, &MeshParams { feature_angle_deg: Some(5.0), ..MeshParams::quadtree() });
+        check(m, z, &MeshOptions { feature_angle_deg: Some(5.0), ..MeshOptions::quadtree() });
     }
 }
 
 #[test]
 fn empty_domain_gives_an_empty_mesh() {
     let m = AnyMapping::Cube(Cube3x2::new(24, 16).unwrap());
-    check(m, vec![-1.0; 24 * 16], &MeshParams::quadtree());
-    check(m, vec![f32::NAN; 24 * 16], &MeshParams { uniform: Some(2), ..MeshParams::quadtree() });
+    check(m, vec![-1.0; 24 * 16], &MeshOptions::quadtree());
+    check(m, vec![f32::NAN; 24 * 16], &MeshOptions { uniform: Some(2), ..MeshOptions::quadtree() });
 }

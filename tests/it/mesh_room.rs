@@ -4,8 +4,8 @@ use std::collections::HashMap;
 
 use pomc::layer::LayerImage;
 use pomc::mapping::{AnyMapping, Cube3x2, Equirect};
-use pomc::mesh::simplify::SimplifyParams;
-use pomc::mesh::{self, accuracy, balance, encode, LayerMesh, MeshParams};
+use pomc::mesh::simplify::SimplifyOptions;
+use pomc::mesh::{self, accuracy, balance, encode, LayerMesh, MeshOptions};
 use pomc_fixtures::layers::{render_on, to_layer};
 use pomc_fixtures::Scene;
 
@@ -53,7 +53,7 @@ fn assert_closed(m: &LayerMesh) {
 fn cube_background_is_watertight_and_within_bound() {
     let m = cube(48);
     let (bg, _) = room(&m);
-    let p = MeshParams { max_error: Some(0.005), ..MeshParams::quadtree() };
+    let p = MeshOptions { max_error: Some(0.005), ..MeshOptions::quadtree() };
     let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
     assert_closed(&out.mesh);
     for t in out.trees.iter().flatten() {
@@ -70,7 +70,7 @@ fn cube_background_is_watertight_and_within_bound() {
 fn equirect_background_is_watertight_across_seam_and_poles() {
     let m = equirect(40);
     let (bg, _) = room(&m);
-    let out = mesh::mesh_layer(&bg, &m, &MeshParams::quadtree()).unwrap();
+    let out = mesh::mesh_layer(&bg, &m, &MeshOptions::quadtree()).unwrap();
     assert_closed(&out.mesh);
     assert!(out.mesh.positions.iter().all(|p| p.is_finite()));
     let s = accuracy::measure(&out.mesh.positions, &out.mesh.triangles, &bg, &m);
@@ -82,7 +82,7 @@ fn equirect_background_is_watertight_across_seam_and_poles() {
 fn uniform_step_one_is_the_full_4_8_mesh() {
     let m = cube(12);
     let (bg, _) = room(&m);
-    let p = MeshParams { uniform: Some(1), ..MeshParams::quadtree() };
+    let p = MeshOptions { uniform: Some(1), ..MeshOptions::quadtree() };
     let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
     assert_closed(&out.mesh);
     let per_face = 11 * 11 * 2;
@@ -94,7 +94,7 @@ fn uniform_step_one_is_the_full_4_8_mesh() {
 fn objects_layer_follows_the_mask_and_never_bridges_jumps() {
     for m in [cube(40), equirect(40)] {
         let (_, obj) = room(&m);
-        let out = mesh::mesh_layer(&obj, &m, &MeshParams::quadtree()).unwrap();
+        let out = mesh::mesh_layer(&obj, &m, &MeshOptions::quadtree()).unwrap();
         assert!(!out.mesh.triangles.is_empty());
         assert!(edge_counts(&out.mesh).values().all(|&c| c <= 2));
         let z = obj.depth().unwrap();
@@ -120,8 +120,8 @@ fn meshing_is_deterministic_and_decodes_to_the_same_triangles() {
     for m in [cube(32), equirect(32)] {
         let (bg, obj) = room(&m);
         for layer in [&bg, &obj] {
-            let a = mesh::mesh_layer(layer, &m, &MeshParams::quadtree()).unwrap();
-            let b = mesh::mesh_layer(layer, &m, &MeshParams::quadtree()).unwrap();
+            let a = mesh::mesh_layer(layer, &m, &MeshOptions::quadtree()).unwrap();
+            let b = mesh::mesh_layer(layer, &m, &MeshOptions::quadtree()).unwrap();
             assert!(a.mesh == b.mesh, "two runs differ");
             let bytes = encode::encode(&a.trees, &m).unwrap();
             let back = encode::decode(&bytes, layer, &m).unwrap();
@@ -134,11 +134,11 @@ fn meshing_is_deterministic_and_decodes_to_the_same_triangles() {
 fn thesis_normal_test_alone_meshes_planar_walls_coarsely() {
     let m = cube(48);
     let (bg, _) = room(&m);
-    let p = MeshParams {
+    let p = MeshOptions {
         max_error: None,
         feature_angle_deg: Some(10.0),
         max_angle_deg: None,
-        ..MeshParams::quadtree()
+        ..MeshOptions::quadtree()
     };
     let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
     assert_closed(&out.mesh);
@@ -153,12 +153,12 @@ fn estimated_normals_find_the_same_creases_either_way() {
     let r = render_on(&Scene::room(), &m);
     let bg = to_layer(&r.background, false);
     for w in [NormalWeighting::Area, NormalWeighting::Angle] {
-        let p = MeshParams {
+        let p = MeshOptions {
             max_error: None,
             feature_angle_deg: Some(10.0),
             normal_weighting: w,
             max_angle_deg: None,
-            ..MeshParams::quadtree()
+            ..MeshOptions::quadtree()
         };
         let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
         assert_closed(&out.mesh);
@@ -171,13 +171,13 @@ fn estimated_normals_find_the_same_creases_either_way() {
 fn bad_inputs_are_typed_errors() {
     let m = cube(8);
     let img = LayerImage::new(24, 16);
-    assert_eq!(mesh::mesh_layer(&img, &m, &MeshParams::quadtree()).unwrap_err().code(), "MESH_NO_DEPTH");
+    assert_eq!(mesh::mesh_layer(&img, &m, &MeshOptions::quadtree()).unwrap_err().code(), "MESH_NO_DEPTH");
     let img = LayerImage::new(10, 10);
     assert_eq!(
-        mesh::mesh_layer(&img, &m, &MeshParams::quadtree()).unwrap_err().code(),
+        mesh::mesh_layer(&img, &m, &MeshOptions::quadtree()).unwrap_err().code(),
         "MESH_CANVAS_MISMATCH"
     );
-    let p = MeshParams { max_error: Some(f64::NAN), ..MeshParams::quadtree() };
+    let p = MeshOptions { max_error: Some(f64::NAN), ..MeshOptions::quadtree() };
     let (bg, _) = room(&m);
     assert_eq!(mesh::mesh_layer(&bg, &m, &p).unwrap_err().code(), "MESH_PARAMS_INVALID");
     assert_eq!(encode::decode(b"nonsense", &bg, &m).unwrap_err().code(), "MESH_ENCODING_INVALID");
@@ -185,17 +185,17 @@ fn bad_inputs_are_typed_errors() {
 
 // ---- Second stage: error-bounded edge collapses (`pomc::mesh::simplify`). ----
 
-fn simplified(e: f64) -> MeshParams {
+fn simplified(e: f64) -> MeshOptions {
     simplified_with(e, true)
 }
 
 /// `greedy: false` forces quadtree + collapses on every lattice.
-fn simplified_with(e: f64, greedy: bool) -> MeshParams {
-    MeshParams {
+fn simplified_with(e: f64, greedy: bool) -> MeshOptions {
+    MeshOptions {
         max_error: Some(e),
         max_angle_deg: None,
-        simplify: Some(SimplifyParams { max_error: e, max_angle_deg: None, greedy }),
-        ..MeshParams::quadtree()
+        simplify: Some(SimplifyOptions { max_error: e, max_angle_deg: None, greedy }),
+        ..MeshOptions::quadtree()
     }
 }
 
@@ -239,7 +239,7 @@ fn simplified_cube_background_is_closed_unflipped_and_within_bound() {
     let m = cube(96);
     let (bg, _) = room(&m);
     let e = 0.005;
-    let raw = mesh::mesh_layer(&bg, &m, &MeshParams { simplify: None, ..simplified(e) }).unwrap();
+    let raw = mesh::mesh_layer(&bg, &m, &MeshOptions { simplify: None, ..simplified(e) }).unwrap();
     let mut counts = Vec::new();
     for greedy in [false, true] {
         let out = mesh::mesh_layer(&bg, &m, &simplified_with(e, greedy)).unwrap();
@@ -304,7 +304,7 @@ fn simplified_equirect_background_is_closed_across_seam_and_poles() {
 fn simplified_objects_keep_their_border_and_never_bridge_jumps() {
     for m in [cube(40), equirect(40)] {
         let (_, obj) = room(&m);
-        let raw = mesh::mesh_layer(&obj, &m, &MeshParams { simplify: None, ..simplified(0.005) }).unwrap();
+        let raw = mesh::mesh_layer(&obj, &m, &MeshOptions { simplify: None, ..simplified(0.005) }).unwrap();
         let out = mesh::mesh_layer(&obj, &m, &simplified(0.005)).unwrap();
         assert!(out.mesh.triangles.len() < raw.mesh.triangles.len());
         let edges = edge_counts(&out.mesh);
@@ -342,7 +342,7 @@ fn simplification_is_deterministic_and_keeps_the_quadtree_encoding() {
             let b = mesh::mesh_layer(layer, &m, &simplified(0.002)).unwrap();
             assert!(a.mesh == b.mesh, "two runs differ");
             let raw =
-                mesh::mesh_layer(layer, &m, &MeshParams { simplify: None, ..simplified(0.002) }).unwrap();
+                mesh::mesh_layer(layer, &m, &MeshOptions { simplify: None, ..simplified(0.002) }).unwrap();
             // Greedy faces build no tree; the stored encoding is the quadtrees' all the same.
             let bytes = encode::encode(&mesh::quadtrees(layer, &m, &simplified(0.002)).unwrap(), &m).unwrap();
             assert_eq!(bytes, encode::encode(&raw.trees, &m).unwrap());
@@ -359,9 +359,9 @@ fn simplification_is_deterministic_and_keeps_the_quadtree_encoding() {
 fn default_meshes_respect_the_angle_cap() {
     for m in [cube(96), equirect(96)] {
         let (bg, _) = room(&m);
-        let p = MeshParams {
-            simplify: Some(SimplifyParams { max_error: 0.005, max_angle_deg: Some(20.0), greedy: true }),
-            ..MeshParams::quadtree()
+        let p = MeshOptions {
+            simplify: Some(SimplifyOptions { max_error: 0.005, max_angle_deg: Some(20.0), greedy: true }),
+            ..MeshOptions::quadtree()
         };
         let out = mesh::mesh_layer(&bg, &m, &p).unwrap();
         assert_closed(&out.mesh);

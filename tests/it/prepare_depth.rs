@@ -4,7 +4,7 @@
 use pomc::layering::{self, BuildOptions, RgbdInput};
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::prepare::{
-    prepare_depth, DepthEncoding, DepthKind, DepthSamples, KnownDistance, PrepareSettings, PreparedDepth,
+    prepare_depth, DepthEncoding, DepthKind, DepthSamples, KnownDistance, PrepareOptions, PreparedDepth,
     SampleFormat, UnknownDepth,
 };
 use pomc_fixtures::{layers::render_on, layers::rgbd_input, layers::CENTRE_HEIGHT, Rendered, Scene};
@@ -26,7 +26,7 @@ fn prepare(
     input: &RgbdInput,
     s: DepthSamples,
     enc: &DepthEncoding,
-    settings: &PrepareSettings,
+    settings: &PrepareOptions,
 ) -> PreparedDepth {
     prepare_depth("depth".as_ref(), &input.mapping, &input.rgb, &s, enc, settings).unwrap()
 }
@@ -61,7 +61,7 @@ fn exact_depth_passes_bit_for_bit() {
         &input,
         samples(W, input.depth.clone(), SampleFormat::F32),
         &DepthEncoding::default(),
-        &PrepareSettings::default(),
+        &PrepareOptions::default(),
     );
     assert!(p.depth.iter().zip(&input.depth).all(|(a, b)| a.to_bits() == b.to_bits()));
     assert!(!p.report.snapped && !p.report.smoothed && p.report.completed_pixels == 0, "{:?}", p.report);
@@ -158,7 +158,7 @@ fn unknown_depth_is_completed() {
     // The top 20 rows unknown: the sky when asked (regions open to the zenith).
     let mut open = input.depth.clone();
     open[..20 * W].fill(f32::NAN);
-    let sky = PrepareSettings { unknown: UnknownDepth::Sky, ..Default::default() };
+    let sky = PrepareOptions { unknown: UnknownDepth::Sky, ..Default::default() };
     let p = prepare(&input, samples(W, open, SampleFormat::F32), &DepthEncoding::default(), &sky);
     assert_eq!(p.report.sky_pixels, 20 * W);
     assert!(p.depth[..20 * W].iter().all(|d| d.is_infinite()));

@@ -8,8 +8,8 @@ use pomc::layer::{LayerImage, SampleType};
 use pomc::layering::{self, BuildOptions};
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::mesh::LayerMesh;
-use pomc::mesh::MeshParams;
-use pomc::render::rasterize::{self, LayerGeometry, MeshOptions, MeshRendered};
+use pomc::mesh::MeshOptions;
+use pomc::render::rasterize::{self, LayerGeometry, MeshRendered, RasterOptions};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
 use pomc_fixtures::eval::{assert_no_nan, persp, truth};
 use pomc_fixtures::layers::{render_on, rgbd_input};
@@ -30,7 +30,8 @@ impl Pano {
             layering::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
         let layers: Vec<LayerImage> = built.layers.into_iter().map(|l| l.image).collect();
         let refs: Vec<RenderLayer> = layers.iter().map(|image| RenderLayer { image, mapping }).collect();
-        let meshes = rasterize::mesh_layers(&refs, &MeshParams::quadtree(), &MeshOptions::default()).unwrap();
+        let meshes =
+            rasterize::mesh_layers(&refs, &MeshOptions::quadtree(), &RasterOptions::default()).unwrap();
         Pano { mapping, layers, meshes }
     }
 
@@ -39,9 +40,14 @@ impl Pano {
     }
 
     fn mesh(&self, cam: &Camera) -> Frame {
-        let r =
-            rasterize::render_mesh(&self.refs(), &self.meshes, DMat4::IDENTITY, cam, &MeshOptions::default())
-                .unwrap();
+        let r = rasterize::render_mesh(
+            &self.refs(),
+            &self.meshes,
+            DMat4::IDENTITY,
+            cam,
+            &RasterOptions::default(),
+        )
+        .unwrap();
         assert_no_nan(&r.frame);
         r.frame
     }
@@ -159,9 +165,9 @@ fn sphere_layer(m: &AnyMapping, r: f32) -> LayerImage {
     img
 }
 
-fn render_one(img: &LayerImage, m: AnyMapping, cam: &Camera, o: &MeshOptions) -> MeshRendered {
+fn render_one(img: &LayerImage, m: AnyMapping, cam: &Camera, o: &RasterOptions) -> MeshRendered {
     let layers = [RenderLayer { image: img, mapping: m }];
-    let g = rasterize::mesh_layers(&layers, &MeshParams::quadtree(), o).unwrap();
+    let g = rasterize::mesh_layers(&layers, &MeshOptions::quadtree(), o).unwrap();
     let r = rasterize::render_mesh(&layers, &g, DMat4::IDENTITY, cam, o).unwrap();
     assert_no_nan(&r.frame);
     r
@@ -189,7 +195,7 @@ fn very_near_far_and_infinite_content_matches_the_analytic_sphere() {
             ];
             for cam in cams {
                 // One ray per pixel: the rasteriser's own geometry, pixel centre by pixel centre.
-                let o = MeshOptions { supersample: 1, ..MeshOptions::default() };
+                let o = RasterOptions { supersample: 1, ..RasterOptions::default() };
                 let f = render_one(&img, m, &cam, &o).frame;
                 assert_eq!(f.holes(), 0, "{kind:?} r={r} {cam:?}");
                 let (mut worst_c, mut worst_d) = (0.0f64, 0.0f64);
@@ -256,7 +262,7 @@ fn triangles_across_depth_jumps_are_not_drawn() {
     let z: Vec<f32> = (0..256 * 128).map(|p| if p % 256 < 128 { 2.0 } else { 2.5 }).collect();
     img.set_channel("Z", SampleType::F32, z);
     let layers = [RenderLayer { image: &img, mapping: m }];
-    let mesh = pomc::mesh::mesh_layer(&img, &m, &MeshParams::quadtree()).unwrap().mesh;
+    let mesh = pomc::mesh::mesh_layer(&img, &m, &MeshOptions::quadtree()).unwrap().mesh;
     let g = LayerGeometry::new(0, mesh.clone(), &layers[0], 0.1).unwrap();
     assert!(g.jump_triangles > 0, "the mesh should join the two halves");
     // Looking at the step at azimuth 0 from an eye moved towards −Y: between the far half's
@@ -275,7 +281,7 @@ fn triangles_across_depth_jumps_are_not_drawn() {
             (phi < std::f64::consts::PI) == near_half
         })
     };
-    let o = MeshOptions::default();
+    let o = RasterOptions::default();
     let f = rasterize::render_mesh(&layers, &[g], DMat4::IDENTITY, &cam, &o).unwrap().frame;
     assert_no_nan(&f);
     let mut gap = 0;
@@ -292,7 +298,7 @@ fn triangles_across_depth_jumps_are_not_drawn() {
     // Footprints may reach half a layer pixel into the gap; a skin would fill all of it.
     assert!(drawn_in_gap * 4 < gap, "{drawn_in_gap} of {gap} gap pixels drawn: a skin across the jump");
     // Without the renderer's test (jump 1.0: only the mesh's own 50 % cut) the skin is drawn.
-    let loose = MeshOptions { jump: 1.0, ..o };
+    let loose = RasterOptions { jump: 1.0, ..o };
     let g = LayerGeometry::new(0, mesh, &layers[0], loose.jump).unwrap();
     let f = rasterize::render_mesh(&layers, &[g], DMat4::IDENTITY, &cam, &loose).unwrap().frame;
     assert!(f.holes() * 4 < gap, "the skin should cover the gap without the test");
@@ -374,7 +380,7 @@ fn rasterisation_is_watertight_and_clipped_at_the_near_plane() {
     let (img, m, g) = floor_geometry(24);
     let layers = [RenderLayer { image: &img, mapping: m }];
     // One ray per pixel, compared with ray casting through each pixel centre.
-    let o = MeshOptions { supersample: 1, ..MeshOptions::default() };
+    let o = RasterOptions { supersample: 1, ..RasterOptions::default() };
     let eye = DVec3::new(0.3, -0.2, 0.0);
     let cams = [
         // Horizontal: the floor runs under and behind the camera (triangles cross the eye plane).
@@ -462,20 +468,20 @@ fn bad_input_is_a_typed_error() {
     let img = LayerImage::new(8, 4);
     let cam = persp(DVec3::ZERO, DVec3::X);
     let layers = [RenderLayer { image: &img, mapping: m }];
-    let o = MeshOptions::default();
-    let e = rasterize::mesh_layers(&layers, &MeshParams::quadtree(), &o).unwrap_err();
+    let o = RasterOptions::default();
+    let e = rasterize::mesh_layers(&layers, &MeshOptions::quadtree(), &o).unwrap_err();
     assert_eq!(e.code(), "RENDER_LAYER_CHANNEL");
-    let bad = MeshOptions { jump: f64::NAN, ..o };
+    let bad = RasterOptions { jump: f64::NAN, ..o };
     assert_eq!(
         rasterize::render_mesh(&[], &[], DMat4::IDENTITY, &cam, &bad).unwrap_err().code(),
         "RENDER_BAD_OPTIONS"
     );
-    let bad = MeshParams { max_error: Some(-1.0), ..MeshParams::quadtree() };
+    let bad = MeshOptions { max_error: Some(-1.0), ..MeshOptions::quadtree() };
     let good = sphere_layer(&m, 1.0);
     let layers = [RenderLayer { image: &good, mapping: m }];
     assert_eq!(rasterize::mesh_layers(&layers, &bad, &o).unwrap_err().code(), "RENDER_BAD_OPTIONS");
     // Meshes that do not belong to the layers.
-    let g = rasterize::mesh_layers(&layers, &MeshParams::quadtree(), &o).unwrap();
+    let g = rasterize::mesh_layers(&layers, &MeshOptions::quadtree(), &o).unwrap();
     assert_eq!(
         rasterize::render_mesh(&layers, &[], DMat4::IDENTITY, &cam, &o).unwrap_err().code(),
         "RENDER_BAD_OPTIONS"
@@ -512,7 +518,7 @@ fn hostile_layer_values_never_give_nan() {
         persp(DVec3::new(0.0, 0.0, 0.5), DVec3::new(0.0, 0.0, 3.0)),
         Camera::Equirect(EquirectCamera::new(DVec3::new(0.1, 0.0, 0.0), 64, 32).unwrap()),
     ] {
-        render_one(&img, m, &cam, &MeshOptions::default());
+        render_one(&img, m, &cam, &RasterOptions::default());
     }
 }
 
@@ -577,7 +583,7 @@ fn sub_samples_bring_the_mesh_closer_to_a_camera() {
     for cam in &views()[..3] {
         let t = truth(&Scene::room(), cam, 4);
         let render = |supersample| {
-            let o = MeshOptions { supersample, ..MeshOptions::default() };
+            let o = RasterOptions { supersample, ..RasterOptions::default() };
             rasterize::render_mesh(&p.refs(), &p.meshes, DMat4::IDENTITY, cam, &o).unwrap().frame
         };
         let (one, two) = (render(1), render(2));

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use pomc::layer::{LayerImage, SampleType};
 use pomc::layer_io::{self, WriteOptions};
-use pomc::validate::{self, codes, Report, ValidateOptions};
+use pomc::validate::{self, codes, Report, ValidateSettings};
 
 const W: usize = 16;
 const H: usize = 8;
@@ -57,7 +57,7 @@ fn set(img: &mut LayerImage, ch: &str, i: usize, v: f32) {
 }
 
 fn run(dir: &Path) -> Report {
-    validate::validate(dir, &ValidateOptions::default()).expect("validate runs")
+    validate::validate(dir, &ValidateSettings::default()).expect("validate runs")
 }
 
 type Case = (&'static str, fn(&Path) -> Report);
@@ -99,7 +99,7 @@ fn cases() -> Vec<Case> {
         }),
         ("LAYER_TOO_LARGE", |d| {
             one_layer(d, &layer(W, H));
-            let mut options = ValidateOptions::default();
+            let mut options = ValidateSettings::default();
             options.limits.max_pixels = 64;
             validate::validate(d, &options).unwrap()
         }),

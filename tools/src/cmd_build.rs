@@ -10,7 +10,7 @@ use pomc::layer_io::ReadLimits;
 use pomc::layering::input::{Convention, DepthKind, Preset};
 use pomc::layering::{BuildOptions, Classify, FillColour};
 use pomc::panorama::SaveOptions;
-use pomc::prepare::{PrepareSettings, Refine, UnknownDepth};
+use pomc::prepare::{PrepareOptions, Refine, UnknownDepth};
 
 use crate::args::{parse_known_distance, parse_range, parse_vec3, Range};
 use crate::output::Output;
@@ -83,7 +83,7 @@ impl InputArgs {
         BuildSettings {
             colour_space: self.colour_space,
             depth: enc,
-            prepare: PrepareSettings { refine: self.refine, unknown: self.unknown_depth },
+            prepare: PrepareOptions { refine: self.refine, unknown: self.unknown_depth },
             limits: self.max_pixels.map(ReadLimits::with_max_pixels).unwrap_or_default(),
             ..BuildSettings::default()
         }

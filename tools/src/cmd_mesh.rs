@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use pomc::mesh::scene::{self, SceneMesh, SceneSettings};
-use pomc::mesh::{self, export, MeshParams};
+use pomc::mesh::{self, export, MeshOptions};
 use pomc::panorama::Panorama;
 
 use crate::args::Range;
@@ -69,8 +69,8 @@ pub struct Args {
     no_greedy: bool,
 }
 
-fn params(a: &Args) -> MeshParams {
-    mesh::MeshSettings {
+fn params(a: &Args) -> MeshOptions {
+    mesh::MeshFlags {
         max_error: a.max_error,
         feature_angle: a.feature_angle,
         residual: a.residual,
@@ -89,7 +89,7 @@ fn params(a: &Args) -> MeshParams {
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let settings = SceneSettings {
-        params: params(&args),
+        mesh: params(&args),
         only: args.layer,
         sky_radius: args.sky_radius,
         store: args.store,
@@ -251,10 +251,10 @@ mod tests {
     use super::*;
     use crate::args::parse;
 
-    /// The library's `MeshParams::default()` is what `pomc mesh` does without options.
+    /// The library's `MeshOptions::default()` is what `pomc mesh` does without options.
     #[test]
     fn default_options_are_the_library_default() {
-        assert_eq!(params(&parse(&["pomc-mesh", "pano"])), MeshParams::default());
-        assert_eq!(params(&parse(&["pomc-mesh", "pano", "--no-simplify"])), MeshParams::quadtree());
+        assert_eq!(params(&parse(&["pomc-mesh", "pano"])), MeshOptions::default());
+        assert_eq!(params(&parse(&["pomc-mesh", "pano", "--no-simplify"])), MeshOptions::quadtree());
     }
 }

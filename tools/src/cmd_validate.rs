@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use pomc::validate::{self, Severity, ValidateOptions};
+use pomc::validate::{self, Severity, ValidateSettings};
 
 use crate::args::Range;
 use crate::output::Output;
@@ -26,7 +26,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         crate::cmd_codes::print(&validate::codes::all(), out);
         return Ok(0);
     }
-    let options = ValidateOptions { jump_threshold: args.jump_threshold, ..Default::default() };
+    let options = ValidateSettings { jump_threshold: args.jump_threshold, ..Default::default() };
     let path = args.path.unwrap_or_default();
     let report = validate::validate(&path, &options)?;
     if out.json {

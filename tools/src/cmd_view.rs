@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use pomc::panorama::Panorama;
-use pomc::viewer::{self, SiteOptions};
+use pomc::viewer::{self, SiteSettings};
 
 use crate::args::Range;
 use crate::output::Output;
@@ -46,7 +46,7 @@ pub fn run(a: Args, out: Output) -> Result<u8, Failure> {
         })?),
     };
     let spinner = out.spinner("meshing the layers");
-    let options = SiteOptions { sky_radius: a.sky_radius, ..SiteOptions::default() };
+    let options = SiteSettings { sky_radius: a.sky_radius, ..SiteSettings::default() };
     let site = viewer::site(&pano, &options)?;
     spinner.finish_and_clear();
     let triangles: usize = site.triangles.iter().map(|t| t.1).sum();

@@ -379,7 +379,7 @@ pub struct FaceMesh {
 /// of the mesh along its ray.
 ///
 /// # Panics
-/// When `max_error` is not a positive finite number ([`super::MeshParams::check`] rejects those).
+/// When `max_error` is not a positive finite number ([`super::MeshOptions::check`] rejects those).
 pub fn mesh_face(g: &Grid, max_error: f64, max_angle_deg: Option<f64>) -> FaceMesh {
     assert!(max_error.is_finite() && max_error > 0.0, "max_error must be positive");
     let mut m = Mesher::new(g, max_error, max_angle_deg.map(f64::to_radians));

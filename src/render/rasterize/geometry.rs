@@ -11,20 +11,20 @@ use crate::continuity::{continues_plane, PLANAR};
 use crate::layer::Sample;
 use crate::mapping::Neighbours;
 use crate::mapping::{AnyMapping, Mapping};
-use crate::mesh::{self, LayerMesh, MeshParams};
+use crate::mesh::{self, LayerMesh, MeshOptions};
 use crate::panorama::Panorama;
 use crate::render::{RenderError, RenderLayer};
 
 use super::shade::Planes;
-use super::{check_options, mesh_error, MeshOptions};
+use super::{check_options, mesh_error, RasterOptions};
 use crate::render::check_layers;
 
 /// Mesh every layer with `params` (layers in parallel; [`mesh::mesh_layer`]) and set up what the
 /// rasteriser draws of it ([`LayerGeometry`], with `o.jump`).
 pub fn mesh_layers(
     layers: &[RenderLayer],
-    params: &MeshParams,
-    o: &MeshOptions,
+    params: &MeshOptions,
+    o: &RasterOptions,
 ) -> Result<Vec<LayerGeometry>, RenderError> {
     check_options(o)?;
     check_layers(layers)?;
@@ -58,8 +58,8 @@ pub type PanoramaMeshes = (Vec<LayerGeometry>, Vec<MeshSource>, Vec<String>);
 pub fn panorama_meshes(
     pano: &Panorama,
     layers: &[RenderLayer],
-    params: &MeshParams,
-    o: &MeshOptions,
+    params: &MeshOptions,
+    o: &RasterOptions,
 ) -> Result<PanoramaMeshes, RenderError> {
     check_options(o)?;
     check_layers(layers)?;

@@ -47,7 +47,7 @@ use shade::{nearest_vertex_colour, Planes};
 
 /// Tuning of the mesh renderer.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct MeshOptions {
+pub struct RasterOptions {
     /// Relative depth jump between two lattice-adjacent vertices above which a triangle edge crosses
     /// a discontinuity and the triangle is not drawn (the splat method's continuity test; the mesh
     /// itself only cuts at 0.5, spec §8.2). Longer edges of `k` pixels allow `(1 + jump)^k`.
@@ -61,9 +61,9 @@ pub struct MeshOptions {
     pub supersample: usize,
 }
 
-impl Default for MeshOptions {
+impl Default for RasterOptions {
     fn default() -> Self {
-        MeshOptions { jump: 0.1, near: 1e-6, supersample: 2 }
+        RasterOptions { jump: 0.1, near: 1e-6, supersample: 2 }
     }
 }
 
@@ -75,7 +75,7 @@ const BAND: usize = 8;
 pub struct RasterCounts {
     /// Triangles considered for drawing (kept mesh triangles and footprint quads' triangles).
     pub triangles: u64,
-    /// Mesh triangles not drawn: an edge crosses a depth discontinuity (see [`MeshOptions::jump`]).
+    /// Mesh triangles not drawn: an edge crosses a depth discontinuity (see [`RasterOptions::jump`]).
     pub triangles_jump: u64,
     /// Not drawn: outside the view (perspective frustum), behind the near plane, edge-on or
     /// non-finite.
@@ -108,12 +108,12 @@ impl RasterCounts {
 
 /// Figures of one mesh render: stages `raster` (set-up, binning, z-buffer) and `compose` (colour,
 /// infinity, frame).
-pub type MeshRenderStats = super::RenderStats<RasterCounts, MeshOptions>;
+pub type MeshRenderStats = super::RenderStats<RasterCounts, RasterOptions>;
 
 /// A view rendered from meshes.
-pub type MeshRendered = super::Rendered<RasterCounts, MeshOptions>;
+pub type MeshRendered = super::Rendered<RasterCounts, RasterOptions>;
 
-fn check_options(o: &MeshOptions) -> Result<(), RenderError> {
+fn check_options(o: &RasterOptions) -> Result<(), RenderError> {
     if !(o.jump > 0.0 && o.jump.is_finite()) {
         return Err(RenderError::BadOptions("jump must be a positive relative depth".into()));
     }
@@ -140,7 +140,7 @@ pub fn render_mesh(
     meshes: &[LayerGeometry],
     local_to_world: DMat4,
     camera: &Camera,
-    o: &MeshOptions,
+    o: &RasterOptions,
 ) -> Result<MeshRendered, RenderError> {
     check_options(o)?;
     super::check_local_to_world(local_to_world)?;

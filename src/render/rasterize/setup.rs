@@ -7,7 +7,7 @@ use glam::DVec3;
 
 use crate::render::camera::Camera;
 
-use super::{MeshOptions, RasterCounts, BAND};
+use super::{RasterCounts, RasterOptions, BAND};
 
 /// A triangle set up for drawing.
 #[derive(Clone, Copy, Debug)]
@@ -115,7 +115,7 @@ pub(super) fn inside(p: &Prep, r: DVec3) -> bool {
 
 pub(super) struct Setup<'a> {
     pub(super) cam: &'a Cam,
-    pub(super) o: MeshOptions,
+    pub(super) o: RasterOptions,
     /// Frustum planes through the eye (perspective): a point is inside when all dot products ≥ 0.
     pub(super) frustum: Option<[DVec3; 4]>,
 }
