@@ -342,6 +342,29 @@ pub struct LayerMesh {
     pub triangles: Vec<[u32; 3]>,
 }
 
+/// The stages of [`mesh_layer`], in the order they run: [`StageTimes::named`] times them.
+pub const STAGES: &[&str] = &["sample", "greedy", "quadtree", "triangulate", "assemble", "simplify"];
+
+impl StageTimes {
+    /// Each of [`STAGES`] with its time, ms.
+    pub fn named(&self) -> [(&'static str, f64); 6] {
+        let t = [
+            self.sample_ms,
+            self.greedy_ms,
+            self.quadtree_ms,
+            self.triangulate_ms,
+            self.assemble_ms,
+            self.simplify_ms,
+        ];
+        std::array::from_fn(|i| (STAGES[i], t[i]))
+    }
+
+    /// The time of all stages, ms.
+    pub fn total_ms(&self) -> f64 {
+        self.named().iter().map(|s| s.1).sum()
+    }
+}
+
 /// Wall-clock times of the stages, in milliseconds.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct StageTimes {

@@ -681,3 +681,26 @@ fn the_fill_carries_an_occluders_shadow_behind_it() {
         "unshadowed wall right in {share:.3} ({core_share:.3} where the shadow would be)"
     );
 }
+
+/// The progress callback names the stages `jobs::build_stages` lists, in that order, for the
+/// default build and one without the colour fill: a progress bar sized from the list ends full.
+#[test]
+fn progress_names_the_listed_stages() {
+    use pomc::jobs::{build_panorama_with_progress, build_stages, BuildSettings};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/data/room-rgbd");
+    let dir = tempfile::tempdir().unwrap();
+    for nearest in [false, true] {
+        let mut s = BuildSettings::default();
+        if nearest {
+            s.options.fill_colour = FillColour::Nearest;
+        }
+        let seen = std::sync::Mutex::new(Vec::new());
+        let out = dir.path().join(format!("out-{nearest}"));
+        let progress = |name: &str| seen.lock().unwrap().push(name.to_string());
+        build_panorama_with_progress(&root.join("colour.png"), &root.join("depth.exr"), &out, &s, &progress)
+            .unwrap();
+        let listed: Vec<String> = build_stages(&s).iter().map(|n| n.to_string()).collect();
+        assert_eq!(*seen.lock().unwrap(), listed);
+        assert_eq!(listed.contains(&"fill colour".to_string()), !nearest);
+    }
+}

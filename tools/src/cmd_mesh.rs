@@ -136,10 +136,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let (tris, verts) = (count(&|m| m.triangles.len()), count(&|m| m.positions.len()));
     let sum = |f: &dyn Fn(&SceneMesh) -> f64| layers.iter().map(f).sum::<f64>();
     let read_ms = sum(&|l| l.read_ms);
-    let mesh_ms = sum(&|l| {
-        let t = &l.meshed.times;
-        t.sample_ms + t.greedy_ms + t.quadtree_ms + t.triangulate_ms + t.assemble_ms + t.simplify_ms
-    });
+    let mesh_ms = sum(&|l| l.meshed.times.total_ms());
     let metric_ms = sum(&|l| l.metric_ms.unwrap_or(0.0));
     out.json(&serde_json::json!({
         "layers": reports,
@@ -175,6 +172,11 @@ fn report(args: &Args, out: Output, l: &SceneMesh, sky: Option<f64>) -> serde_js
     let qt = meshed.quadtree_triangles;
     let per_million = encoded.filter(|_| qt > 0 && greedy_faces == 0).map(|e| e as f64 * 1e6 / qt as f64);
     let t = &meshed.times;
+    let mut times_json =
+        serde_json::json!({"read": read_ms, "encode": encode_ms, "metric": stats.as_ref().map(|s| s.1)});
+    for (stage, ms) in t.named() {
+        times_json[stage] = serde_json::json!(ms);
+    }
     let json = serde_json::json!({
         "layer": l.index, "name": l.name, "role": l.role,
         "sky_radius": sky.filter(|_| is_sky),
@@ -186,12 +188,7 @@ fn report(args: &Args, out: Output, l: &SceneMesh, sky: Option<f64>) -> serde_js
         "simplify": meshed.simplify,
         "encoded_bytes": encoded, "encoded_bytes_per_million_triangles": per_million,
         "error": stats.as_ref().map(|s| &s.0),
-        "times_ms": {
-            "read": read_ms, "sample": t.sample_ms, "quadtree": t.quadtree_ms,
-            "greedy": t.greedy_ms, "triangulate": t.triangulate_ms, "assemble": t.assemble_ms,
-            "simplify": t.simplify_ms,
-            "encode": encode_ms, "metric": stats.as_ref().map(|s| s.1),
-        },
+        "times_ms": times_json,
         "output": args.output,
     });
     out.say(format!(
@@ -233,14 +230,10 @@ fn report(args: &Args, out: Output, l: &SceneMesh, sky: Option<f64>) -> serde_js
             s.pixels, s.unhit, s.max_rel, s.p99_rel, s.rms_rel, s.max_abs, s.p99_abs, s.rms_abs
         ));
     }
+    let stages: Vec<String> = t.named().iter().map(|(stage, ms)| format!("{stage} {ms:.0}")).collect();
     out.say(format!(
-        "times (ms): read {read_ms:.0}, sample {:.0}, greedy {:.0}, quadtree {:.0}, triangulate {:.0}, assemble {:.0}, simplify {:.0}, encode {encode_ms:.0}, metric {}",
-        t.sample_ms,
-        t.greedy_ms,
-        t.quadtree_ms,
-        t.triangulate_ms,
-        t.assemble_ms,
-        t.simplify_ms,
+        "times (ms): read {read_ms:.0}, {}, encode {encode_ms:.0}, metric {}",
+        stages.join(", "),
         stats.as_ref().map_or("-".to_string(), |s| format!("{:.0}", s.1))
     ));
     json
