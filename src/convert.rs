@@ -12,8 +12,7 @@ use crate::layer_io::{self, ReadLimits, WriteOptions};
 use crate::mapping::layout::{CubeLayout, LayoutError};
 use crate::mapping::MappingKind;
 use crate::panorama::{self, Panorama, SaveOptions};
-use crate::raster::Raster;
-use crate::resample::{self, Canvas, Filter, ResampleError, SampleOptions, Texel};
+use crate::resample::{self, Canvas, Filter, ResampleError, SampleOptions};
 
 /// How [`convert_file`] converts; `Default` is what `pomc convert` does without options.
 #[derive(Clone, Debug, PartialEq)]
@@ -260,10 +259,17 @@ fn convert_image(
     };
     progress(ConvertProgress::Steps(rows as u64));
     let tick = |n: usize| progress(ConvertProgress::Done(n as u64));
+    let failed = |source| ConvertError::Resample { path: input.to_path_buf(), source };
     let converted = match &pixels {
-        Pixels::U8(r) => Pixels::U8(resample_with(r, from, target, size, opts, &tick, input)?),
-        Pixels::U16(r) => Pixels::U16(resample_with(r, from, target, size, opts, &tick, input)?),
-        Pixels::F32(r) => Pixels::F32(resample_with(r, from, target, size, opts, &tick, input)?),
+        Pixels::U8(r) => {
+            Pixels::U8(resample::convert_with_progress(r, from, target, size, opts, &tick).map_err(failed)?)
+        }
+        Pixels::U16(r) => {
+            Pixels::U16(resample::convert_with_progress(r, from, target, size, opts, &tick).map_err(failed)?)
+        }
+        Pixels::F32(r) => {
+            Pixels::F32(resample::convert_with_progress(r, from, target, size, opts, &tick).map_err(failed)?)
+        }
     };
     drop(pixels);
     let resample_ms = ms(t);
@@ -271,33 +277,12 @@ fn convert_image(
     let t = Instant::now();
     image_io::encode(output, &converted)?;
     let (ow, oh, _) = converted.dims();
-    Ok(ConvertReport {
-        kind: Converted::Image,
-        sample_type: converted.type_name(),
-        from,
-        to: target,
-        input_size: (w, h),
-        output_size: (ow, oh),
-        channels,
-        layers: 1,
-        decode_ms,
-        resample_ms,
-        encode_ms: ms(t),
-        total_ms: ms(total),
-    })
-}
-
-fn resample_with<T: Texel>(
-    r: &Raster<T>,
-    from: Canvas,
-    to: Canvas,
-    size: usize,
-    opts: &SampleOptions,
-    tick: &(dyn Fn(usize) + Sync),
-    input: &Path,
-) -> Result<Raster<T>, ConvertError> {
-    resample::convert_with_progress(r, from, to, size, opts, tick)
-        .map_err(|source| ConvertError::Resample { path: input.to_path_buf(), source })
+    let canvases = (from, target);
+    let mut r =
+        one_file(Converted::Image, canvases, ((w, h), (ow, oh)), channels, [decode_ms, resample_ms, ms(t)]);
+    r.sample_type = converted.type_name();
+    r.total_ms = ms(total);
+    Ok(r)
 }
 
 fn convert_layer_file(
@@ -319,20 +304,34 @@ fn convert_layer_file(
     let (output_size, channels) = ((converted.width, converted.height), converted.channels.len());
     let t = Instant::now();
     layer_io::write_exr_owned(output, converted, &WriteOptions::default())?;
-    Ok(ConvertReport {
-        kind: Converted::Layer,
+    let sizes = ((layer.width, layer.height), output_size);
+    let mut r = one_file(Converted::Layer, (from, target), sizes, channels, [decode_ms, resample_ms, ms(t)]);
+    r.total_ms = ms(total);
+    Ok(r)
+}
+
+/// The report of one image or layer: decode, resample and encode times; `f32` samples.
+fn one_file(
+    kind: Converted,
+    (from, to): (Canvas, Canvas),
+    (input_size, output_size): ((usize, usize), (usize, usize)),
+    channels: usize,
+    [decode_ms, resample_ms, encode_ms]: [f64; 3],
+) -> ConvertReport {
+    ConvertReport {
+        kind,
         sample_type: "f32",
         from,
-        to: target,
-        input_size: (layer.width, layer.height),
+        to,
+        input_size,
         output_size,
         channels,
         layers: 1,
         decode_ms,
         resample_ms,
-        encode_ms: ms(t),
-        total_ms: ms(total),
-    })
+        encode_ms,
+        total_ms: decode_ms + resample_ms + encode_ms,
+    }
 }
 
 /// Source canvas, target canvas and target size (equirect width or face size) of a `w × h` input.

@@ -198,27 +198,22 @@ pub trait Texel: Copy + Send + Sync + 'static {
     fn from_f32(v: f32) -> Self;
 }
 
-impl Texel for u8 {
-    #[inline]
-    fn to_f32(self) -> f32 {
-        self as f32
-    }
-    #[inline]
-    fn from_f32(v: f32) -> Self {
-        (v + 0.5) as u8 // `as` saturates (and maps NaN to 0)
-    }
+/// Integer samples: rounded to nearest; `as` saturates (and maps NaN to 0).
+macro_rules! integer_texel {
+    ($($t:ty),*) => {$(
+        impl Texel for $t {
+            #[inline]
+            fn to_f32(self) -> f32 {
+                self as f32
+            }
+            #[inline]
+            fn from_f32(v: f32) -> Self {
+                (v + 0.5) as $t
+            }
+        }
+    )*};
 }
-
-impl Texel for u16 {
-    #[inline]
-    fn to_f32(self) -> f32 {
-        self as f32
-    }
-    #[inline]
-    fn from_f32(v: f32) -> Self {
-        (v + 0.5) as u16
-    }
-}
+integer_texel!(u8, u16);
 
 impl Texel for f32 {
     #[inline]
