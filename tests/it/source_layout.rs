@@ -95,3 +95,19 @@ fn a_circle_is_found() {
     graph.get_mut("c").unwrap().clear();
     assert_eq!(find_circle(&graph), None);
 }
+
+/// Each source file holds one idea short enough to read: none passes 800 lines.
+#[test]
+fn no_source_file_is_over_800_lines() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let long: Vec<String> = files
+        .iter()
+        .map(|f| (f, std::fs::read_to_string(f).unwrap().lines().count()))
+        .filter(|(_, n)| *n > 800)
+        .map(|(f, n)| format!("{} ({n} lines)", f.display()))
+        .collect();
+    assert!(files.len() > 80, "{} files found", files.len());
+    assert!(long.is_empty(), "split by idea: {long:?}");
+}

@@ -1,0 +1,499 @@
+//! Filling what nearer layers hide, in the band a camera inside the freedom radius can see.
+//!
+//! From every pixel of a layer that borders an occluder (a nearer layer, across a depth jump or a
+//! fold: the floor a box stands on is hidden beside the box's bottom corner too), a
+//! breadth-first front grows into the occluder's pixels while the angle to its source stays
+//! within the largest parallax a camera within the freedom radius can open between the two
+//! depths. Depth continues the background surface (the ray meets the source's tangent plane:
+//! a wall stays planar behind a box); colour is copied from the background side only, from an
+//! interior pixel, so foreground colour never bleeds into the fill.
+
+use std::collections::{HashMap, VecDeque};
+
+use glam::Vec3;
+
+use super::edges::Links;
+use rayon::prelude::*;
+
+use crate::continuity::continuous_with;
+use crate::mapping::{opposite, Neighbours};
+
+/// One filled pixel.
+mod surface;
+#[cfg(test)]
+mod tests;
+
+pub(crate) use surface::SAME_PLANE_COS;
+use surface::*;
+
+#[derive(Clone, Copy, Debug)]
+pub struct FillPixel {
+    /// Row-major index of the filled pixel on the canvas.
+    pub pixel: usize,
+    /// Distance along its ray (m) on the continued surface; `+inf` in the infinity layer.
+    pub depth: f32,
+    /// Its linear RGB: the nearest visible pixel's, then as [`super::texture`] colours it.
+    pub rgb: [f32; 3],
+    /// The seed whose surface it continues (its plane and normal).
+    pub surface: usize,
+}
+
+/// The fill of one layer: extra pixels, in breadth-first order from the occluders' borders.
+#[derive(Clone, Debug, Default)]
+pub struct Fill {
+    /// The filled pixels, each once, in breadth-first order.
+    pub pixels: Vec<FillPixel>,
+    /// Widest angle (radians) between a filled pixel and its source.
+    pub max_angle: f64,
+    /// How many of `pixels`, at the end, are the layer's own border pixels, there for their
+    /// colour only ([`add_borders`]).
+    pub border: usize,
+}
+
+/// Inputs shared by the fills of all layers.
+pub struct FillContext<'a> {
+    /// 8-neighbours of every pixel on the canvas (across the seam, poles and cube-face edges).
+    pub nb: &'a Neighbours,
+    /// Pixel-centre unit directions.
+    pub dirs: &'a [Vec3],
+    /// Input depth (+inf for infinitely far content).
+    pub depth: &'a [f32],
+    /// Unit normals facing the centre (zero = unknown).
+    pub normals: &'a [Vec3],
+    /// Layer index per pixel (larger = nearer), `u32::MAX` for none.
+    pub layer_of: &'a [u32],
+    /// Freedom radius (m): the fill covers what a camera within it can see.
+    pub freedom_radius: f64,
+    /// Extra band, radians (a couple of pixels: reconstruction filters reach that far).
+    pub margin: f64,
+    /// Link (smooth, fold or jump) between each pixel and each of its 8 neighbours.
+    pub links: &'a Links,
+    /// Surface (segment) id per pixel: seeds on different surfaces compete behind an occluder.
+    pub surface: &'a [u32],
+    /// The continuity rule's relative step and plane tolerance ([`crate::continuity::continuous`]):
+    /// a fill never leaves its layer discontinuous by it.
+    pub jump: f64,
+    /// The continuity rule's plane tolerance (the build's [`super::edges::EdgeOptions::extrapolation`]).
+    pub plane_tol: f64,
+    /// Input linear RGB, planar.
+    pub rgb: &'a [Vec<f32>; 3],
+}
+
+/// Largest angle (radians) a camera within `r` of the centre can open between an occluding
+/// edge at distance `near` and the surface behind it at `far` (`+inf` allowed): each point's
+/// direction moves by at most `asin(r/d)`, and both move the same way. `π` when the occluder is
+/// within the radius (the camera can walk around it).
+pub fn parallax_band(r: f64, near: f64, far: f64) -> f64 {
+    if near <= r {
+        return std::f64::consts::PI;
+    }
+    let shift = |d: f64| if d.is_finite() { (r / d).min(1.0).asin() } else { 0.0 };
+    (shift(near) - shift(far)).max(0.0)
+}
+
+/// Surfaces a hidden pixel weighs besides its own: the corner of a room (two walls and the
+/// floor), with room to spare for the faces a rounded-off crease adds.
+const RIVALS: usize = 5;
+
+/// Fill layer `k` behind its occluders.
+///
+/// Every hidden pixel within the parallax band takes the nearest seed (breadth-first). A second
+/// search, not limited to the band, finds for every hidden pixel the nearest seeds of up to
+/// `RIVALS` other surfaces around the same occluder: where a floor meets a wall, or two walls
+/// meet, behind a box, the pixel takes the plane the crease puts it on (`pick_surface`) even
+/// when that plane shows only far away (above the box).
+pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
+    const NONE: u32 = u32::MAX;
+    let n = cx.nb.len();
+    let hidden = |q: usize| cx.layer_of[q] != NONE && cx.layer_of[q] > k && cx.depth[q] > 0.0;
+    // Seeds across a jump first; seeds along a fold only (the floor a box stands on) reach what
+    // the former leave.
+    let (mut seeds, mut fold_seeds) = (Vec::new(), Vec::new());
+    for p in 0..n {
+        // NaN (unknown) depth never seeds a fill.
+        if cx.layer_of[p] != k || cx.depth[p].is_nan() || cx.depth[p] <= 0.0 {
+            continue;
+        }
+        let mut borders = (0..8).filter(|&j| cx.nb.get(p, j).is_some_and(hidden));
+        let Some(first) = borders.next() else { continue };
+        if !trusted_plane(cx, p) {
+            continue;
+        }
+        if cx.links.is_jump(p, first) || borders.any(|j| cx.links.is_jump(p, j)) {
+            seeds.push(p);
+        } else {
+            fold_seeds.push(p);
+        }
+    }
+    let surfaces = Surfaces::new(cx, k, seeds.iter().chain(&fold_seeds).copied());
+    // A speck without a plane (a few in-between depths on a resized edge) is no surface to
+    // continue: kept, its depth would stand as a wall behind the occluder.
+    // Pixels of unknown depth (given their neighbour's depth, on no segment) are not specks.
+    let surface_seed = |&s: &usize| {
+        cx.surface[s] == u32::MAX
+            || !cx.depth[s].is_finite()
+            || surfaces.normal(cx, s) != Vec3::ZERO
+            || surfaces.size(cx, s) >= SPECK
+    };
+    seeds.retain(surface_seed);
+    fold_seeds.retain(surface_seed);
+    let jump_seeds = seeds.len();
+    seeds.extend(fold_seeds);
+    let reach: HashMap<usize, f64> =
+        seeds.par_iter().map(|&s| (s, planar_reach(cx, &surfaces, k, s))).collect();
+    // The band search and the rival search are independent.
+    let ((src, angle_of, order), (slot_of, rivals)) = rayon::join(
+        || {
+            // (1) The band: nearest seed within the parallax a camera in the freedom radius can open.
+            // Breadth-first from the seeds; a pixel already claimed switches to a nearer (in angle)
+            // seed of the same kind reaching it later and passes the improvement on. Without that the
+            // source drifts diagonally along a straight edge (the first seed to arrive wins) and the
+            // band comes out up to √2 narrower than the parallax needs.
+            let mut src = vec![NONE; n];
+            let mut angle_of = vec![0f64; n];
+            let mut order = Vec::new();
+            let mut queue: VecDeque<usize> = seeds[..jump_seeds].iter().copied().collect();
+            // 1: jump seed, 2: fold seed.
+            let mut kind = vec![0u8; n];
+            for (i, &p) in seeds.iter().enumerate() {
+                src[p] = p as u32;
+                kind[p] = if i < jump_seeds { 1 } else { 2 };
+            }
+            let mut folds_queued = false;
+            loop {
+                let Some(p) = queue.pop_front() else {
+                    if folds_queued {
+                        break;
+                    }
+                    folds_queued = true;
+                    queue.extend(seeds[jump_seeds..].iter().copied());
+                    continue;
+                };
+                let s = src[p] as usize;
+                for j in 0..8 {
+                    let Some(q) = cx.nb.get(p, j) else { continue };
+                    if !hidden(q)
+                        || (src[q] != NONE && (src[q] as usize == q || kind[src[q] as usize] != kind[s]))
+                    {
+                        continue;
+                    }
+                    let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
+                    let first = src[q] == NONE;
+                    // Strictly nearer (beyond rounding) or no switch: every switch lowers a pixel's angle,
+                    // so the propagation ends.
+                    if (!first && angle >= angle_of[q] - 1e-9)
+                        || angle
+                            > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64)
+                                + cx.margin
+                        // The reach is looked up only past its floor (most pixels stay within it).
+                        || (angle > 2.0 * cx.margin && angle > reach[&s])
+                        // A seed claims only where its surface continues: one whose plane misses
+                        // (the in-between depths of a resized edge, whose plane runs along the
+                        // ray) leaves the pixel to seeds that can fill it.
+                        || continue_surface(cx, &surfaces, s, q).is_none()
+                    {
+                        continue;
+                    }
+                    src[q] = s as u32;
+                    angle_of[q] = angle;
+                    if first {
+                        order.push(q);
+                    }
+                    queue.push_back(q);
+                }
+            }
+            (src, angle_of, order)
+        },
+        || {
+            // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder. Slots are
+            // kept for hidden pixels only (compact index), the seeds being their own first rival.
+            let mut slot_of = vec![NONE; n];
+            let mut rivals: Vec<[u32; RIVALS]> = Vec::new();
+            let mut queue: VecDeque<(u32, u8)> = VecDeque::new();
+            // Directions only (the infinity layer): there is no plane to continue, so no rival to
+            // weigh; skipping the search spares a flood through everything finite.
+            let planes = seeds[..jump_seeds].iter().any(|&p| cx.depth[p].is_finite());
+            for &p in seeds[..jump_seeds].iter().filter(|_| planes) {
+                slot_of[p] = rivals.len() as u32;
+                let mut r = [NONE; RIVALS];
+                r[0] = p as u32;
+                rivals.push(r);
+                queue.push_back((p as u32, 0));
+            }
+            while let Some((p, slot)) = queue.pop_front() {
+                let s = rivals[slot_of[p as usize] as usize][slot as usize];
+                for j in 0..8 {
+                    let Some(q) = cx.nb.get(p as usize, j) else { continue };
+                    if !hidden(q) {
+                        continue;
+                    }
+                    if slot_of[q] == NONE {
+                        slot_of[q] = rivals.len() as u32;
+                        rivals.push([NONE; RIVALS]);
+                    }
+                    let r = &mut rivals[slot_of[q] as usize];
+                    if r.iter().any(|&t| t != NONE && same_surface(cx, t as usize, s as usize)) {
+                        continue;
+                    }
+                    let Some(free) = r.iter().position(|&t| t == NONE) else { continue };
+                    r[free] = s;
+                    queue.push_back((q as u32, free as u8));
+                }
+            }
+            (slot_of, rivals)
+        },
+    );
+    let mut fill = Fill::default();
+    let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
+    let mut own_plane: HashMap<usize, FillPixel> = HashMap::new();
+    for q in order {
+        let own = src[q] as usize;
+        // Pixels only fold seeds reach have no rivals.
+        let none = [NONE; RIVALS];
+        let rival = rivals.get(slot_of[q] as usize).unwrap_or(&none);
+        let Some((s, d)) = pick_surface(cx, &surfaces, own, rival, q) else { continue };
+        let mut pixel = |s: usize, depth: f32| {
+            let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
+            FillPixel { pixel: q, depth, rgb: cx.colour(c).to_array(), surface: s }
+        };
+        fill.pixels.push(pixel(s, d));
+        if s != own {
+            if let Some(d) = continue_surface(cx, &surfaces, own, q) {
+                own_plane.insert(q, pixel(own, d));
+            }
+        }
+        fill.max_angle = fill.max_angle.max(angle_of[q]);
+    }
+    keep_continuous(cx, k, &mut fill, own_plane);
+    fill
+}
+
+/// Each layer's own pixels next to a nearer layer join its fill for their colour only (their
+/// depth is kept): an anti-aliased render mixes the occluder's colour into them, and a camera
+/// moved aside sees them apart from it, as a line of the occluder's colour on the surface
+/// behind. They start with the colour of their most interior neighbour and are coloured with
+/// the rest of the fill. `fills[k]` is layer `k`'s fill; one pass over the canvas serves every
+/// layer.
+pub fn add_borders(cx: &FillContext, fills: &mut [Fill]) {
+    const NONE: u32 = u32::MAX;
+    // From the nearer side: the pixels above the farthest layer are few, a scan of every pixel's
+    // neighbours is not.
+    let lowest = cx.layer_of.par_iter().copied().min().unwrap_or(NONE);
+    let mut border: Vec<usize> = (0..cx.nb.len())
+        .into_par_iter()
+        .filter(|&q| cx.layer_of[q] != NONE && cx.layer_of[q] > lowest)
+        .flat_map_iter(|q| {
+            let k = cx.layer_of[q];
+            (0..8).filter_map(move |j| cx.nb.get(q, j)).filter(move |&p| {
+                // Finite surfaces only: recolouring the sky's border as well lifted one view of
+                // the realistic corpus and lowered three (docs/build.md).
+                let d = cx.depth[p];
+                cx.layer_of[p] < k && d > 0.0 && d.is_finite()
+            })
+        })
+        .collect();
+    border.par_sort_unstable();
+    border.dedup();
+    for p in border {
+        let k = cx.layer_of[p];
+        let Some(fill) = fills.get_mut(k as usize) else { continue };
+        let c = interior_neighbour(cx, p, k);
+        fill.pixels.push(FillPixel {
+            pixel: p,
+            depth: cx.depth[p],
+            rgb: cx.colour(c).to_array(),
+            surface: p,
+        });
+        fill.border += 1;
+    }
+}
+
+/// Drop the fill pixels that would leave layer `k` discontinuous: where the fills of two surfaces
+/// meet behind an occluder with a step between them (a far building's edge and the ground behind
+/// it, both hidden by a tree), or a fill runs into another surface of the layer. Of a pair that is
+/// not one surface, the nearer pixel goes when it is filled — the farther surface then shows
+/// through where the nearer stops, so no hole opens — else the filled one. A layer is continuous
+/// inside its domain (spec §1); every step lies on its border.
+///
+/// A dropped pixel that had taken a rival's plane ([`pick_surface`]) then gets its nearest seed's
+/// plane (`own_plane`) back if that is continuous with every neighbour left: a rival's plane can
+/// be a thin object's (a table leg's) continued far beyond it, and dropping all it claimed left
+/// a hole in the layer where the nearest seed's surface continues.
+fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill, mut own_plane: HashMap<usize, FillPixel>) {
+    let n = cx.nb.len();
+    let mut d: Vec<f32> = (0..n)
+        .into_par_iter()
+        .map(|p| if cx.layer_of[p] == k && cx.depth[p] > 0.0 { cx.depth[p] } else { f32::NAN })
+        .collect();
+    let mut filled = vec![false; n];
+    for f in &fill.pixels {
+        d[f.pixel] = f.depth;
+        filled[f.pixel] = true;
+    }
+    let w = cx.nb.width();
+    let at = |d: &[f32], i: Option<usize>| i.map(|i| d[i] as f64).filter(|v| *v > 0.0);
+    let mut dropped = Vec::new();
+    let at_start = fill.pixels.len();
+    // Pixel `q` and its 4-neighbour `r` (in direction `j`) are one surface.
+    let link = |d: &[f32], q: usize, j: usize, r: usize| {
+        let (x, y) = (q % w, q / w);
+        let Some(b) = at(d, Some(r)) else { return false };
+        continuous_with(
+            d[q] as f64,
+            b,
+            || at(d, cx.nb.get_at(x, y, opposite(j))),
+            || at(d, cx.nb.get2_at(x, y, j)),
+            cx.jump,
+            cx.plane_tol,
+        )
+    };
+    // Each pass only removes pixels; one that removes none ends it. A removal can take away the
+    // plane another pair was continued by, hence the passes (few: 1–3 on realistic scenes).
+    for _ in 0..64 {
+        let mut drop: Vec<usize> = fill
+            .pixels
+            .par_iter()
+            .flat_map_iter(|f| {
+                let q = f.pixel;
+                let (x, y) = (q % w, q / w);
+                let (d, filled) = (&d, &filled);
+                // 4-neighbours, as validate checks: a diagonal step is judged by the steps around it.
+                (0..4).filter_map(move |j| {
+                    let r = cx.nb.get_at(x, y, j)?;
+                    let b = at(d, Some(r))?;
+                    if link(d, q, j, r) {
+                        return None;
+                    }
+                    Some(if b < d[q] as f64 && filled[r] { r } else { q })
+                })
+            })
+            .collect();
+        if drop.is_empty() {
+            break;
+        }
+        drop.sort_unstable();
+        drop.dedup();
+        for &p in &drop {
+            d[p] = f32::NAN;
+            filled[p] = false;
+            dropped.extend(own_plane.remove(&p));
+        }
+        fill.pixels.retain(|f| filled[f.pixel]);
+    }
+    if fill.pixels.len() == at_start {
+        return;
+    }
+    // A fill left with no continuous path to the layer's own pixels continues nothing seen: a
+    // remnant of a rival's plane whose surroundings went. It goes too.
+    let mut reached = vec![false; n];
+    let mut queue: VecDeque<usize> = VecDeque::new();
+    for f in &fill.pixels {
+        let (x, y) = (f.pixel % w, f.pixel / w);
+        let anchored =
+            (0..4).any(|j| cx.nb.get_at(x, y, j).is_some_and(|r| !filled[r] && link(&d, f.pixel, j, r)));
+        if anchored {
+            reached[f.pixel] = true;
+            queue.push_back(f.pixel);
+        }
+    }
+    while let Some(q) = queue.pop_front() {
+        let (x, y) = (q % w, q / w);
+        for j in 0..4 {
+            if let Some(r) = cx.nb.get_at(x, y, j) {
+                if filled[r] && !reached[r] && link(&d, q, j, r) {
+                    reached[r] = true;
+                    queue.push_back(r);
+                }
+            }
+        }
+    }
+    for f in fill.pixels.iter().filter(|f| !reached[f.pixel]) {
+        d[f.pixel] = f32::NAN;
+        filled[f.pixel] = false;
+        dropped.extend(own_plane.remove(&f.pixel));
+    }
+    fill.pixels.retain(|f| filled[f.pixel]);
+    // Each pass takes back the pixels continuous with all their neighbours so far; one taken
+    // back gives its neighbours a value to be judged against, hence the passes.
+    loop {
+        let before = dropped.len();
+        dropped.retain(|f| {
+            let q = f.pixel;
+            let (x, y) = (q % w, q / w);
+            d[q] = f.depth;
+            let mut any = false;
+            let ok = (0..4).all(|j| match cx.nb.get_at(x, y, j) {
+                Some(r) if at(&d, Some(r)).is_some() => {
+                    any = true;
+                    link(&d, q, j, r)
+                }
+                _ => true,
+            });
+            if any && ok {
+                fill.pixels.push(*f);
+                return false;
+            }
+            d[q] = f32::NAN;
+            true
+        });
+        if dropped.len() == before {
+            break;
+        }
+    }
+}
+
+/// The surface the ray through `q` meets, starting from the nearest seed `own` and weighing each
+/// rival seed's plane in turn. Where two planes meet in a crease, a concave crease (a room's
+/// floor and wall: each surface in front of the other's plane) hides the farther plane, so the
+/// nearer hit is the surface; a convex one (a pillar's corner: each surface behind the other's
+/// plane) shows the farther hit. Planes the seeds do not relate (they disagree, or a seed lies
+/// on the other's plane) leave the current choice.
+fn pick_surface(
+    cx: &FillContext,
+    surfaces: &Surfaces,
+    own: usize,
+    rivals: &[u32],
+    q: usize,
+) -> Option<(usize, f32)> {
+    let mut best = continue_surface(cx, surfaces, own, q).map(|d| (own, d));
+    for &r in rivals {
+        let b = r as usize;
+        if r == u32::MAX {
+            continue;
+        }
+        let Some(cur) = best else {
+            // The nearest seed's plane misses the ray: the first rival whose plane it meets.
+            best = plane_hit(cx, surfaces, b, q).map(|d| (b, d));
+            continue;
+        };
+        if same_surface(cx, b, cur.0) {
+            continue;
+        }
+        let a = cur.0;
+        let (na, nb) = (cx.normals[a], cx.normals[b]);
+        let (pa, pb) = (cx.dirs[a] * cx.depth[a], cx.dirs[b] * cx.depth[b]);
+        // One segment's two faces (a segment can leak round a crease) share one centroid,
+        // which tells nothing: their seeds stand in.
+        let (ca, cb) = if cx.surface[a] == cx.surface[b] {
+            (pa, pb)
+        } else {
+            // Pixels outside every segment (infinitely far) have no centroid.
+            let at = |p: usize| surfaces.centroid.get(cx.surface[p] as usize).copied().unwrap_or(Vec3::NAN);
+            (at(a), at(b))
+        };
+        if na == Vec3::ZERO || nb == Vec3::ZERO || !(pa + pb + ca + cb).is_finite() {
+            continue;
+        }
+        // Signed distances of each surface's centroid to the other's plane (seeds often lie
+        // on the crease itself), against a tolerance that scales with the depths.
+        let (sa, sb) = (nb.dot(ca - pb), na.dot(cb - pa));
+        let tol = 1e-3 * cx.depth[a].min(cx.depth[b]);
+        let Some(db) = plane_hit(cx, surfaces, b, q) else { continue };
+        let concave = sa > tol && sb > tol;
+        let convex = sa < -tol && sb < -tol;
+        if (concave && db < cur.1) || (convex && db > cur.1) {
+            best = Some((b, db));
+        }
+    }
+    best
+}

@@ -1,0 +1,229 @@
+use super::*;
+use crate::layering::edges::EdgeOptions;
+use crate::mapping::{AnyMapping, Mapping, MappingKind};
+
+/// A fill context over the given planes with the build's default rules (freedom radius
+/// 0.5 m, no margin).
+#[allow(clippy::too_many_arguments)]
+fn context<'a>(
+    nb: &'a Neighbours,
+    dirs: &'a [Vec3],
+    depth: &'a [f32],
+    normals: &'a [Vec3],
+    layer_of: &'a [u32],
+    links: &'a Links,
+    surface: &'a [u32],
+    rgb: &'a [Vec<f32>; 3],
+) -> FillContext<'a> {
+    FillContext {
+        nb,
+        dirs,
+        depth,
+        normals,
+        layer_of,
+        freedom_radius: 0.5,
+        margin: 0.0,
+        links,
+        surface,
+        jump: crate::continuity::JUMP,
+        plane_tol: EdgeOptions::default().extrapolation,
+        rgb,
+    }
+}
+
+/// [`planar_reach`] in pixels of seeds on a wall at x = `wall` and on a sphere of 0.5 m radius
+/// centred `dist` away along +x, on a `w` × `w/2` equirect canvas: the sphere seed `az`° off
+/// the sphere's centre direction (with its own normal, then without), the wall seed 40° off.
+fn sphere_and_wall_reach(w: usize, dist: f32, wall: f32, az: f64) -> (f64, f64, f64) {
+    let m = AnyMapping::new(MappingKind::Equirect, w, w / 2).unwrap();
+    let n = w * w / 2;
+    let nb = Neighbours::new(m);
+    let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+    let centre = Vec3::new(dist, 0.0, 0.0);
+    // The sphere where the ray meets it, else the wall.
+    let hit = |d: Vec3| {
+        let b = d.dot(centre);
+        let disc = b * b - centre.length_squared() + 0.25;
+        (disc > 0.0 && b > 0.0).then(|| b - disc.sqrt())
+    };
+    let (mut depth, mut normals, mut surface) = (vec![0f32; n], vec![Vec3::ZERO; n], vec![0u32; n]);
+    for p in 0..n {
+        let d = dirs[p];
+        (depth[p], normals[p], surface[p]) = match hit(d) {
+            Some(t) => (t, (d * t - centre).normalize(), 1),
+            None if d.x > 0.05 => (wall / d.x, Vec3::new(-1.0, 0.0, 0.0), 0),
+            None => (f32::NAN, Vec3::ZERO, u32::MAX),
+        };
+    }
+    let layer_of = vec![0u32; n];
+    let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+    let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
+    let pixel = std::f64::consts::TAU / w as f64;
+    let at = |az: f64| (w / 4 * w) + ((az.to_radians() / pixel) as usize);
+    let (on_sphere, on_wall) = (at(az), at(40.0));
+    assert_eq!((surface[on_sphere], surface[on_wall]), (1, 0));
+    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let surfaces = Surfaces::new(&cx, 0, [on_sphere, on_wall].into_iter());
+    let sphere = planar_reach(&cx, &surfaces, 0, on_sphere) / pixel;
+    let wall = planar_reach(&cx, &surfaces, 0, on_wall) / pixel;
+    // A seed without a normal of its own (at an object's outline) is limited by the one it borrows.
+    normals[on_sphere] = Vec3::ZERO;
+    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let surfaces = Surfaces::new(&cx, 0, [on_sphere].into_iter());
+    let borrowed = planar_reach(&cx, &surfaces, 0, on_sphere) / pixel;
+    eprintln!("{dist} m: sphere reach {sphere:.1} px, without a normal {borrowed:.1} px; wall {wall} px");
+    (sphere, borrowed, wall)
+}
+
+/// The tangent plane of a wall may be continued without limit; a sphere's only about as far
+/// as it fits the sphere: within the plane tolerance (0.5 m radius, 2 m away: the plane
+/// leaves it within a few pixels) and while the normals stay within 20° (6 m away, 7 pixels
+/// in radius: the plane stays within 5 % of the depth for 7 pixels, so the tolerance alone
+/// let the fill draw the sphere up to twice as wide; the normals turn 20° within 3).
+#[test]
+fn a_curved_surface_is_continued_only_as_far_as_its_plane_fits() {
+    for (w, dist, wall, az, most) in [(256, 2.0, 4.0, 5.0, 8.0), (512, 6.0, 8.0, 2.0, 4.0)] {
+        let (sphere, borrowed, wall) = sphere_and_wall_reach(w, dist, wall, az);
+        assert!(sphere > 1.0 && sphere < most, "{dist} m: sphere reach {sphere} px");
+        assert!(borrowed > 1.0 && borrowed < most, "{dist} m: borrowed reach {borrowed} px");
+        assert_eq!(wall, f64::INFINITY);
+    }
+}
+
+/// A wall at 3 m with a nearer layer (1 m) in front of a block of it. Its fill continues the
+/// wall, except for a rival plane at 2 m claimed in two places: a band touching the wall's
+/// fill, and an island cut off from everything (the fill pixels around it went).
+#[test]
+fn a_rival_plane_dropped_gives_back_the_nearest_seeds_plane_and_leaves_no_remnant() {
+    let m = AnyMapping::new(MappingKind::Equirect, 64, 32).unwrap();
+    let (w, n) = (64, 64 * 32);
+    let nb = Neighbours::new(m);
+    let hidden = |p: usize| (20..44).contains(&(p % w)) && (8..24).contains(&(p / w));
+    let depth: Vec<f32> = (0..n).map(|p| if hidden(p) { 1.0 } else { 3.0 }).collect();
+    let layer_of: Vec<u32> = (0..n).map(|p| hidden(p) as u32).collect();
+    let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+    let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+    let (normals, surface) = (vec![Vec3::ZERO; n], vec![0u32; n]);
+    let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
+    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let band = |p: usize| (24..32).contains(&(p % w)) && (10..12).contains(&(p / w));
+    let island = |p: usize| (36..40).contains(&(p % w)) && (18..20).contains(&(p / w));
+    let moat = |p: usize| (35..41).contains(&(p % w)) && (17..21).contains(&(p / w)) && !island(p);
+    let px = |p: usize, depth: f32| FillPixel { pixel: p, depth, rgb: [0.5; 3], surface: 0 };
+    let mut fill = Fill::default();
+    let mut own_plane = HashMap::new();
+    for p in (0..n).filter(|&p| hidden(p) && !moat(p)) {
+        if band(p) || island(p) {
+            fill.pixels.push(px(p, 2.0));
+            own_plane.insert(p, px(p, 3.0));
+        } else {
+            fill.pixels.push(px(p, 3.0));
+        }
+    }
+    keep_continuous(&cx, 0, &mut fill, own_plane);
+    let got: HashMap<usize, f32> = fill.pixels.iter().map(|f| (f.pixel, f.depth)).collect();
+    assert!((0..n).filter(|&p| band(p)).all(|p| got.get(&p) == Some(&3.0)), "the band takes the wall back");
+    assert!(got.values().all(|&d| d == 3.0), "no pixel keeps the rival's plane");
+    let holes = (0..n).filter(|&p| hidden(p) && !moat(p) && !island(p) && !got.contains_key(&p)).count();
+    assert_eq!(holes, 0, "the wall's fill has no hole");
+}
+
+/// A box at 1 m before a wall at 3 m, its top edge lined with in-between depths (1.3 m, as a
+/// resized depth edge leaves them): one-pixel surfaces without a normal, in the wall's layer.
+/// They seed no fill; the wall's fill behind the box is at the wall's depth, not a screen at
+/// 1.3 m (which a camera moved aside saw as a ghost of the box).
+#[test]
+fn specks_without_a_plane_seed_no_fill() {
+    let m = AnyMapping::new(MappingKind::Equirect, 128, 64).unwrap();
+    let (w, n) = (128, 128 * 64);
+    let nb = Neighbours::new(m);
+    let hidden = |p: usize| (52..76).contains(&(p % w)) && (24..40).contains(&(p / w));
+    let speck = |p: usize| (52..76).contains(&(p % w)) && p / w == 23;
+    let depth: Vec<f32> = (0..n)
+        .map(|p| {
+            if hidden(p) {
+                1.0
+            } else if speck(p) {
+                1.3
+            } else {
+                3.0
+            }
+        })
+        .collect();
+    let layer_of: Vec<u32> = (0..n).map(|p| hidden(p) as u32).collect();
+    let surface: Vec<u32> =
+        (0..n).map(|p| if speck(p) { 10 + p as u32 % w as u32 } else { hidden(p) as u32 }).collect();
+    let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+    let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+    let normals = vec![Vec3::ZERO; n];
+    let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
+    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let fill = fill_layer(&cx, 0);
+    let screen = fill.pixels.iter().filter(|f| f.depth < 2.0).count();
+    eprintln!("{} filled, {screen} at the specks' depth", fill.pixels.len());
+    assert!(fill.pixels.len() > 100, "the wall is continued behind the box");
+    assert_eq!(screen, 0, "filled pixels in front of the wall");
+    // Pixels of unknown depth given the wall's (a depth sensor's shadow beside the box) are on
+    // no segment and have no normal: not specks. Ringing the box, they are its only seeds.
+    let ring = |p: usize| (51..77).contains(&(p % w)) && (23..41).contains(&(p / w)) && !hidden(p);
+    let depth: Vec<f32> = (0..n).map(|p| if hidden(p) { 1.0 } else { 3.0 }).collect();
+    let surface: Vec<u32> = (0..n).map(|p| if ring(p) { u32::MAX } else { hidden(p) as u32 }).collect();
+    let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let unknown = fill_layer(&cx, 0);
+    eprintln!("{} filled from a ring of unknown depth", unknown.pixels.len());
+    assert!(unknown.pixels.len() > 100, "the ring of unknown depth seeds the fill");
+}
+
+/// A block hides part of a wall at x = 3 m. Its right edge meets the wall without a jump (fold
+/// seeds); the wall pixels along its other edges carry a plane the rays behind the block miss
+/// (as the in-between depths of a resized edge do). Those seeds claim nothing, so the fold
+/// seeds fill the whole block at the wall's depth; claimed by them, 8 of its 64 pixels stayed
+/// empty.
+#[test]
+fn a_seed_whose_plane_misses_leaves_the_pixel_to_one_whose_plane_meets_it() {
+    let m = AnyMapping::new(MappingKind::Equirect, 128, 64).unwrap();
+    let (w, n) = (128, 128 * 64);
+    let nb = Neighbours::new(m);
+    let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+    let (x, y) = (|p: usize| p % w, |p: usize| p / w);
+    let block = |p: usize| (4..12).contains(&x(p)) && (28..36).contains(&y(p));
+    let wall = |p: usize| 3.0 / dirs[p].x;
+    let bad = |p: usize| !block(p) && (3..12).contains(&x(p)) && (27..37).contains(&y(p));
+    let mut depth = vec![f32::NAN; n];
+    let (mut normals, mut surface) = (vec![Vec3::ZERO; n], vec![u32::MAX; n]);
+    let mut layer_of = vec![u32::MAX; n];
+    for p in (0..n).filter(|&p| dirs[p].x > 0.05) {
+        (depth[p], layer_of[p], surface[p], normals[p]) = if block(p) {
+            // 1 m at its left edge, at the wall's depth (less 1 %) at its right.
+            let t = (x(p) - 4) as f32 / 7.0;
+            (1.0 + t * (0.99 * wall(p) - 1.0), 1, 1, Vec3::new(-1.0, 0.0, 0.0))
+        } else if bad(p) {
+            (wall(p), 0, 5, Vec3::new(1.0, 0.0, 0.0))
+        } else {
+            (wall(p), 0, 0, Vec3::new(-1.0, 0.0, 0.0))
+        };
+    }
+    let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+    let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
+    let mut cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    // Every part of the block is within the radius: the whole of it may be filled.
+    cx.freedom_radius = 2.95;
+    let fill = fill_layer(&cx, 0);
+    let got: HashMap<usize, f32> = fill.pixels.iter().map(|f| (f.pixel, f.depth)).collect();
+    let hidden: Vec<usize> = (0..n).filter(|&p| block(p)).collect();
+    let filled =
+        hidden.iter().filter(|&&p| got.get(&p).is_some_and(|&d| (d / wall(p) - 1.0).abs() < 0.01)).count();
+    eprintln!("{filled} of {} hidden pixels filled at the wall", hidden.len());
+    assert_eq!(filled, hidden.len());
+}
+
+#[test]
+fn band_is_the_parallax_difference() {
+    // r = 0.5, occluder at 1 m, wall at 2 m: asin(0.5) − asin(0.25).
+    let b = parallax_band(0.5, 1.0, 2.0);
+    assert!((b - (0.5f64.asin() - 0.25f64.asin())).abs() < 1e-12);
+    assert_eq!(parallax_band(0.5, 0.05, 2.0), std::f64::consts::PI);
+    assert!((parallax_band(0.5, 1.0, f64::INFINITY) - 0.5f64.asin()).abs() < 1e-12);
+    assert_eq!(parallax_band(0.5, 3.0, 3.0), 0.0);
+}
