@@ -226,6 +226,19 @@ pub struct LayerStats {
     pub depth_range: Option<(f32, f32)>,
 }
 
+impl LayerStats {
+    fn of(l: &BuiltLayer) -> LayerStats {
+        LayerStats {
+            name: l.name.clone(),
+            role: l.role.as_str(),
+            order: l.order,
+            own_pixels: l.own_pixels,
+            filled_pixels: l.filled_pixels,
+            depth_range: l.depth_range,
+        }
+    }
+}
+
 /// What [`build`] did, for `--json` / `--report`.
 #[derive(Clone, Debug, Serialize)]
 pub struct BuildReport {
@@ -340,11 +353,89 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         return Err(BuildError::BadRadius(o.freedom_radius));
     }
     let mut stages = Stages::new(progress);
+    let nb = Neighbours::new(m);
+    let dirs = pixel_dirs(&m);
 
     // (1) Depth classes. Unknown → NaN; far content → +inf (direction only).
     stages.start("classify");
-    let alpha = pixel_angle(&m);
-    let dmin = d_dirmin(o.freedom_radius, alpha);
+    let classified = classify(input, o, &nb);
+    let Classified { mut depth, links, mixed_pixels, dmin } = classified;
+    let unknown_pixels = depth.iter().filter(|d| d.is_nan()).count();
+
+    // (2) Normals.
+    stages.start("normals");
+    let normals = normals(input, &nb, &links, &dirs, &depth);
+
+    // (3, 4) Links, segments, levels.
+    stages.start("segments");
+    let seg = segment(&nb, &depth, &links, &normals, &o.segment);
+
+    // (5) Layer keys: infinity first, then (level, depth band far→near, surface class).
+    stages.start("layers");
+    let (keys, layer_of, first) = assign_layers(o, &nb, &seg, &normals, &dirs, &mut depth);
+
+    // (6) Fill behind occluders.
+    stages.start("fill");
+    let count = first as usize + keys.len();
+    let cx = FillContext {
+        nb: &nb,
+        dirs: &dirs,
+        depth: &depth,
+        normals: &normals,
+        layer_of: &layer_of,
+        freedom_radius: o.freedom_radius,
+        margin: o.margin_px * pixel_angle(&m),
+        links: &links,
+        surface: &seg.id,
+        jump: o.segment.edges.jump,
+        plane_tol: o.segment.edges.extrapolation,
+        rgb: &input.rgb,
+    };
+    let mut fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(&cx, k)).collect();
+    stages.start("borders");
+    fill::add_borders(&cx, &mut fills);
+    if o.fill_colour != FillColour::Nearest {
+        stages.start("fill colour");
+        fills.par_iter_mut().enumerate().for_each(|(k, f)| match o.fill_colour {
+            FillColour::Exemplar => texture::synthesise(&cx, k as u32, f),
+            _ => texture::smooth(&cx, k as u32, f),
+        });
+    }
+
+    // (7) Images, names, roles, order.
+    stages.start("images");
+    let layers = built_layers(input, o, &keys, first, &fills, (&depth, &normals, &layer_of));
+    let covered = (0..n).filter(|&p| layer_of[p] != u32::MAX).count();
+    let max_band_deg = fills.iter().map(|f| f.max_angle).fold(0.0, f64::max).to_degrees();
+    let report = BuildReport {
+        width: m.width(),
+        height: m.height(),
+        stages: stages.finish(),
+        layers: layers.iter().map(LayerStats::of).collect(),
+        coverage: covered as f64 / n as f64,
+        unknown_pixels,
+        mixed_pixels,
+        segments: seg.size.len(),
+        d_dirmin: dmin,
+        max_band_deg,
+        freedom_radius: o.freedom_radius,
+        jump_threshold: o.segment.edges.jump,
+        fold_deg: o.segment.edges.fold_deg,
+        margin_px: o.margin_px,
+    };
+    Ok(Built { layers, layer_of, report })
+}
+
+/// Step 1: depths as layering reads them, the links between neighbours, and the mixed pixels moved.
+struct Classified {
+    depth: Vec<f32>,
+    links: edges::Links,
+    mixed_pixels: usize,
+    dmin: f64,
+}
+
+fn classify(input: &RgbdInput, o: &BuildOptions, nb: &Neighbours) -> Classified {
+    let dmin = d_dirmin(o.freedom_radius, pixel_angle(&input.mapping));
     let mut depth: Vec<f32> = input
         .depth
         .par_iter()
@@ -358,9 +449,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
             }
         })
         .collect();
-    let nb = Neighbours::new(m);
-    let dirs = pixel_dirs(&m);
-    let mut links = edges::Links::compute(&nb, &depth, &o.segment.edges);
+    let mut links = edges::Links::compute(nb, &depth, &o.segment.edges);
     // Mixed pixels (an anti-aliased or filtered depth pass averages the two sides of an edge): a
     // pixel across a jump from a nearer and from a farther neighbour, between them, belongs to
     // neither surface. It joins the farther side at its depth, so the edge between the two sides
@@ -368,9 +457,9 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
     // Edges spread over several pixels (resized or blurred depth) are ramps of such pixels.
     let mut mixed_pixels = 0;
     if o.drop_mixed {
-        let mut mixed = mixed_pixels_of(&nb, &depth, &links);
+        let mut mixed = mixed_pixels_of(nb, &depth, &links);
         if o.soft_edges {
-            mixed.extend(edges::ramp_pixels(&nb, &depth, &o.segment.edges));
+            mixed.extend(edges::ramp_pixels(nb, &depth, &o.segment.edges));
         }
         // A pixel found twice (along a row and a column) takes the farther depth.
         mixed.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(b.1.total_cmp(&a.1)));
@@ -380,17 +469,24 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
             for &(p, d) in &mixed {
                 depth[p] = d;
             }
-            links = edges::Links::compute(&nb, &depth, &o.segment.edges);
+            links = edges::Links::compute(nb, &depth, &o.segment.edges);
         }
     }
-    let unknown_pixels = depth.iter().filter(|d| d.is_nan()).count();
+    Classified { depth, links, mixed_pixels, dmin }
+}
 
-    // (2) Normals.
-    stages.start("normals");
-    let normals: Vec<Vec3> = match &input.normals {
-        Some(given) if given.len() == n => given
+/// Step 2: the given normals facing the centre, or normals estimated from the surface.
+fn normals(
+    input: &RgbdInput,
+    nb: &Neighbours,
+    links: &edges::Links,
+    dirs: &[Vec3],
+    depth: &[f32],
+) -> Vec<Vec3> {
+    match &input.normals {
+        Some(given) if given.len() == depth.len() => given
             .par_iter()
-            .zip(&dirs)
+            .zip(dirs)
             .map(|(&nv, &d)| {
                 let nv = nv.normalize_or_zero();
                 if nv.dot(d) > 0.0 {
@@ -400,20 +496,26 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
                 }
             })
             .collect(),
-        _ => edges::estimate_normals(&nb, &links, &edges::points(&dirs, &depth)),
-    };
+        _ => edges::estimate_normals(nb, links, &edges::points(dirs, depth)),
+    }
+}
 
-    // (3, 4) Links, segments, levels.
-    stages.start("segments");
-    let seg = segment(&nb, &depth, &links, &normals, &o.segment);
-
-    // (5) Layer keys: infinity first, then (level, depth band far→near, surface class).
-    stages.start("layers");
+/// Step 5: each pixel's layer. Returns the layer keys (after the infinity layer, when there is
+/// one), the layer of each pixel (`u32::MAX`: none) and the index of the first keyed layer.
+fn assign_layers(
+    o: &BuildOptions,
+    nb: &Neighbours,
+    seg: &segment::Segments,
+    normals: &[Vec3],
+    dirs: &[Vec3],
+    depth: &mut [f32],
+) -> (Vec<LayerKey>, Vec<u32>, u32) {
+    let n = depth.len();
     let band_of = |d: f32| o.depth_bands.iter().filter(|&&b| (d as f64) >= b).count() as u32;
     let nbands = o.depth_bands.len() as u32 + 1;
     let class = match o.classify {
         Classify::Depth => vec![SurfaceClass::Any; seg.size.len()],
-        Classify::Geometry => segment_classes(&seg, &normals, &dirs, &depth),
+        Classify::Geometry => segment_classes(seg, normals, dirs, depth),
     };
     let key_of = |p: usize| -> Option<LayerKey> {
         let s = seg.id[p];
@@ -430,8 +532,8 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
     };
     let has_infinity = depth.iter().any(|d| d.is_infinite());
     let mut pixel_keys: Vec<Option<LayerKey>> = (0..n).into_par_iter().map(key_of).collect();
-    let (piece, piece_size) = pieces(&nb, &depth, &seg.id, &seg.size);
-    let part = parts(&nb, &depth, &piece, &piece_size, &pixel_keys);
+    let (piece, piece_size) = pieces(nb, depth, &seg.id, &seg.size);
+    let part = parts(nb, depth, &piece, &piece_size, &pixel_keys);
     if part.iter().any(|&c| c != 0) {
         pixel_keys.par_iter_mut().zip(&piece).for_each(|(k, &s)| {
             if let Some(k) = k {
@@ -466,43 +568,24 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
             None => u32::MAX,
         })
         .collect();
-    assign_unknown(&nb, &mut depth, &mut layer_of, first);
-    repair_breaks(&nb, &depth, &mut layer_of);
+    assign_unknown(nb, depth, &mut layer_of, first);
+    repair_breaks(nb, depth, &mut layer_of);
+    (keys, layer_of, first)
+}
 
-    // (6) Fill behind occluders.
-    stages.start("fill");
-    let count = first as usize + keys.len();
-    let cx = FillContext {
-        nb: &nb,
-        dirs: &dirs,
-        depth: &depth,
-        normals: &normals,
-        layer_of: &layer_of,
-        freedom_radius: o.freedom_radius,
-        margin: o.margin_px * alpha,
-        links: &links,
-        surface: &seg.id,
-        jump: o.segment.edges.jump,
-        plane_tol: o.segment.edges.extrapolation,
-        rgb: &input.rgb,
-    };
-    let mut fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(&cx, k)).collect();
-    stages.start("borders");
-    fill::add_borders(&cx, &mut fills);
-    if o.fill_colour != FillColour::Nearest {
-        stages.start("fill colour");
-        fills.par_iter_mut().enumerate().for_each(|(k, f)| match o.fill_colour {
-            FillColour::Exemplar => texture::synthesise(&cx, k as u32, f),
-            _ => texture::smooth(&cx, k as u32, f),
-        });
-    }
-
-    // (7) Images, names, roles, order.
-    stages.start("images");
+/// Step 7: each layer's image, name and role, farthest first; layers with no pixel left out.
+fn built_layers(
+    input: &RgbdInput,
+    o: &BuildOptions,
+    keys: &[LayerKey],
+    first: u32,
+    fills: &[fill::Fill],
+    (depth, normals, layer_of): (&[f32], &[Vec3], &[u32]),
+) -> Vec<BuiltLayer> {
     let mut layers = Vec::new();
     let mut name_count = std::collections::BTreeMap::<String, u32>::new();
     for (k, f) in fills.iter().enumerate() {
-        let (base, role) = if has_infinity && k == 0 {
+        let (base, role) = if first == 1 && k == 0 {
             ("infinity".to_string(), Role::Infinity)
         } else {
             let key = keys[k - first as usize];
@@ -518,7 +601,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         let idx = name_count.entry(base.clone()).or_default();
         *idx += 1;
         let name = if *idx > 1 { format!("{base}-{idx}") } else { base };
-        let layer = layer_image(input, &depth, &normals, &layer_of, k as u32, f, o.normals_out);
+        let layer = layer_image(input, depth, normals, layer_of, k as u32, f, o.normals_out);
         layers.push(BuiltLayer {
             name,
             role,
@@ -534,36 +617,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
     for (k, l) in layers.iter_mut().enumerate() {
         l.order = k as u32;
     }
-
-    let covered = (0..n).filter(|&p| layer_of[p] != u32::MAX).count();
-    let max_band_deg = fills.iter().map(|f| f.max_angle).fold(0.0, f64::max).to_degrees();
-    let report = BuildReport {
-        width: m.width(),
-        height: m.height(),
-        stages: stages.finish(),
-        layers: layers
-            .iter()
-            .map(|l| LayerStats {
-                name: l.name.clone(),
-                role: l.role.as_str(),
-                order: l.order,
-                own_pixels: l.own_pixels,
-                filled_pixels: l.filled_pixels,
-                depth_range: l.depth_range,
-            })
-            .collect(),
-        coverage: covered as f64 / n as f64,
-        unknown_pixels,
-        mixed_pixels,
-        segments: seg.size.len(),
-        d_dirmin: dmin,
-        max_band_deg,
-        freedom_radius: o.freedom_radius,
-        jump_threshold: o.segment.edges.jump,
-        fold_deg: o.segment.edges.fold_deg,
-        margin_px: o.margin_px,
-    };
-    Ok(Built { layers, layer_of, report })
+    layers
 }
 
 /// Unit direction of every pixel centre. The equirect is separable (per-column azimuth, per-row
