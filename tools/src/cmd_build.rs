@@ -107,16 +107,16 @@ pub struct Args {
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     center: Option<DVec3>,
     /// Freedom radius (m): cameras within it see no holes.
-    #[arg(long, default_value_t = 0.5, value_parser = Range::POSITIVE.parser())]
+    #[arg(long, default_value_t = BuildOptions::default().freedom_radius, value_parser = Range::POSITIVE.parser())]
     freedom_radius: f64,
     /// Relative depth jump between neighbours that separates surfaces.
     #[arg(long, default_value_t = pomc::layering::EdgeOptions::default().jump, value_parser = Range::POSITIVE.parser())]
     jump: f64,
     /// Normal angle (degrees) that closes regions where depth is continuous but the surface folds.
-    #[arg(long, default_value_t = 35.0, value_parser = Range::ANGLE.parser())]
+    #[arg(long, default_value_t = pomc::layering::EdgeOptions::default().fold_deg.unwrap_or(35.0), value_parser = Range::ANGLE.parser())]
     fold_deg: f64,
     /// Extra fill band (pixels) beyond the parallax band of the freedom radius.
-    #[arg(long, default_value_t = 2.0, value_parser = Range::NON_NEGATIVE.parser())]
+    #[arg(long, default_value_t = BuildOptions::default().margin_px, value_parser = Range::NON_NEGATIVE.parser())]
     fill_margin: f64,
     /// How the fill behind occluders is coloured.
     #[arg(long, value_enum, default_value = "exemplar")]

@@ -32,11 +32,11 @@ pub struct Args {
     #[arg(long)]
     width: Option<usize>,
     /// Reconstruction filter: nearest, bilinear or bicubic (Catmull-Rom).
-    #[arg(long, default_value = "bilinear")]
+    #[arg(long, default_value_t = ConvertSettings::default().filter)]
     interp: Filter,
     /// Cube-map layout of the cube side: canonical (POMC/thesis 3×2), ffmpeg-c3x2 (ffmpeg v360 c3x2),
     /// openexr-vstrip (OpenEXR cube envmap), py360-horizon (py360convert horizon).
-    #[arg(long, default_value = "canonical")]
+    #[arg(long, default_value_t = ConvertSettings::default().layout)]
     layout: CubeLayout,
     /// Layout of a cube-map input, when it differs from `--layout`.
     #[arg(long)]
@@ -46,12 +46,13 @@ pub struct Args {
     #[arg(long)]
     depth: bool,
     /// Largest relative depth difference between the taps of a filtered pixel (with --depth).
-    #[arg(long, default_value_t = 0.1, value_parser = Range::POSITIVE.parser_f32())]
+    #[arg(long, default_value_t = ConvertSettings::default().depth_jump, value_parser = Range::POSITIVE.parser_f32())]
     depth_jump: f32,
 }
 
-pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
-    let settings = ConvertSettings {
+/// The library settings the arguments stand for.
+fn settings(args: &Args) -> ConvertSettings {
+    ConvertSettings {
         face_size: args.face_size,
         width: args.width,
         filter: args.interp,
@@ -59,7 +60,11 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         in_layout: args.in_layout,
         depth: args.depth,
         depth_jump: args.depth_jump,
-    };
+    }
+}
+
+pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
+    let settings = settings(&args);
     let bar = OnceLock::new();
     let progress = |p: ConvertProgress| match p {
         ConvertProgress::Steps(n) => {
@@ -128,4 +133,17 @@ fn print(args: &Args, out: Output, r: &ConvertReport) {
         canvas_name(r.to),
         args.interp
     ));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::args::parse;
+
+    /// `ConvertSettings::default()` is what `pomc convert` does without options.
+    #[test]
+    fn default_options_are_the_library_default() {
+        let args: Args = parse(&["pomc-convert", "in.png", "-o", "out.png", "--to", "cube"]);
+        assert_eq!(settings(&args), ConvertSettings::default());
+    }
 }

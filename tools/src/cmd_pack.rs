@@ -19,10 +19,10 @@ pub struct PackArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Pack a layer only when its atlas is at most this fraction of its canvas.
-    #[arg(long, default_value_t = 0.5, value_parser = Range::FRACTION.parser())]
+    #[arg(long, default_value_t = SaveOptions::default().pack_threshold, value_parser = Range::FRACTION.parser())]
     threshold: f64,
     /// Guard band copied around each patch, in pixels (for renderers that sample the atlas bilinearly).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = PackOptions::default().padding)]
     padding: u32,
 }
 

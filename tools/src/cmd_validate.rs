@@ -14,7 +14,7 @@ pub struct Args {
     #[arg(required_unless_present = "list_codes")]
     path: Option<PathBuf>,
     /// Relative depth jump inside a layer reported as a discontinuity (0.5 = 50 %).
-    #[arg(long, default_value_t = 0.5, value_parser = Range::POSITIVE.parser())]
+    #[arg(long, default_value_t = pomc::validate::ValidateSettings::default().jump_threshold, value_parser = Range::POSITIVE.parser())]
     jump_threshold: f64,
     /// List every validation code with its severity and meaning, then exit.
     #[arg(long)]
