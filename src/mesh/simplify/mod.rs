@@ -11,7 +11,7 @@ use rayon::prelude::*;
 
 use super::grid::Grid;
 use super::{is_pole, LayerMesh};
-use crate::mapping::{AnyMapping, DirTable};
+use crate::mapping::AnyMapping;
 
 /// Tolerances of the simplification stage.
 #[derive(Clone, Debug, PartialEq)]
@@ -38,6 +38,15 @@ pub struct SimplifyStats {
     pub lattice_ms: f64,
     /// Milliseconds of the whole-mesh phase (vertices whose stars span lattices or stitching).
     pub stitch_ms: f64,
+}
+
+impl SimplifyStats {
+    /// Add the counts of another run (not its times).
+    fn add(&mut self, o: &SimplifyStats) {
+        self.collapses += o.collapses;
+        self.tested += o.tested;
+        self.planar += o.planar;
+    }
 }
 
 /// Smallest `|det[d0, d1, d2]|` (unit rays) of a created triangle: twice its solid angle, about. A
@@ -130,43 +139,7 @@ pub fn simplify(
     params: &SimplifyOptions,
     done: &[Option<Vec<f64>>],
 ) -> (LayerMesh, SimplifyStats) {
-    let (w, h) = (mesh.width, mesh.height);
-    let cube = matches!(mapping, AnyMapping::Cube(_));
-    let mut shared = Shared {
-        grids,
-        mapping,
-        dirs: DirTable::new(*mapping),
-        cube,
-        e: params.max_error,
-        cos_cap: params.max_angle_deg.map(|d| d.to_radians().cos()),
-        pos: mesh.positions.clone(),
-        dist: mesh.positions.iter().map(|p| p.length()).collect(),
-        loc: Vec::with_capacity(mesh.sources.len()),
-        sides: Vec::with_capacity(mesh.sources.len()),
-    };
-    for &id in &mesh.sources {
-        if is_pole(id, w, h) {
-            shared.loc.push(Loc::Pole);
-            shared.sides.push(0);
-            continue;
-        }
-        let (x, y) = (id as usize % w, id as usize / w);
-        match shared.grid_of(x, y) {
-            Some((g, lx, ly)) => {
-                let gr = &grids[g];
-                let sides = (ly == 0) as u8
-                    | ((lx == gr.w - 1) as u8) << 1
-                    | ((ly == gr.h - 1) as u8) << 2
-                    | ((lx == 0) as u8) << 3;
-                shared.loc.push(Loc::Lattice { g: g as u8, x: lx as u32, y: ly as u32 });
-                shared.sides.push(sides);
-            }
-            None => {
-                shared.loc.push(Loc::Pole);
-                shared.sides.push(0);
-            }
-        }
-    }
+    let shared = Shared::new(mesh, grids, mapping, params);
     let n = mesh.positions.len();
     // Poles, lattice corners and anything not on a lattice never move.
     let fixed: Vec<bool> = (0..n)
@@ -244,9 +217,7 @@ pub fn simplify(
     for (t, e, s) in results {
         tris.extend(t);
         terr.extend(e);
-        stats.collapses += s.collapses;
-        stats.tested += s.tested;
-        stats.planar += s.planar;
+        stats.add(&s);
     }
     for (t, _) in mesh.triangles.iter().zip(&tri_parts).filter(|(_, q)| q.is_none()) {
         tris.push(*t);
@@ -279,13 +250,15 @@ pub fn simplify(
     let mut run = Run::new(&shared, tris, Some(terr), movable);
     let seeds: Vec<u32> = (0..n as u32).filter(|&v| phase2_seed[v as usize]).collect();
     run.run(seeds.into_iter());
-    stats.collapses += run.stats.collapses;
-    stats.tested += run.stats.tested;
-    stats.planar += run.stats.planar;
+    stats.add(&run.stats);
     stats.stitch_ms = clock.elapsed().as_secs_f64() * 1e3;
 
-    // Compact the surviving vertices (sources stay sorted).
-    let tris: Vec<[u32; 3]> = run.alive_triangles().collect();
+    (compact(mesh, run.alive_triangles().collect()), stats)
+}
+
+/// `mesh`'s vertices that `tris` use, in their order (sources stay sorted), and `tris` on them.
+fn compact(mesh: &LayerMesh, tris: Vec<[u32; 3]>) -> LayerMesh {
+    let n = mesh.positions.len();
     let mut used = vec![false; n];
     for t in &tris {
         for &v in t {
@@ -302,5 +275,5 @@ pub fn simplify(
         }
     }
     let triangles = tris.iter().map(|t| t.map(|v| remap[v as usize])).collect();
-    (LayerMesh { width: w, height: h, sources, positions, triangles }, stats)
+    LayerMesh { width: mesh.width, height: mesh.height, sources, positions, triangles }
 }

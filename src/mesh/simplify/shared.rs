@@ -22,6 +22,47 @@ pub(super) struct Shared<'a> {
     pub(super) sides: Vec<u8>,
 }
 
+impl<'a> Shared<'a> {
+    /// The vertices of `mesh` on `grids`: where each is on its lattice, and which sides it lies on.
+    pub(super) fn new(
+        mesh: &LayerMesh,
+        grids: &'a [Grid],
+        mapping: &'a AnyMapping,
+        params: &SimplifyOptions,
+    ) -> Shared<'a> {
+        let (w, h) = (mesh.width, mesh.height);
+        let mut shared = Shared {
+            grids,
+            mapping,
+            dirs: DirTable::new(*mapping),
+            cube: matches!(mapping, AnyMapping::Cube(_)),
+            e: params.max_error,
+            cos_cap: params.max_angle_deg.map(|d| d.to_radians().cos()),
+            pos: mesh.positions.clone(),
+            dist: mesh.positions.iter().map(|p| p.length()).collect(),
+            loc: Vec::with_capacity(mesh.sources.len()),
+            sides: Vec::with_capacity(mesh.sources.len()),
+        };
+        for &id in &mesh.sources {
+            let on = if is_pole(id, w, h) { None } else { shared.grid_of(id as usize % w, id as usize / w) };
+            let (loc, sides) = match on {
+                Some((g, lx, ly)) => {
+                    let gr = &grids[g];
+                    let sides = (ly == 0) as u8
+                        | ((lx == gr.w - 1) as u8) << 1
+                        | ((ly == gr.h - 1) as u8) << 2
+                        | ((lx == 0) as u8) << 3;
+                    (Loc::Lattice { g: g as u8, x: lx as u32, y: ly as u32 }, sides)
+                }
+                None => (Loc::Pole, 0),
+            };
+            shared.loc.push(loc);
+            shared.sides.push(sides);
+        }
+        shared
+    }
+}
+
 impl Shared<'_> {
     /// Lattice point of canvas pixel `(x, y)`.
     pub(super) fn grid_of(&self, x: usize, y: usize) -> Option<(usize, usize, usize)> {
