@@ -145,24 +145,7 @@ pub fn render_mesh(
     check_options(o)?;
     super::check_local_to_world(local_to_world)?;
     check_layers(layers)?;
-    if meshes.len() != layers.len() {
-        return Err(RenderError::BadOptions(format!(
-            "{} meshes given for {} layers",
-            meshes.len(),
-            layers.len()
-        )));
-    }
-    for (index, (m, l)) in meshes.iter().zip(layers).enumerate() {
-        let m = &m.mesh;
-        let (w, h) = (l.mapping.width(), l.mapping.height());
-        let bad_vertex = m.triangles.iter().flatten().any(|&v| v as usize >= m.positions.len());
-        if (m.width, m.height) != (w, h) || m.sources.len() != m.positions.len() || bad_vertex {
-            return Err(RenderError::Mesh {
-                index,
-                message: "the mesh does not belong to this layer".into(),
-            });
-        }
-    }
+    check_meshes(layers, meshes)?;
     let t_raster = Instant::now();
     // Sub-samples are the pixels of a finer camera; past the size limits, one ray per pixel.
     let ss = o.supersample;
@@ -184,6 +167,77 @@ pub fn render_mesh(
         Cam::Equi { .. } => None,
     };
     let setup = Setup { cam: &cam, o: *o, frustum };
+    let (preps, mut counts) = prepare_triangles(meshes, &setup, to_cam);
+    let bands = h.div_ceil(BAND);
+    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); bands];
+    for (i, p) in preps.iter().enumerate() {
+        for bin in &mut bins[p.y0 as usize / BAND..=p.y1 as usize / BAND] {
+            bin.push(i as u32);
+        }
+    }
+    let mut zbuf = vec![NO_FRAG; w * h];
+    let work: Vec<(u64, u64)> = zbuf
+        .par_chunks_mut(BAND * w)
+        .enumerate()
+        .map(|(b, buf)| raster_band(&cam, &preps, &bins[b], b, o.near, buf))
+        .collect();
+    for (t, f) in work {
+        counts.tests += t;
+        counts.fragments += f;
+    }
+    drop(preps);
+    drop(bins);
+    let raster_s = t_raster.elapsed().as_secs_f64();
+
+    let t_compose = Instant::now();
+    let planes: Vec<Planes> =
+        layers.iter().zip(meshes).map(|(l, g)| Planes::new(l.image, l.mapping, g.has_infinity)).collect();
+    let (frame, infinity_pixels) = compose(&cam, &zbuf, &planes, meshes, to_cam.inverse(), o);
+    counts.infinity_pixels += infinity_pixels;
+    let frame = if ss > 1 { frame.downsampled(ss) } else { frame };
+    let compose_s = t_compose.elapsed().as_secs_f64();
+    let stats = MeshRenderStats {
+        width: frame.width,
+        height: frame.height,
+        layers: layers.len(),
+        holes: frame.holes(),
+        hole_ratio: frame.hole_ratio(),
+        counts,
+        options: *o,
+        stages: vec![
+            Stage { name: "raster", seconds: raster_s },
+            Stage { name: "compose", seconds: compose_s },
+        ],
+    };
+    Ok(MeshRendered { frame, stats })
+}
+
+/// Every mesh is a mesh of its layer: same canvas, sources for every vertex, triangles on them.
+fn check_meshes(layers: &[RenderLayer], meshes: &[LayerGeometry]) -> Result<(), RenderError> {
+    if meshes.len() != layers.len() {
+        return Err(RenderError::BadOptions(format!(
+            "{} meshes given for {} layers",
+            meshes.len(),
+            layers.len()
+        )));
+    }
+    for (index, (m, l)) in meshes.iter().zip(layers).enumerate() {
+        let m = &m.mesh;
+        let (w, h) = (l.mapping.width(), l.mapping.height());
+        let bad_vertex = m.triangles.iter().flatten().any(|&v| v as usize >= m.positions.len());
+        if (m.width, m.height) != (w, h) || m.sources.len() != m.positions.len() || bad_vertex {
+            return Err(RenderError::Mesh {
+                index,
+                message: "the mesh does not belong to this layer".into(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The triangles of every mesh set up for the camera (`to_cam`: panorama-local to camera space),
+/// with the counts of those culled and clipped.
+fn prepare_triangles(meshes: &[LayerGeometry], setup: &Setup, to_cam: DMat4) -> (Vec<Prep>, RasterCounts) {
     let mut counts = RasterCounts::default();
     let mut preps: Vec<Prep> = Vec::new();
     for (k, m) in meshes.iter().enumerate() {
@@ -210,31 +264,21 @@ pub fn render_mesh(
             counts = counts.add(n);
         }
     }
-    let bands = h.div_ceil(BAND);
-    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); bands];
-    for (i, p) in preps.iter().enumerate() {
-        for bin in &mut bins[p.y0 as usize / BAND..=p.y1 as usize / BAND] {
-            bin.push(i as u32);
-        }
-    }
-    let mut zbuf = vec![NO_FRAG; w * h];
-    let work: Vec<(u64, u64)> = zbuf
-        .par_chunks_mut(BAND * w)
-        .enumerate()
-        .map(|(b, buf)| raster_band(&cam, &preps, &bins[b], b, o.near, buf))
-        .collect();
-    for (t, f) in work {
-        counts.tests += t;
-        counts.fragments += f;
-    }
-    drop(preps);
-    drop(bins);
-    let raster_s = t_raster.elapsed().as_secs_f64();
+    (preps, counts)
+}
 
-    let t_compose = Instant::now();
-    let planes: Vec<Planes> =
-        layers.iter().zip(meshes).map(|(l, g)| Planes::new(l.image, l.mapping, g.has_infinity)).collect();
-    let cam_to_local = to_cam.inverse();
+/// The frame from the z-buffer: each covered pixel's colour looked up on its layer, the others
+/// from infinity content by direction. Returns the frame and the pixels infinity filled.
+fn compose(
+    cam: &Cam,
+    zbuf: &[setup::Frag],
+    planes: &[Planes],
+    meshes: &[LayerGeometry],
+    cam_to_local: DMat4,
+    o: &RasterOptions,
+) -> (Frame, u64) {
+    let (w, h) = cam.size();
+    let mut infinity_pixels = 0;
     let mut frame = Frame::holes_only(w, h);
     type Row = (Vec<[f32; 3]>, Vec<f32>, Vec<bool>, u64);
     let rows: Vec<Row> = (0..h)
@@ -288,22 +332,7 @@ pub fn render_mesh(
         }
         frame.depth[y * w..(y + 1) * w].copy_from_slice(&depth);
         frame.covered[y * w..(y + 1) * w].copy_from_slice(&covered);
-        counts.infinity_pixels += inf;
+        infinity_pixels += inf;
     }
-    let frame = if ss > 1 { frame.downsampled(ss) } else { frame };
-    let compose_s = t_compose.elapsed().as_secs_f64();
-    let stats = MeshRenderStats {
-        width: frame.width,
-        height: frame.height,
-        layers: layers.len(),
-        holes: frame.holes(),
-        hole_ratio: frame.hole_ratio(),
-        counts,
-        options: *o,
-        stages: vec![
-            Stage { name: "raster", seconds: raster_s },
-            Stage { name: "compose", seconds: compose_s },
-        ],
-    };
-    Ok(MeshRendered { frame, stats })
+    (frame, infinity_pixels)
 }
