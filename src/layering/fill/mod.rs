@@ -103,18 +103,15 @@ const RIVALS: usize = 5;
 /// meet, behind a box, the pixel takes the plane the crease puts it on (`pick_surface`) even
 /// when that plane shows only far away (above the box).
 pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
-    const NONE: u32 = u32::MAX;
-    let n = cx.nb.len();
-    let hidden = |q: usize| cx.layer_of[q] != NONE && cx.layer_of[q] > k && cx.depth[q] > 0.0;
     // Seeds across a jump first; seeds along a fold only (the floor a box stands on) reach what
     // the former leave.
     let (mut seeds, mut fold_seeds) = (Vec::new(), Vec::new());
-    for p in 0..n {
+    for p in 0..cx.nb.len() {
         // NaN (unknown) depth never seeds a fill.
         if cx.layer_of[p] != k || cx.depth[p].is_nan() || cx.depth[p] <= 0.0 {
             continue;
         }
-        let mut borders = (0..8).filter(|&j| cx.nb.get(p, j).is_some_and(hidden));
+        let mut borders = (0..8).filter(|&j| cx.nb.get(p, j).is_some_and(|q| hidden(cx, k, q)));
         let Some(first) = borders.next() else { continue };
         if !trusted_plane(cx, p) {
             continue;
@@ -143,105 +140,8 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
         seeds.par_iter().map(|&s| (s, planar_reach(cx, &surfaces, k, s))).collect();
     // The band search and the rival search are independent.
     let ((src, angle_of, order), (slot_of, rivals)) = rayon::join(
-        || {
-            // (1) The band: nearest seed within the parallax a camera in the freedom radius can open.
-            // Breadth-first from the seeds; a pixel already claimed switches to a nearer (in angle)
-            // seed of the same kind reaching it later and passes the improvement on. Without that the
-            // source drifts diagonally along a straight edge (the first seed to arrive wins) and the
-            // band comes out up to √2 narrower than the parallax needs.
-            let mut src = vec![NONE; n];
-            let mut angle_of = vec![0f64; n];
-            let mut order = Vec::new();
-            let mut queue: VecDeque<usize> = seeds[..jump_seeds].iter().copied().collect();
-            // 1: jump seed, 2: fold seed.
-            let mut kind = vec![0u8; n];
-            for (i, &p) in seeds.iter().enumerate() {
-                src[p] = p as u32;
-                kind[p] = if i < jump_seeds { 1 } else { 2 };
-            }
-            let mut folds_queued = false;
-            loop {
-                let Some(p) = queue.pop_front() else {
-                    if folds_queued {
-                        break;
-                    }
-                    folds_queued = true;
-                    queue.extend(seeds[jump_seeds..].iter().copied());
-                    continue;
-                };
-                let s = src[p] as usize;
-                for j in 0..8 {
-                    let Some(q) = cx.nb.get(p, j) else { continue };
-                    if !hidden(q)
-                        || (src[q] != NONE && (src[q] as usize == q || kind[src[q] as usize] != kind[s]))
-                    {
-                        continue;
-                    }
-                    let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
-                    let first = src[q] == NONE;
-                    // Strictly nearer (beyond rounding) or no switch: every switch lowers a pixel's angle,
-                    // so the propagation ends.
-                    if (!first && angle >= angle_of[q] - 1e-9)
-                        || angle
-                            > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64)
-                                + cx.margin
-                        // The reach is looked up only past its floor (most pixels stay within it).
-                        || (angle > 2.0 * cx.margin && angle > reach[&s])
-                        // A seed claims only where its surface continues: one whose plane misses
-                        // (the in-between depths of a resized edge, whose plane runs along the
-                        // ray) leaves the pixel to seeds that can fill it.
-                        || continue_surface(cx, &surfaces, s, q).is_none()
-                    {
-                        continue;
-                    }
-                    src[q] = s as u32;
-                    angle_of[q] = angle;
-                    if first {
-                        order.push(q);
-                    }
-                    queue.push_back(q);
-                }
-            }
-            (src, angle_of, order)
-        },
-        || {
-            // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder. Slots are
-            // kept for hidden pixels only (compact index), the seeds being their own first rival.
-            let mut slot_of = vec![NONE; n];
-            let mut rivals: Vec<[u32; RIVALS]> = Vec::new();
-            let mut queue: VecDeque<(u32, u8)> = VecDeque::new();
-            // Directions only (the infinity layer): there is no plane to continue, so no rival to
-            // weigh; skipping the search spares a flood through everything finite.
-            let planes = seeds[..jump_seeds].iter().any(|&p| cx.depth[p].is_finite());
-            for &p in seeds[..jump_seeds].iter().filter(|_| planes) {
-                slot_of[p] = rivals.len() as u32;
-                let mut r = [NONE; RIVALS];
-                r[0] = p as u32;
-                rivals.push(r);
-                queue.push_back((p as u32, 0));
-            }
-            while let Some((p, slot)) = queue.pop_front() {
-                let s = rivals[slot_of[p as usize] as usize][slot as usize];
-                for j in 0..8 {
-                    let Some(q) = cx.nb.get(p as usize, j) else { continue };
-                    if !hidden(q) {
-                        continue;
-                    }
-                    if slot_of[q] == NONE {
-                        slot_of[q] = rivals.len() as u32;
-                        rivals.push([NONE; RIVALS]);
-                    }
-                    let r = &mut rivals[slot_of[q] as usize];
-                    if r.iter().any(|&t| t != NONE && same_surface(cx, t as usize, s as usize)) {
-                        continue;
-                    }
-                    let Some(free) = r.iter().position(|&t| t == NONE) else { continue };
-                    r[free] = s;
-                    queue.push_back((q as u32, free as u8));
-                }
-            }
-            (slot_of, rivals)
-        },
+        || band(cx, k, &seeds, jump_seeds, &surfaces, &reach),
+        || rivals(cx, k, &seeds[..jump_seeds]),
     );
     let mut fill = Fill::default();
     let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
@@ -266,6 +166,130 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     }
     keep_continuous(cx, k, &mut fill, own_plane);
     fill
+}
+
+const NONE: u32 = u32::MAX;
+
+/// Pixel `q` belongs to a layer nearer than `k`: what layer `k` fills behind.
+fn hidden(cx: &FillContext, k: u32, q: usize) -> bool {
+    cx.layer_of[q] != NONE && cx.layer_of[q] > k && cx.depth[q] > 0.0
+}
+
+/// (1) The band of layer `k`: each hidden pixel's source seed (`NONE`: unfilled), its angle from
+/// it, and the pixels in the order they were first reached. `seeds[..jump_seeds]` are across a
+/// jump, the rest along a fold.
+fn band(
+    cx: &FillContext,
+    k: u32,
+    seeds: &[usize],
+    jump_seeds: usize,
+    surfaces: &Surfaces,
+    reach: &HashMap<usize, f64>,
+) -> (Vec<u32>, Vec<f64>, Vec<usize>) {
+    let n = cx.nb.len();
+    // (1) The band: nearest seed within the parallax a camera in the freedom radius can open.
+    // Breadth-first from the seeds; a pixel already claimed switches to a nearer (in angle)
+    // seed of the same kind reaching it later and passes the improvement on. Without that the
+    // source drifts diagonally along a straight edge (the first seed to arrive wins) and the
+    // band comes out up to √2 narrower than the parallax needs.
+    let mut src = vec![NONE; n];
+    let mut angle_of = vec![0f64; n];
+    let mut order = Vec::new();
+    let mut queue: VecDeque<usize> = seeds[..jump_seeds].iter().copied().collect();
+    // 1: jump seed, 2: fold seed.
+    let mut kind = vec![0u8; n];
+    for (i, &p) in seeds.iter().enumerate() {
+        src[p] = p as u32;
+        kind[p] = if i < jump_seeds { 1 } else { 2 };
+    }
+    let mut folds_queued = false;
+    loop {
+        let Some(p) = queue.pop_front() else {
+            if folds_queued {
+                break;
+            }
+            folds_queued = true;
+            queue.extend(seeds[jump_seeds..].iter().copied());
+            continue;
+        };
+        let s = src[p] as usize;
+        for j in 0..8 {
+            let Some(q) = cx.nb.get(p, j) else { continue };
+            if !hidden(cx, k, q)
+                || (src[q] != NONE && (src[q] as usize == q || kind[src[q] as usize] != kind[s]))
+            {
+                continue;
+            }
+            let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
+            let first = src[q] == NONE;
+            // Strictly nearer (beyond rounding) or no switch: every switch lowers a pixel's angle,
+            // so the propagation ends.
+            if (!first && angle >= angle_of[q] - 1e-9)
+                || angle
+                    > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64)
+                        + cx.margin
+                // The reach is looked up only past its floor (most pixels stay within it).
+                || (angle > 2.0 * cx.margin && angle > reach[&s])
+                // A seed claims only where its surface continues: one whose plane misses
+                // (the in-between depths of a resized edge, whose plane runs along the
+                // ray) leaves the pixel to seeds that can fill it.
+                || continue_surface(cx, surfaces, s, q).is_none()
+            {
+                continue;
+            }
+            src[q] = s as u32;
+            angle_of[q] = angle;
+            if first {
+                order.push(q);
+            }
+            queue.push_back(q);
+        }
+    }
+    (src, angle_of, order)
+}
+
+type Rivals = Vec<[u32; RIVALS]>;
+
+/// (2) The rival surfaces of layer `k` from its jump seeds: for each hidden pixel's slot, the
+/// nearest seeds of other surfaces through the whole occluder.
+fn rivals(cx: &FillContext, k: u32, seeds: &[usize]) -> (Vec<u32>, Rivals) {
+    let n = cx.nb.len();
+    // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder. Slots are
+    // kept for hidden pixels only (compact index), the seeds being their own first rival.
+    let mut slot_of = vec![NONE; n];
+    let mut rivals: Vec<[u32; RIVALS]> = Vec::new();
+    let mut queue: VecDeque<(u32, u8)> = VecDeque::new();
+    // Directions only (the infinity layer): there is no plane to continue, so no rival to
+    // weigh; skipping the search spares a flood through everything finite.
+    let planes = seeds.iter().any(|&p| cx.depth[p].is_finite());
+    for &p in seeds.iter().filter(|_| planes) {
+        slot_of[p] = rivals.len() as u32;
+        let mut r = [NONE; RIVALS];
+        r[0] = p as u32;
+        rivals.push(r);
+        queue.push_back((p as u32, 0));
+    }
+    while let Some((p, slot)) = queue.pop_front() {
+        let s = rivals[slot_of[p as usize] as usize][slot as usize];
+        for j in 0..8 {
+            let Some(q) = cx.nb.get(p as usize, j) else { continue };
+            if !hidden(cx, k, q) {
+                continue;
+            }
+            if slot_of[q] == NONE {
+                slot_of[q] = rivals.len() as u32;
+                rivals.push([NONE; RIVALS]);
+            }
+            let r = &mut rivals[slot_of[q] as usize];
+            if r.iter().any(|&t| t != NONE && same_surface(cx, t as usize, s as usize)) {
+                continue;
+            }
+            let Some(free) = r.iter().position(|&t| t == NONE) else { continue };
+            r[free] = s;
+            queue.push_back((q as u32, free as u8));
+        }
+    }
+    (slot_of, rivals)
 }
 
 /// Each layer's own pixels next to a nearer layer join its fill for their colour only (their
