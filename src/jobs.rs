@@ -371,7 +371,7 @@ impl Renderer {
 
     /// The panorama centre in the world (the default eye).
     pub fn centre(&self) -> DVec3 {
-        render::centre(self.local_to_world)
+        crate::manifest::centre(self.local_to_world)
     }
 
     /// For the mesh method: each layer's mesh source (stored or built), the warnings about stored

@@ -208,6 +208,7 @@ pub fn segment(
             }
         }
     }
+    bridge_jumps(nb, depth, &id, &size, o.edges.jump, &mut jumps);
     let mean: Vec<f64> = depth_sum.iter().zip(&size).map(|(s, &c)| s / c as f64).collect();
     // Keep a relation only if it is long enough and dominant over its reverse.
     let mut occludes: Vec<(u32, u32, u32)> = jumps
@@ -219,6 +220,62 @@ pub fn segment(
     let level = levels(count, &mean, &size, &occludes, &folds);
     Segments { id, level, size }
 }
+
+/// Occlusions across a rim of slivers: a soft or resampled edge leaves small segments of
+/// in-between depth between an object and what is behind it, each joined to either side by too
+/// few jumps to order anything, so the object would lie at the level of its background. A pixel
+/// of a large segment whose neighbour is in a small one looks on across small segments (at most
+/// [`BRIDGE`] pixels) to the next large one: a jump between the two counts as a border link.
+fn bridge_jumps(
+    nb: &Neighbours,
+    depth: &[f32],
+    id: &[u32],
+    size: &[u32],
+    jump: f64,
+    jumps: &mut HashMap<(u32, u32), u32>,
+) {
+    let large = |p: usize| id[p] != NO_SEGMENT && size[id[p] as usize] >= SPECK_MAX;
+    let step = (1.0 + jump) as f32;
+    let found: Vec<(u32, u32)> = (0..id.len())
+        .into_par_iter()
+        .filter(|&p| large(p))
+        .flat_map_iter(|p| {
+            HALF.iter().filter_map(move |&k| {
+                let mut r = nb.get(p, k)?;
+                if large(r) || id[r] == NO_SEGMENT {
+                    return None;
+                }
+                // The rim climbs from one side to the other: in-between depths, in order.
+                let rising = depth[r] > depth[p];
+                for steps in 2..=BRIDGE {
+                    let prev = r;
+                    r = nb.get(r, k)?;
+                    if id[r] == id[p] || id[r] == NO_SEGMENT || (depth[r] > depth[prev]) != rising {
+                        return None;
+                    }
+                    if large(r) {
+                        // Each step of the rim a jump on average.
+                        let (a, b, step) = (depth[p], depth[r], step.powi(steps as i32));
+                        return if b > a * step {
+                            Some((id[p], id[r]))
+                        } else if a > b * step {
+                            Some((id[r], id[p]))
+                        } else {
+                            None
+                        };
+                    }
+                }
+                None
+            })
+        })
+        .collect();
+    for pair in found {
+        *jumps.entry(pair).or_default() += 1;
+    }
+}
+
+/// Widest rim of slivers [`bridge_jumps`] looks across, pixels.
+const BRIDGE: usize = 4;
 
 /// How many segment ids `id` uses (ids are compact: 0 to the largest).
 fn segment_count(id: &[u32]) -> usize {
@@ -665,82 +722,4 @@ fn strong_components(next: &[Vec<u32>]) -> Vec<u32> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A distant building (mean 23 m) occludes the ground (mean 8 m: mostly near the camera): with no
-    /// cycle the relation counts, so the building is a level above the ground.
-    #[test]
-    fn far_occluder_of_a_nearer_on_average_surface_is_promoted() {
-        let mean = [8.0, 23.0];
-        let level = levels(2, &mean, &[1000, 50], &[(1, 0, 30)], &HashMap::new());
-        assert_eq!(level, vec![0, 1]);
-    }
-
-    /// A cycle A → B → C → A is broken by mean depth (far to near); a segment outside the cycle
-    /// that occludes one of it stacks above the whole chain.
-    #[test]
-    fn cycles_are_broken_by_mean_depth_only_inside_the_cycle() {
-        // Means: 0 far (10 m), 1 middle (5 m), 2 near (2 m); 3 occludes 2 but is farther (12 m).
-        let mean = [10.0, 5.0, 2.0, 12.0];
-        let occ = [(1, 0, 9), (2, 1, 9), (0, 2, 9), (3, 2, 9)];
-        let level = levels(4, &mean, &[9; 4], &occ, &HashMap::new());
-        // Inside the cycle only near → far survive: 2 → 1 → 0 (0 → 2 dropped).
-        assert_eq!(&level[..3], &[0, 1, 2]);
-        assert_eq!(level[3], 3);
-        let comp = strong_components(&[vec![1], vec![2], vec![0], vec![2]]);
-        assert!(comp[0] == comp[1] && comp[1] == comp[2] && comp[3] != comp[0]);
-    }
-}
-
-#[cfg(test)]
-mod speck_tests {
-    use super::*;
-
-    /// A wall (100 000 px) with a 12-pixel speck of something farther behind it stays the
-    /// background; a box in front of the wall is still a level up.
-    #[test]
-    fn a_speck_behind_a_surface_does_not_lift_it() {
-        let mean = [4.0, 4.5, 2.0];
-        let size = [100_000, 12, 5_000];
-        let level = levels(3, &mean, &size, &[(0, 1, 5), (2, 0, 40)], &HashMap::new());
-        assert_eq!(level[0], 0);
-        assert_eq!(level[2], 1);
-    }
-}
-
-#[cfg(test)]
-mod split_tests {
-    use super::*;
-    use crate::mapping::{AnyMapping, MappingKind};
-
-    /// One flat surface (every normal alike) whose left half is 1 m away and right half 2 m: a
-    /// smooth ramp joins them in the top rows, a jump parts them below. The segment occludes
-    /// itself, but its sides meet only across flat surface, where a watershed cut would follow the
-    /// order ties are joined in: only its front pixels (along the jump) are cut off.
-    #[test]
-    fn a_cut_through_flat_surface_is_not_made() {
-        let (w, h) = (64usize, 32usize);
-        let m = AnyMapping::new(MappingKind::Equirect, w, h).unwrap();
-        let nb = Neighbours::new(m);
-        let depth: Vec<f32> = (0..w * h)
-            .map(|p| {
-                let (x, y) = (p % w, p / w);
-                if y < h / 2 {
-                    1.0 + ((x as f32 - 16.0) / 32.0).clamp(0.0, 1.0)
-                } else if x < w / 2 {
-                    1.0
-                } else {
-                    2.0
-                }
-            })
-            .collect();
-        let o = SegmentOptions::default();
-        let links = Links::compute(&nb, &depth, &o.edges);
-        let normals = vec![Vec3::X; w * h];
-        let seg = segment(&nb, &depth, &links, &normals, &o);
-        let at = |x: usize, y: usize| seg.id[y * w + x];
-        assert_eq!(at(10, 28), at(50, 28), "the two sides stay one surface");
-        assert_ne!(at(31, 28), at(10, 28), "the front pixels along the jump are cut off");
-    }
-}
+mod tests;

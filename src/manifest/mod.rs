@@ -21,6 +21,7 @@ use crate::pack::Patch;
 
 pub use codes::CODES;
 pub use diag::MAX_DIAGNOSTICS;
+pub use transform::centre;
 pub use write::escape_attr;
 
 pub use crate::codes::Severity;
@@ -270,7 +271,7 @@ impl Manifest {
 
     /// The panorama centre in the world: the default eye.
     pub fn centre(&self) -> DVec3 {
-        self.local_to_world().transform_point3(DVec3::ZERO)
+        transform::centre(self.local_to_world())
     }
 
     /// How far `eye` (world) is from the centre, in the panorama's own frame, where the freedom

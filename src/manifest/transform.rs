@@ -40,6 +40,11 @@ pub fn is_usable(m: &DMat4) -> bool {
         && m.inverse().is_finite()
 }
 
+/// The panorama centre (the local origin) in the world: the default eye.
+pub fn centre(local_to_world: DMat4) -> DVec3 {
+    local_to_world.transform_point3(DVec3::ZERO)
+}
+
 /// Compose in document order (see the module documentation).
 pub fn compose(ops: &[Transform]) -> DMat4 {
     ops.iter().fold(DMat4::IDENTITY, |m, op| m * op.matrix())

@@ -24,7 +24,7 @@ pub(crate) mod splat;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use glam::{DMat4, DVec3};
+use glam::DMat4;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -284,9 +284,4 @@ pub fn layer_mapping(kind: MappingKind, index: usize, image: &LayerImage) -> Res
         height: image.height,
         kind,
     })
-}
-
-/// The panorama centre in the world: the default eye.
-pub fn centre(local_to_world: DMat4) -> DVec3 {
-    local_to_world.transform_point3(DVec3::ZERO)
 }

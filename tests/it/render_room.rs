@@ -213,7 +213,7 @@ fn local_to_world_places_the_panorama_in_the_world() {
     let centre = 90 * 320 + 160;
     assert!((moved.depth[centre] / base.depth[centre] - 2.0).abs() < 0.01);
     assert_eq!(moved.holes(), base.holes());
-    assert_eq!(render::centre(m), DVec3::new(0.0, 0.0, 1.15));
+    assert_eq!(pomc::manifest::centre(m), DVec3::new(0.0, 0.0, 1.15));
 }
 
 #[test]

@@ -1,0 +1,100 @@
+//! Tests of the segmentation: levels, specks and the splits of self-occluding segments.
+
+use super::*;
+use crate::mapping::{AnyMapping, MappingKind};
+
+/// A distant building (mean 23 m) occludes the ground (mean 8 m: mostly near the camera): with no
+/// cycle the relation counts, so the building is a level above the ground.
+#[test]
+fn far_occluder_of_a_nearer_on_average_surface_is_promoted() {
+    let mean = [8.0, 23.0];
+    let level = levels(2, &mean, &[1000, 50], &[(1, 0, 30)], &HashMap::new());
+    assert_eq!(level, vec![0, 1]);
+}
+
+/// A cycle A → B → C → A is broken by mean depth (far to near); a segment outside the cycle
+/// that occludes one of it stacks above the whole chain.
+#[test]
+fn cycles_are_broken_by_mean_depth_only_inside_the_cycle() {
+    // Means: 0 far (10 m), 1 middle (5 m), 2 near (2 m); 3 occludes 2 but is farther (12 m).
+    let mean = [10.0, 5.0, 2.0, 12.0];
+    let occ = [(1, 0, 9), (2, 1, 9), (0, 2, 9), (3, 2, 9)];
+    let level = levels(4, &mean, &[9; 4], &occ, &HashMap::new());
+    // Inside the cycle only near → far survive: 2 → 1 → 0 (0 → 2 dropped).
+    assert_eq!(&level[..3], &[0, 1, 2]);
+    assert_eq!(level[3], 3);
+    let comp = strong_components(&[vec![1], vec![2], vec![0], vec![2]]);
+    assert!(comp[0] == comp[1] && comp[1] == comp[2] && comp[3] != comp[0]);
+}
+
+/// A wall (100 000 px) with a 12-pixel speck of something farther behind it stays the
+/// background; a box in front of the wall is still a level up.
+#[test]
+fn a_speck_behind_a_surface_does_not_lift_it() {
+    let mean = [4.0, 4.5, 2.0];
+    let size = [100_000, 12, 5_000];
+    let level = levels(3, &mean, &size, &[(0, 1, 5), (2, 0, 40)], &HashMap::new());
+    assert_eq!(level[0], 0);
+    assert_eq!(level[2], 1);
+}
+
+/// A disc 1 m away in front of a wall 4 m away, its depth blurred (σ = 1 px): the outline is a
+/// rim of in-between depths whose pixels form slivers, specks beside the disc, so no border of
+/// three jumps joins disc and wall. The disc is ordered in front of the wall all the same.
+#[test]
+fn an_object_behind_a_rim_of_slivers_is_in_front() {
+    let (w, h) = (256usize, 128usize);
+    let m = AnyMapping::new(MappingKind::Equirect, w, h).unwrap();
+    let nb = Neighbours::new(m);
+    let sharp = |x: i32, y: i32| if (x - 128).pow(2) + (y - 64).pow(2) < 900 { 1.0 } else { 4.0 };
+    let kernel: Vec<f32> = (-3..=3).map(|d: i32| (-0.5 * (d * d) as f32).exp()).collect();
+    let total: f32 = kernel.iter().sum::<f32>().powi(2);
+    let depth: Vec<f32> = (0..w * h)
+        .map(|p| {
+            let (x, y) = ((p % w) as i32, (p / w) as i32);
+            let mut sum = 0.0;
+            for (i, kx) in kernel.iter().enumerate() {
+                for (j, ky) in kernel.iter().enumerate() {
+                    sum += kx * ky * sharp(x + i as i32 - 3, y + j as i32 - 3);
+                }
+            }
+            sum / total
+        })
+        .collect();
+    let o = SegmentOptions::default();
+    let links = Links::compute(&nb, &depth, &o.edges);
+    let normals = vec![Vec3::X; w * h];
+    let seg = segment(&nb, &depth, &links, &normals, &o);
+    let level = |x: usize, y: usize| seg.level[seg.id[y * w + x] as usize];
+    assert!(level(128, 64) > level(5, 5), "disc level {} wall level {}", level(128, 64), level(5, 5));
+}
+
+/// One flat surface (every normal alike) whose left half is 1 m away and right half 2 m: a
+/// smooth ramp joins them in the top rows, a jump parts them below. The segment occludes
+/// itself, but its sides meet only across flat surface, where a watershed cut would follow the
+/// order ties are joined in: only its front pixels (along the jump) are cut off.
+#[test]
+fn a_cut_through_flat_surface_is_not_made() {
+    let (w, h) = (64usize, 32usize);
+    let m = AnyMapping::new(MappingKind::Equirect, w, h).unwrap();
+    let nb = Neighbours::new(m);
+    let depth: Vec<f32> = (0..w * h)
+        .map(|p| {
+            let (x, y) = (p % w, p / w);
+            if y < h / 2 {
+                1.0 + ((x as f32 - 16.0) / 32.0).clamp(0.0, 1.0)
+            } else if x < w / 2 {
+                1.0
+            } else {
+                2.0
+            }
+        })
+        .collect();
+    let o = SegmentOptions::default();
+    let links = Links::compute(&nb, &depth, &o.edges);
+    let normals = vec![Vec3::X; w * h];
+    let seg = segment(&nb, &depth, &links, &normals, &o);
+    let at = |x: usize, y: usize| seg.id[y * w + x];
+    assert_eq!(at(10, 28), at(50, 28), "the two sides stay one surface");
+    assert_ne!(at(31, 28), at(10, 28), "the front pixels along the jump are cut off");
+}
