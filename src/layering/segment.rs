@@ -225,7 +225,8 @@ pub fn segment(
 /// in-between depth between an object and what is behind it, each joined to either side by too
 /// few jumps to order anything, so the object would lie at the level of its background. A pixel
 /// of a large segment whose neighbour is in a small one looks on across small segments (at most
-/// [`BRIDGE`] pixels) to the next large one: a jump between the two counts as a border link.
+/// [`BRIDGE`] pixels, depths in order) to the next large one: a step between the two of a jump per
+/// pixel crossed, on average, counts as a border link.
 fn bridge_jumps(
     nb: &Neighbours,
     depth: &[f32],
@@ -254,11 +255,10 @@ fn bridge_jumps(
                         return None;
                     }
                     if large(r) {
-                        // Each step of the rim a jump on average.
-                        let (a, b, step) = (depth[p], depth[r], step.powi(steps as i32));
-                        return if b > a * step {
+                        let (a, b, need) = (depth[p], depth[r], step.powi(steps as i32));
+                        return if b > a * need {
                             Some((id[p], id[r]))
-                        } else if a > b * step {
+                        } else if a > b * need {
                             Some((id[r], id[p]))
                         } else {
                             None
