@@ -42,6 +42,8 @@ pub mod layering;
 pub mod manifest;
 pub mod mapping;
 pub mod mesh;
+#[cfg(feature = "clap")]
+pub mod options;
 pub mod pack;
 pub mod panorama;
 pub mod prelude;

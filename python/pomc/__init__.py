@@ -36,75 +36,38 @@ __all__ = [
     "save_colour",
 ]
 
+def _defaults(job: str) -> Dict[str, Any]:
+    """The options of ``pomc JOB`` as keywords, with the command's defaults as Python values (the
+    library declares them once; ``_pomc.option_defaults`` lists them)."""
+    out: Dict[str, Any] = {}
+    for key, text in _pomc.option_defaults(job):
+        value: Any = text
+        if text in ("true", "false"):
+            value = text == "true"
+        else:
+            try:
+                value = float(text) if text is not None else None
+            except ValueError:
+                pass
+        if key.startswith("no_") and value is False and job == "mesh":
+            key, value = key[3:], True  # `simplify=False` is `--no-simplify`
+        out[key] = value
+    return out
+
+
 #: Keyword options of :func:`build`, with the values ``pomc build`` uses by default.
-BUILD_OPTIONS: Dict[str, Any] = {
-    "colour_space": "auto",
-    "preset": None,
-    "depth_scale": None,
-    "depth_invalid": None,
-    "depth_kind": "ray",
-    "depth_range": None,
-    "camera_height": None,
-    "known_distance": None,
-    "refine": "auto",
-    "unknown_depth": "complete",
-    "jump": 0.08,
-    "fold_deg": 35.0,
-    "no_fold": False,
-    "fill_margin": 2.0,
-    "fill_colour": "exemplar",
-    "depth_bands": None,
-    "classify": "depth",
-    "normals": False,
-    "no_infinity": False,
-    "keep_mixed": False,
-    "soft_edges": False,
-    "no_pack": False,
-    "normals_in": None,
-    "max_pixels": None,
-}
+BUILD_OPTIONS: Dict[str, Any] = _defaults("build")
 
 #: Keyword options of :meth:`Panorama.mesh` and :meth:`Panorama.export_mesh`, with the values
 #: ``pomc mesh`` uses by default (``simplify`` and ``greedy`` are the negations of
 #: ``--no-simplify`` and ``--no-greedy``; 0 turns ``max_error`` and ``max_angle`` off).
-MESH_OPTIONS: Dict[str, Any] = {
-    "max_error": 0.005,
-    "max_angle": 20.0,
-    "feature_angle": None,
-    "residual": 0.05,
-    "normal_weighting": "area",
-    "uniform": None,
-    "simplify": True,
-    "greedy": True,
-    "sky_radius": None,
-}
-
-_CHOICES = {
-    "colour_space": ("auto", "srgb", "linear"),
-    "preset": ("matterport3d", "stanford2d3ds", "structured3d", "pano3d"),
-    "depth_kind": ("ray", "z", "inverse", "nearness"),
-    "refine": ("auto", "on", "off"),
-    "unknown_depth": ("complete", "sky"),
-    "fill_colour": ("exemplar", "smooth", "nearest"),
-    "classify": ("depth", "geometry"),
-    "convention": ("thesis", "blender", "openexr"),
-}
+MESH_OPTIONS: Dict[str, Any] = _defaults("mesh")
 
 
 def _usage(message: str) -> PomcError:
     err = PomcError(message)
     err.code = "CLI_USAGE"
     return err
-
-
-def _positive(name: str, value: Any, allow_zero: bool = False) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise _usage(f"{name} must be a number, got {value!r}") from None
-    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise _usage(f"{name} must be a finite number {'>= 0' if allow_zero else '> 0'}, got {value!r}")
-    return v
 
 
 @dataclass(frozen=True)
@@ -216,14 +179,14 @@ class Panorama:
         ``uv`` (N×2, canvas coordinates) and ``sky_radius`` (the sky dome's, for the infinity
         layer). Options: every ``pomc mesh`` option, see :data:`MESH_OPTIONS` for names and
         defaults."""
-        return self._inner.mesh(layer, _mesh_options(options))
+        return self._inner.mesh(layer, options)
 
     def export_mesh(self, path: "os.PathLike[str] | str", **options: Any) -> List[str]:
         """Write every layer's mesh into one scene file (.glb, .obj + .mtl + textures, .ply) as
         ``pomc mesh PANO -o PATH``; returns the files written. Also ``local=True`` for
         panorama-local coordinates."""
         local = bool(options.pop("local", False))
-        files = self._inner.export_mesh(os.fspath(path), _mesh_options(options), local=local)
+        files = self._inner.export_mesh(os.fspath(path), options, local=local)
         return [os.fspath(f) for f in files]
 
 
@@ -244,80 +207,18 @@ def _vec3(name: str, v: Sequence[float]) -> List[float]:
     return [float(x) for x in a]
 
 
-def _mesh_options(options: Dict[str, Any]) -> Dict[str, Any]:
-    unknown = set(options) - set(MESH_OPTIONS)
-    if unknown:
-        raise _usage(f"unknown mesh option(s) {sorted(unknown)}; known: {sorted(MESH_OPTIONS)}")
-    out = {k: v for k, v in options.items() if v is not None}
-    for k in ("residual", "sky_radius", "feature_angle"):
-        if k in out:
-            out[k] = _positive(k, out[k])
-    for k in ("max_error", "max_angle"):
-        if k in out:
-            out[k] = _positive(k, out[k], allow_zero=True)
-    if "feature_angle" in out and out["feature_angle"] >= 180:
-        raise _usage(f"feature_angle must be below 180 degrees, got {out['feature_angle']!r}")
-    if "normal_weighting" in out and out["normal_weighting"] not in ("area", "angle"):
-        raise _usage(f"normal_weighting must be 'area' or 'angle', got {out['normal_weighting']!r}")
-    if "uniform" in out:
-        u = out["uniform"]
-        if isinstance(u, bool) or not isinstance(u, (int, np.integer)) or u < 1:
-            raise _usage(f"uniform must be a whole number of cells >= 1, got {u!r}")
-        out["uniform"] = int(u)
-    return out
-
-
 def open(path: "os.PathLike[str] | str") -> Panorama:  # noqa: A001 (the documented name)
     """Open a panorama directory (or its ``panorama.xml``), reading every layer."""
     return Panorama(_pomc.open(os.fspath(path)))
 
 
 def _build_options(freedom_radius: float, convention: str, center: Sequence[float], options: Dict[str, Any]) -> Dict[str, Any]:
-    """Check the keyword options of a build (names as ``pomc build``'s, ``-`` as ``_``)."""
-    unknown = set(options) - set(BUILD_OPTIONS)
-    if unknown:
-        raise _usage(f"unknown build option(s) {sorted(unknown)}; known: {sorted(BUILD_OPTIONS)}")
-    opts: Dict[str, Any] = {k: v for k, v in options.items() if v is not None}
-    opts["freedom_radius"] = _positive("freedom_radius", freedom_radius)
-    opts["convention"] = convention
-    opts["center"] = _vec3("center", center)
-    for k, allowed in _CHOICES.items():
-        if k in opts and opts[k] not in allowed:
-            raise _usage(f"{k} must be one of {allowed}, got {opts[k]!r}")
-    for k in ("jump", "depth_scale", "fold_deg", "camera_height"):
-        if k in opts:
-            opts[k] = _positive(k, opts[k])
-    if "depth_range" in opts:
-        r = opts["depth_range"]
-        try:
-            near, far = (float(x) for x in r)
-        except (TypeError, ValueError):
-            raise _usage(f"depth_range must be (near, far) in metres, got {r!r}") from None
-        if not (0 < near < far < float("inf")):
-            raise _usage(f"depth_range must have 0 < near < far, got {r!r}")
-        opts["depth_range"] = (near, far)
-    if "known_distance" in opts:
-        kd = opts["known_distance"]
-        if isinstance(kd, (str, bytes)):
-            raise _usage(f"known_distance must be (x, y, metres), got {kd!r}")
-        try:
-            x, y, metres = (float(v) for v in kd)
-        except (TypeError, ValueError):
-            raise _usage(f"known_distance must be (x, y, metres), got {kd!r}") from None
-        if not (x >= 0 and y >= 0 and 0 < metres < float("inf")):
-            raise _usage(f"known_distance must have x, y >= 0 (colour pixels) and metres > 0, got {kd!r}")
-        opts["known_distance"] = (x, y, metres)
-    if "fill_margin" in opts:
-        opts["fill_margin"] = _positive("fill_margin", opts["fill_margin"], allow_zero=True)
-    if "normals_in" in opts:
-        opts["normals_in"] = os.fspath(opts["normals_in"])
-    if "max_pixels" in opts:
-        m = opts["max_pixels"]
-        if isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1:
-            raise _usage(f"max_pixels must be a whole number >= 1, got {m!r}")
-        opts["max_pixels"] = int(m)
-    if "depth_bands" in opts:
-        opts["depth_bands"] = [_positive("depth_bands", d) for d in opts["depth_bands"]]
+    """The keyword options of a build (names as ``pomc build``'s, ``-`` as ``_``); the library
+    checks them as it checks the command line's."""
+    opts = dict(options, freedom_radius=freedom_radius, convention=convention)
+    c = _vec3("center", center)
+    if any(c):
+        opts["center"] = c
     return opts
 
 

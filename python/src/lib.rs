@@ -13,20 +13,17 @@ use numpy::{
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBool, PyDict, PyList, PyTuple};
 
-use pomc::colour::ColourSpace;
 use pomc::jobs::{self, BuildSettings, RenderMethod, Renderer};
 use pomc::layer::{LayerImage, Sample};
 use pomc::layer_io::ReadLimits;
-use pomc::layering::input::{ColourSamples, Convention, DepthKind, Preset};
-use pomc::layering::{Classify, FillColour};
+use pomc::layering::input::ColourSamples;
 use pomc::manifest::Manifest;
-use pomc::mesh::normals::NormalWeighting;
 use pomc::mesh::scene::{self, SceneSettings};
-use pomc::mesh::{MeshFlags, MeshOptions};
+use pomc::mesh::MeshOptions;
+use pomc::options::{self, BuildArgs, Keyword, MeshArgs};
 use pomc::panorama::{Panorama, SaveOptions};
-use pomc::prepare::{Refine, UnknownDepth};
 use pomc::render::{Camera, Perspective};
 
 create_exception!(_pomc, PomcError, PyException, "A pomc failure; `.code` is its stable code.");
@@ -224,7 +221,7 @@ impl PyPanorama {
 
     /// Mesh every layer (painter's order) or layer `layer`: a list of dicts with `name`, `layer`,
     /// `vertices` (N×3 float64, panorama-local), `triangles` (M×3 uint32), `uv` (N×2 float32),
-    /// `sky_radius`. `options`: the `pomc mesh` options, checked by Python.
+    /// `sky_radius`. `options`: the `pomc mesh` options as keywords.
     #[pyo3(signature = (layer, options))]
     fn mesh<'py>(
         &self,
@@ -286,41 +283,12 @@ impl PyPanorama {
     }
 }
 
-/// Mesh parameters and the sky radius from the checked keyword options (names as `pomc mesh`'s,
-/// `-` as `_`; `simplify` and `greedy` for `--no-simplify` and `--no-greedy`).
+/// Mesh parameters and the sky radius from the keyword options, parsed and checked by the
+/// library's declaration of `pomc mesh`'s options (`simplify` and `greedy` for `--no-simplify` and
+/// `--no-greedy`).
 fn mesh_settings(o: &Bound<'_, PyDict>) -> PyResult<(MeshOptions, Option<f64>)> {
-    let mut m = MeshFlags::default();
-    let get = |k: &str| o.get_item(k);
-    if let Some(v) = get("max_error")? {
-        m.max_error = v.extract()?;
-    }
-    if let Some(v) = get("max_angle")? {
-        m.max_angle = v.extract()?;
-    }
-    if let Some(v) = get("feature_angle")? {
-        m.feature_angle = Some(v.extract()?);
-    }
-    if let Some(v) = get("residual")? {
-        m.residual = v.extract()?;
-    }
-    if let Some(v) = get("normal_weighting")? {
-        m.normal_weighting = match v.extract::<String>()?.as_str() {
-            "area" => NormalWeighting::Area,
-            "angle" => NormalWeighting::Angle,
-            other => return Err(usage(format!("normal_weighting `{other}`: use area or angle"))),
-        };
-    }
-    if let Some(v) = get("uniform")? {
-        m.uniform = Some(v.extract()?);
-    }
-    if let Some(v) = get("simplify")? {
-        m.simplify = v.is_truthy()?;
-    }
-    if let Some(v) = get("greedy")? {
-        m.greedy = v.is_truthy()?;
-    }
-    let sky_radius = get("sky_radius")?.map(|v| v.extract()).transpose()?;
-    Ok((m.params(), sky_radius))
+    let args: MeshArgs = options::from_keywords("mesh", &keywords(o)?).map_err(usage)?;
+    Ok((args.params(), args.sky_radius))
 }
 
 /// Write a rendered colour (H×W×3 float32, linear) as `pomc render -o` does: `.png` 8-bit sRGB
@@ -357,7 +325,7 @@ fn open(py: Python<'_>, path: PathBuf) -> PyResult<PyPanorama> {
     Ok(PyPanorama::new(manifest, layers, Some(dir)))
 }
 
-/// Build a panorama from arrays; `options` holds the keyword options, already checked by Python.
+/// Build a panorama from arrays; `options` holds the `pomc build` options as keywords.
 #[pyfunction]
 fn build(
     py: Python<'_>,
@@ -451,128 +419,49 @@ fn check_colour(shape: &[usize], h: usize, w: usize) -> PyResult<()> {
     Ok(())
 }
 
-/// `BuildSettings` from the checked keyword options (names as the command's, `-` as `_`).
+/// `BuildSettings` from the keyword options, parsed and checked by the library's declaration of
+/// `pomc build`'s options (names as the command's, `-` as `_`).
 fn settings(o: &Bound<'_, PyDict>) -> PyResult<BuildSettings> {
-    let mut s = BuildSettings::default();
-    let get = |k: &str| o.get_item(k);
-    if let Some(v) = get("freedom_radius")? {
-        s.options.freedom_radius = v.extract()?;
-    }
-    if let Some(v) = get("convention")? {
-        s.convention = match v.extract::<String>()?.as_str() {
-            "thesis" => Convention::Thesis,
-            "blender" => Convention::Blender,
-            "openexr" => Convention::OpenExr,
-            other => return Err(usage(format!("convention `{other}`: use thesis, blender or openexr"))),
+    let args: BuildArgs = options::from_keywords("build", &keywords(o)?).map_err(usage)?;
+    Ok(args.settings())
+}
+
+/// Keyword values in the command line's syntax: `None` left out, `True`/`False` as flags, a
+/// sequence as comma-separated values, a path as its text, anything else as `str(value)`.
+fn keywords(o: &Bound<'_, PyDict>) -> PyResult<Vec<(String, Keyword)>> {
+    let text = |v: &Bound<'_, PyAny>| -> PyResult<String> {
+        match v.extract::<PathBuf>() {
+            Ok(p) => Ok(p.to_string_lossy().into_owned()),
+            Err(_) => Ok(v.str()?.to_string()),
+        }
+    };
+    let mut out = Vec::new();
+    for (k, v) in o.iter() {
+        let key: String = k.extract()?;
+        let value = if v.is_none() {
+            continue;
+        } else if let Ok(b) = v.downcast::<PyBool>() {
+            Keyword::Flag(b.is_true())
+        } else if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
+            let parts: Vec<String> = v.try_iter()?.map(|x| text(&x?)).collect::<PyResult<_>>()?;
+            Keyword::Value(parts.join(","))
+        } else {
+            Keyword::Value(text(&v)?)
         };
+        out.push((key, value));
     }
-    if let Some(v) = get("center")? {
-        let c: [f64; 3] = v.extract()?;
-        s.center = (c != [0.0; 3]).then(|| DVec3::from(c));
+    Ok(out)
+}
+
+/// `(keyword, default)` of every option of `pomc build` (`"build"`) or `pomc mesh` (`"mesh"`), the
+/// default as the command line shows it (`None`: none).
+#[pyfunction]
+fn option_defaults(job: &str) -> PyResult<Vec<(String, Option<String>)>> {
+    match job {
+        "build" => Ok(options::keyword_defaults::<BuildArgs>()),
+        "mesh" => Ok(options::keyword_defaults::<MeshArgs>()),
+        other => Err(usage(format!("no options of `{other}`: build or mesh"))),
     }
-    if let Some(v) = get("colour_space")? {
-        s.colour_space = match v.extract::<String>()?.as_str() {
-            "auto" => ColourSpace::Auto,
-            "srgb" => ColourSpace::Srgb,
-            "linear" => ColourSpace::Linear,
-            other => return Err(usage(format!("colour_space `{other}`: use auto, srgb or linear"))),
-        };
-    }
-    if let Some(v) = get("preset")? {
-        let preset = match v.extract::<String>()?.as_str() {
-            "matterport3d" => Preset::Matterport3d,
-            "stanford2d3ds" => Preset::Stanford2d3ds,
-            "structured3d" => Preset::Structured3d,
-            "pano3d" => Preset::Pano3d,
-            other => {
-                return Err(usage(format!(
-                    "preset `{other}`: use matterport3d, stanford2d3ds, structured3d or pano3d"
-                )))
-            }
-        };
-        s.depth = preset.encoding();
-    }
-    if let Some(v) = get("depth_scale")? {
-        s.depth.scale = Some(v.extract()?);
-    }
-    if let Some(v) = get("depth_invalid")? {
-        s.depth.invalid = Some(v.extract()?);
-    }
-    if let Some(v) = get("depth_kind")? {
-        s.depth.kind = match v.extract::<String>()?.as_str() {
-            "ray" => DepthKind::Ray,
-            "z" => DepthKind::Z,
-            "inverse" => DepthKind::Inverse,
-            "nearness" => DepthKind::Nearness,
-            other => return Err(usage(format!("depth_kind `{other}`: use ray, z, inverse or nearness"))),
-        };
-    }
-    if let Some(v) = get("depth_range")? {
-        s.depth.range = Some(v.extract()?);
-    }
-    if let Some(v) = get("camera_height")? {
-        s.depth.camera_height = Some(v.extract()?);
-    }
-    if let Some(v) = get("known_distance")? {
-        let (x, y, metres): (f64, f64, f64) = v.extract()?;
-        s.depth.known_distance = Some(pomc::prepare::KnownDistance { x, y, metres });
-    }
-    if let Some(v) = get("refine")? {
-        s.prepare.refine = match v.extract::<String>()?.as_str() {
-            "auto" => Refine::Auto,
-            "on" => Refine::On,
-            "off" => Refine::Off,
-            other => return Err(usage(format!("refine `{other}`: use auto, on or off"))),
-        };
-    }
-    if let Some(v) = get("unknown_depth")? {
-        s.prepare.unknown = match v.extract::<String>()?.as_str() {
-            "complete" => UnknownDepth::Complete,
-            "sky" => UnknownDepth::Sky,
-            other => return Err(usage(format!("unknown_depth `{other}`: use complete or sky"))),
-        };
-    }
-    if let Some(v) = get("jump")? {
-        s.options.segment.edges.jump = v.extract()?;
-    }
-    if let Some(v) = get("fold_deg")? {
-        s.options.segment.edges.fold_deg = Some(v.extract()?);
-    }
-    if get("no_fold")?.map(|v| v.is_truthy()).transpose()?.unwrap_or(false) {
-        s.options.segment.edges.fold_deg = None;
-    }
-    if let Some(v) = get("fill_margin")? {
-        s.options.margin_px = v.extract()?;
-    }
-    if let Some(v) = get("fill_colour")? {
-        s.options.fill_colour = match v.extract::<String>()?.as_str() {
-            "exemplar" => FillColour::Exemplar,
-            "smooth" => FillColour::Smooth,
-            "nearest" => FillColour::Nearest,
-            other => return Err(usage(format!("fill_colour `{other}`: use exemplar, smooth or nearest"))),
-        };
-    }
-    if let Some(v) = get("depth_bands")? {
-        s.options.depth_bands = v.extract()?;
-    }
-    if let Some(v) = get("classify")? {
-        s.options.classify =
-            if v.extract::<String>()? == "geometry" { Classify::Geometry } else { Classify::Depth };
-    }
-    let flag =
-        |k: &str| -> PyResult<bool> { Ok(get(k)?.map(|v| v.is_truthy()).transpose()?.unwrap_or(false)) };
-    s.options.normals_out = flag("normals")?;
-    s.options.infinity = !flag("no_infinity")?;
-    s.options.drop_mixed = !flag("keep_mixed")?;
-    s.options.soft_edges = flag("soft_edges")?;
-    s.save.pack = !flag("no_pack")?;
-    if let Some(v) = get("normals_in")? {
-        s.normals_in = Some(v.extract()?);
-    }
-    if let Some(v) = get("max_pixels")? {
-        s.limits = ReadLimits::with_max_pixels(v.extract()?);
-    }
-    Ok(s)
 }
 
 #[pymodule]
@@ -584,5 +473,6 @@ fn _pomc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(build, m)?)?;
     m.add_function(wrap_pyfunction!(build_files, m)?)?;
     m.add_function(wrap_pyfunction!(prepare_files, m)?)?;
+    m.add_function(wrap_pyfunction!(option_defaults, m)?)?;
     Ok(())
 }

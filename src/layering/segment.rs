@@ -358,10 +358,59 @@ fn split_self_occluding(
     id: &[u32],
     min_border: u32,
 ) -> Option<Dsu> {
-    const NEAR: u8 = 1;
-    const FAR: u8 = 2;
-    let n = id.len();
     let count = segment_count(id);
+    let Seeds { inner_jumps, mut label, front } = seed_sides(nb, depth, links, id, count, min_border);
+    let split: Vec<bool> = inner_jumps.iter().map(|&c| c >= min_border).collect();
+    if !split.iter().any(|&b| b) {
+        return None;
+    }
+    // A pixel on both sides (a one-pixel sliver between two jumps) seeds neither; segments left
+    // whole have no sides (only segment pixels carry labels).
+    for (l, &s) in label.iter_mut().zip(id) {
+        if *l == NEAR | FAR || (*l != 0 && !split[s as usize]) {
+            *l = 0;
+        }
+    }
+    let mut dsu = whole_segments(id, &split, count);
+    let seeded: Vec<bool> = label.iter().map(|&l| l != 0).collect();
+    let mut side: Vec<u8> = label;
+    let (members, angles) = link_angles(nb, normals, masks, id, &split);
+    join_flattest_first(nb, &mut dsu, &mut side, &members, &angles);
+    let through_flat = cuts_through_flat(nb, id, count, &mut dsu, &seeded, &members, &angles);
+    if !through_flat.iter().any(|&f| f) {
+        return Some(dsu);
+    }
+    Some(cut_fronts(nb, masks, id, &mut dsu, &front, &through_flat))
+}
+
+/// Side labels of [`split_self_occluding`]: seeds nearer across a jump, and seeds behind one.
+const NEAR: u8 = 1;
+const FAR: u8 = 2;
+/// A link [`link_angles`] leaves out: no link, or one across segments.
+const SKIP: u8 = u8::MAX;
+/// The angle of a link to a pixel without a normal: joined after every real angle.
+const NO_NORMAL: u8 = 181;
+
+/// What [`seed_sides`] finds in each segment.
+struct Seeds {
+    /// Jumps between a segment's own pixels not gone round nearby, counted up to what decides.
+    inner_jumps: Vec<u32>,
+    /// Per pixel: `NEAR`, `FAR`, both or neither.
+    label: Vec<u8>,
+    /// Pixels nearer across a jump inside their segment.
+    front: Vec<bool>,
+}
+
+/// The jumps between pixels of one segment, and the seeds of its near and far sides.
+fn seed_sides(
+    nb: &Neighbours,
+    depth: &[f32],
+    links: &Links,
+    id: &[u32],
+    count: usize,
+    min_border: u32,
+) -> Seeds {
+    let n = id.len();
     // Jumps between two pixels of one segment (found in parallel; few).
     let jumps: Vec<(usize, usize, usize)> = (0..n)
         .into_par_iter()
@@ -375,7 +424,6 @@ fn split_self_occluding(
         .collect();
     let mut inner_jumps = vec![0u32; count];
     let mut label = vec![0u8; n];
-    // Pixels nearer across a jump inside their segment.
     let mut front = vec![false; n];
     for &(p, k, q) in &jumps {
         let s = id[p];
@@ -405,19 +453,13 @@ fn split_self_occluding(
             }
         }
     }
-    let split: Vec<bool> = inner_jumps.iter().map(|&c| c >= min_border).collect();
-    if !split.iter().any(|&b| b) {
-        return None;
-    }
-    // A pixel on both sides (a one-pixel sliver between two jumps) seeds neither; segments left
-    // whole have no sides (only segment pixels carry labels).
-    for (l, &s) in label.iter_mut().zip(id) {
-        if *l == NEAR | FAR || (*l != 0 && !split[s as usize]) {
-            *l = 0;
-        }
-    }
-    // Segments left whole keep their pixels together as they are: one root each.
-    let mut dsu = Dsu::new(n);
+    Seeds { inner_jumps, label, front }
+}
+
+/// A union-find in which each segment not `split` is one set as it is (one root each) and every
+/// other pixel is alone.
+fn whole_segments(id: &[u32], split: &[bool], count: usize) -> Dsu {
+    let mut dsu = Dsu::new(id.len());
     let mut root = vec![NO_SEGMENT; count];
     for (p, &s) in id.iter().enumerate() {
         if s == NO_SEGMENT || split[s as usize] {
@@ -430,24 +472,20 @@ fn split_self_occluding(
             dsu.size[root[s as usize] as usize] += 1;
         }
     }
-    let seeded: Vec<bool> = label.iter().map(|&l| l != 0).collect();
-    let mut side: Vec<u8> = label;
-    let join = |dsu: &mut Dsu, side: &mut [u8], p: usize, q: usize| {
-        let (a, b) = (dsu.find(p as u32), dsu.find(q as u32));
-        let (la, lb) = (side[a as usize], side[b as usize]);
-        if a == b || (la != 0 && lb != 0 && la != lb) {
-            return;
-        }
-        dsu.union(a, b);
-        let r = dsu.find(a) as usize;
-        side[r] = la | lb;
-    };
-    // The flat links of split segments first (most of them), the rest by angle, whole degrees (a
-    // counting sort). Angles in parallel, `SKIP` where there is nothing to join.
-    const SKIP: u8 = u8::MAX;
-    const NO_NORMAL: u8 = 181;
+    dsu
+}
+
+/// The pixels of `split` segments and, per half-direction link, the angle between the normals
+/// in whole degrees (0 when flat, [`SKIP`] where there is nothing to join, [`NO_NORMAL`]).
+fn link_angles(
+    nb: &Neighbours,
+    normals: &[Vec3],
+    masks: &[(u8, u8, u8)],
+    id: &[u32],
+    split: &[bool],
+) -> (Vec<u32>, Vec<[u8; 4]>) {
     let flat_cos = 0.5f32.to_radians().cos();
-    let members: Vec<u32> = (0..n as u32)
+    let members: Vec<u32> = (0..id.len() as u32)
         .into_par_iter()
         .filter(|&p| id[p as usize] != NO_SEGMENT && split[id[p as usize] as usize])
         .collect();
@@ -479,20 +517,38 @@ fn split_self_occluding(
             })
         })
         .collect();
+    (members, angles)
+}
+
+/// Join `p` and `q` unless they are on two different sides; the joined set is on either's side.
+fn join_sides(dsu: &mut Dsu, side: &mut [u8], p: usize, q: usize) {
+    let (a, b) = (dsu.find(p as u32), dsu.find(q as u32));
+    let (la, lb) = (side[a as usize], side[b as usize]);
+    if a == b || (la != 0 && lb != 0 && la != lb) {
+        return;
+    }
+    dsu.union(a, b);
+    let r = dsu.find(a) as usize;
+    side[r] = la | lb;
+}
+
+/// The seeded watershed: the flat links of split segments first (most of them), the rest by
+/// angle, whole degrees (a counting sort).
+fn join_flattest_first(nb: &Neighbours, dsu: &mut Dsu, side: &mut [u8], members: &[u32], angles: &[[u8; 4]]) {
     // Exact sizes: on a canvas that is one split, curved segment this is most of its links.
     let mut sizes = [0usize; NO_NORMAL as usize + 1];
     for a in angles.iter().flatten().filter(|&&a| a != SKIP && a != 0) {
         sizes[*a as usize] += 1;
     }
     let mut by_angle: Vec<Vec<(u32, u8)>> = sizes.iter().map(|&c| Vec::with_capacity(c)).collect();
-    for (&p, a) in members.iter().zip(&angles) {
+    for (&p, a) in members.iter().zip(angles) {
         let p = p as usize;
         for (i, &angle) in a.iter().enumerate() {
             match angle {
                 SKIP => {}
                 0 => {
                     let q = nb.get(p, HALF[i]).expect("link implies a neighbour");
-                    join(&mut dsu, &mut side, p, q);
+                    join_sides(dsu, side, p, q);
                 }
                 _ => by_angle[angle as usize].push((p as u32, i as u8)),
             }
@@ -501,18 +557,30 @@ fn split_self_occluding(
     for list in &by_angle {
         for &(p, i) in list {
             let q = nb.get(p as usize, HALF[i as usize]).expect("link implies a neighbour");
-            join(&mut dsu, &mut side, p as usize, q);
+            join_sides(dsu, side, p as usize, q);
         }
     }
-    // A cut through flat surface away from every seed is not a crease but the order ties were
-    // joined in (near and far seeds on one flat surface: the blurred limb of an object the centre
-    // almost touches, merged with the ground). Such a segment keeps the old cut: its front pixels.
-    let mut side_of = vec![NO_SEGMENT; n];
-    for &p in &members {
+}
+
+/// Per segment, whether its cut runs mostly through flat surface away from every seed: not a
+/// crease but the order ties were joined in (near and far seeds on one flat surface: the blurred
+/// limb of an object the centre almost touches, merged with the ground). Such a segment keeps the
+/// old cut: its front pixels.
+fn cuts_through_flat(
+    nb: &Neighbours,
+    id: &[u32],
+    count: usize,
+    dsu: &mut Dsu,
+    seeded: &[bool],
+    members: &[u32],
+    angles: &[[u8; 4]],
+) -> Vec<bool> {
+    let mut side_of = vec![NO_SEGMENT; id.len()];
+    for &p in members {
         side_of[p as usize] = dsu.find(p);
     }
     let (mut cut, mut flat_cut) = (vec![0u32; count], vec![0u32; count]);
-    for (&p, a) in members.iter().zip(&angles) {
+    for (&p, a) in members.iter().zip(angles) {
         let p = p as usize;
         for (i, &angle) in a.iter().enumerate() {
             if angle == SKIP {
@@ -525,11 +593,7 @@ fn split_self_occluding(
             }
         }
     }
-    let through_flat: Vec<bool> = (0..count).map(|s| 4 * flat_cut[s] > cut[s]).collect();
-    if !through_flat.iter().any(|&f| f) {
-        return Some(dsu);
-    }
-    Some(cut_fronts(nb, masks, id, &mut dsu, &front, &through_flat))
+    (0..count).map(|s| 4 * flat_cut[s] > cut[s]).collect()
 }
 
 /// The partition of `dsu` over segments `id`, except that each segment marked in `recut` is joined

@@ -147,62 +147,6 @@ impl MeshOptions {
     }
 }
 
-/// The options of `pomc mesh` as a user gives them (`0` disables a tolerance); [`MeshFlags::params`]
-/// turns them into [`MeshOptions`]. `Default` is the command's default.
-#[derive(Clone, Debug, PartialEq)]
-pub struct MeshFlags {
-    /// `--max-error`: relative distance along the ray (0 disables the test and simplification).
-    pub max_error: f64,
-    /// `--feature-angle`, degrees.
-    pub feature_angle: Option<f64>,
-    /// `--residual`.
-    pub residual: f64,
-    /// `--normal-weighting`.
-    pub normal_weighting: normals::NormalWeighting,
-    /// `--max-angle`, degrees (0 disables).
-    pub max_angle: f64,
-    /// `--uniform STEP`.
-    pub uniform: Option<u32>,
-    /// Not `--no-simplify`.
-    pub simplify: bool,
-    /// Not `--no-greedy`.
-    pub greedy: bool,
-}
-
-impl Default for MeshFlags {
-    fn default() -> Self {
-        MeshFlags {
-            max_error: DEFAULT_MAX_ERROR,
-            feature_angle: None,
-            residual: DEFAULT_RESIDUAL,
-            normal_weighting: normals::NormalWeighting::Area,
-            max_angle: DEFAULT_MAX_ANGLE_DEG,
-            uniform: None,
-            simplify: true,
-            greedy: true,
-        }
-    }
-}
-
-impl MeshFlags {
-    /// The mesher's parameters: simplification runs unless turned off, uniform, or without a
-    /// tolerance.
-    pub fn params(&self) -> MeshOptions {
-        let max_angle_deg = (self.max_angle > 0.0).then_some(self.max_angle);
-        MeshOptions {
-            max_error: (self.max_error > 0.0).then_some(self.max_error),
-            feature_angle_deg: self.feature_angle,
-            residual_threshold: self.residual,
-            normal_weighting: self.normal_weighting,
-            max_angle_deg,
-            uniform: self.uniform,
-            simplify: (self.simplify && self.uniform.is_none() && self.max_error > 0.0).then_some(
-                simplify::SimplifyOptions { max_error: self.max_error, max_angle_deg, greedy: self.greedy },
-            ),
-        }
-    }
-}
-
 impl MeshOptions {
     /// Reject non-finite or out-of-range values.
     pub fn check(&self) -> Result<(), MeshError> {
@@ -615,20 +559,4 @@ fn assemble(grids: &[Grid], mapping: &AnyMapping, tris: &[[u32; 3]], poles: [f64
         })
         .collect();
     LayerMesh { width: w, height: h, sources, positions, triangles }
-}
-
-#[cfg(test)]
-mod settings_tests {
-    use super::*;
-
-    #[test]
-    fn mesh_settings_default_to_the_command_and_turn_off_as_the_flags_do() {
-        assert_eq!(MeshFlags::default().params(), MeshOptions::default());
-        assert_eq!(MeshFlags { simplify: false, ..Default::default() }.params(), MeshOptions::quadtree());
-        let p = MeshFlags { max_error: 0.0, max_angle: 0.0, ..Default::default() }.params();
-        assert_eq!((p.max_error, p.max_angle_deg, p.simplify), (None, None, None));
-        assert!(MeshFlags { uniform: Some(4), ..Default::default() }.params().simplify.is_none());
-        let g = MeshFlags { greedy: false, ..Default::default() }.params();
-        assert!(!g.simplify.unwrap().greedy);
-    }
 }

@@ -16,6 +16,7 @@ use crate::layer::LayerImage;
 
 /// How estimated normals weight the triangles of a vertex's one-ring.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum NormalWeighting {
     /// By triangle area (eq. 7.10).
     #[default]

@@ -6,12 +6,12 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use pomc::mesh::scene::{self, SceneMesh, SceneSettings};
-use pomc::mesh::{self, export, MeshOptions};
+use pomc::mesh::{self, export};
 use pomc::panorama::Panorama;
 
-use crate::args::Range;
 use crate::output::Output;
 use crate::Failure;
+use pomc::options::MeshArgs;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -25,28 +25,8 @@ pub struct Args {
     /// (glTF 2.0 binary, sRGB PNG textures embedded); one node/object per layer, named after it.
     #[arg(short, long)]
     output: Option<PathBuf>,
-    /// Radius (m, panorama-local) of the sky dome the infinitely far samples (the infinity layer) are
-    /// meshed on; default 10 × the panorama's farthest finite depth (1000 m when it has none).
-    #[arg(long, value_name = "R", value_parser = Range::POSITIVE.parser())]
-    sky_radius: Option<f64>,
-    /// Maximum relative distance along each pixel's ray between mesh and depth (0 disables).
-    #[arg(long, default_value_t = mesh::DEFAULT_MAX_ERROR, value_parser = Range::NON_NEGATIVE.parser())]
-    max_error: f64,
-    /// Thesis normal test: split where neighbouring normals differ by more than DEG degrees.
-    #[arg(long, value_name = "DEG", value_parser = Range::OPEN_ANGLE.parser())]
-    feature_angle: Option<f64>,
-    /// Thesis residual threshold (mean sub-feature normal variation of a node).
-    #[arg(long, default_value_t = mesh::DEFAULT_RESIDUAL, value_parser = Range::POSITIVE.parser())]
-    residual: f64,
-    /// Weighting of normals estimated from depth when the layer has no N.* channels: area or angle.
-    #[arg(long, default_value = "area", value_parser = ["area", "angle"])]
-    normal_weighting: String,
-    /// Cap on a node's angular extent, degrees (texture distortion; 0 disables).
-    #[arg(long, default_value_t = mesh::DEFAULT_MAX_ANGLE_DEG, value_name = "DEG", value_parser = Range::ANGLE_OR_OFF.parser())]
-    max_angle: f64,
-    /// Uniform 4-8 baseline with leaves of at most STEP cells a side (overrides the other tests).
-    #[arg(long, value_name = "STEP")]
-    uniform: Option<u32>,
+    #[command(flatten)]
+    mesh: MeshArgs,
     /// Keep panorama-local coordinates (default: LocalToWorld applied).
     #[arg(long)]
     local: bool,
@@ -58,40 +38,13 @@ pub struct Args {
     /// simplified or not, without the sky dome.
     #[arg(long)]
     store: bool,
-    /// Output the raw quadtree mesh: skip the error-bounded edge-collapse stage (which runs by default
-    /// with the same --max-error and --max-angle, unless --uniform or --max-error 0).
-    #[arg(long)]
-    no_simplify: bool,
-    /// Simplify clean cube faces with quadtree + collapses too, instead of greedy insertion (which is
-    /// faster and gives fewer triangles; faces with a domain border or a depth jump always take the
-    /// quadtree).
-    #[arg(long)]
-    no_greedy: bool,
-}
-
-fn params(a: &Args) -> MeshOptions {
-    mesh::MeshFlags {
-        max_error: a.max_error,
-        feature_angle: a.feature_angle,
-        residual: a.residual,
-        normal_weighting: if a.normal_weighting == "angle" {
-            mesh::normals::NormalWeighting::Angle
-        } else {
-            mesh::normals::NormalWeighting::Area
-        },
-        max_angle: a.max_angle,
-        uniform: a.uniform,
-        simplify: !a.no_simplify,
-        greedy: !a.no_greedy,
-    }
-    .params()
 }
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let settings = SceneSettings {
-        mesh: params(&args),
+        mesh: args.mesh.params(),
         only: args.layer,
-        sky_radius: args.sky_radius,
+        sky_radius: args.mesh.sky_radius,
         store: args.store,
         metric: !args.no_metric,
     };
@@ -237,17 +190,4 @@ fn report(args: &Args, out: Output, l: &SceneMesh, sky: Option<f64>) -> serde_js
         stats.as_ref().map_or("-".to_string(), |s| format!("{:.0}", s.1))
     ));
     json
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::args::parse;
-
-    /// The library's `MeshOptions::default()` is what `pomc mesh` does without options.
-    #[test]
-    fn default_options_are_the_library_default() {
-        assert_eq!(params(&parse(&["pomc-mesh", "pano"])), MeshOptions::default());
-        assert_eq!(params(&parse(&["pomc-mesh", "pano", "--no-simplify"])), MeshOptions::quadtree());
-    }
 }

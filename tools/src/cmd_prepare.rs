@@ -19,7 +19,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
-    let settings = args.input.settings();
+    let mut settings = pomc::jobs::BuildSettings::default();
+    args.input.options.apply(&mut settings);
     let spinner = out.spinner("preparing depth");
     let prepared = jobs::prepare_depth_files(&args.input.colour, &args.input.depth, &settings)?;
     let (w, h) = (prepared.width, prepared.height);

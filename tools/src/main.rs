@@ -17,8 +17,6 @@ mod cmd_render;
 mod cmd_validate;
 mod cmd_view;
 mod output;
-#[cfg(test)]
-mod python_options;
 
 use std::process::ExitCode;
 
