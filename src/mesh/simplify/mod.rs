@@ -147,106 +147,19 @@ pub fn simplify(
             shared.loc[v] == Loc::Pole || shared.sides[v].count_ones() >= 2 || !shared.pos[v].is_finite()
         })
         .collect();
-    let mut stats = SimplifyStats::default();
     let clock = std::time::Instant::now();
 
     // Phase 1: interior vertices of independent parts, in parallel — each cube face; the equirect in
     // vertical bands split at columns that no lattice triangle crosses (so a band's interior stars never
     // leave it). A part's run holds every triangle touching the part; only its interior stars change.
-    let parts = phase_parts(mesh, &shared, grids);
-    let lattice_x = |v: u32| match shared.loc[v as usize] {
-        Loc::Lattice { g, x, .. } => Some((g, x)),
-        Loc::Pole => None,
-    };
-    let part_of_tri = |t: &[u32; 3]| -> Option<usize> {
-        let l = t.map(lattice_x);
-        let [Some(a), Some(b), Some(c)] = l else { return None };
-        parts.iter().position(|p| [a, b, c].iter().all(|&(g, x)| g == p.g && x >= p.x0 && x <= p.x1))
-    };
-    let touches = |t: &[u32; 3], p: &PhasePart| {
-        t.iter().any(|&v| lattice_x(v).is_some_and(|(g, x)| g == p.g && x >= p.x0 && x <= p.x1))
-    };
-    let interior = |v: usize, p: &PhasePart| {
-        !fixed[v]
-            && shared.sides[v] == 0
-            && lattice_x(v as u32).is_some_and(|(g, x)| g == p.g && x > p.x0 && x < p.x1)
-    };
-    let tri_parts: Vec<Option<usize>> = mesh.triangles.iter().map(part_of_tri).collect();
-    let shared_ref = &shared;
-    type Part = (Vec<[u32; 3]>, Vec<f64>, SimplifyStats);
-    let results: Vec<Part> = parts
-        .par_iter()
-        .enumerate()
-        .map(|(k, p)| {
-            let tris: Vec<[u32; 3]> = mesh
-                .triangles
-                .iter()
-                .zip(&tri_parts)
-                .filter(|(_, q)| **q == Some(k))
-                .map(|(t, _)| *t)
-                .collect();
-            let own = tris.len();
-            let known = done.get(p.g as usize).and_then(Option::as_ref).filter(|e| e.len() == own);
-            let mut all = tris;
-            all.extend(
-                mesh.triangles
-                    .iter()
-                    .zip(&tri_parts)
-                    .filter(|(t, q)| q.is_none() && touches(t, p))
-                    .map(|(t, _)| *t),
-            );
-            let movable: Vec<bool> = (0..n).map(|v| interior(v, p)).collect();
-            let seeds: Vec<u32> = (0..n as u32).filter(|&v| movable[v as usize]).collect();
-            // Known errors of the lattice's own triangles spare their scans.
-            let terr = known.map(|e| {
-                let mut terr = e.clone();
-                terr.extend(all[own..].iter().map(|t| shared_ref.max_error(*t, f64::INFINITY)));
-                terr
-            });
-            let mut run = Run::new(shared_ref, all, terr, movable);
-            run.run(seeds.into_iter());
-            let keep: Vec<usize> = (0..own).filter(|&i| run.alive[i]).collect();
-            (
-                keep.iter().map(|&i| run.tris[i]).collect(),
-                keep.iter().map(|&i| run.terr[i]).collect(),
-                run.stats,
-            )
-        })
-        .collect();
-    let (mut tris, mut terr) = (Vec::new(), Vec::new());
-    for (t, e, s) in results {
-        tris.extend(t);
-        terr.extend(e);
-        stats.add(&s);
-    }
-    for (t, _) in mesh.triangles.iter().zip(&tri_parts).filter(|(_, q)| q.is_none()) {
-        tris.push(*t);
-        terr.push(shared.max_error(*t, f64::INFINITY));
-    }
-    // Phase 2 starts from every movable vertex that no part could move (sides, band boundaries).
-    let mut phase2_seed: Vec<bool> =
-        (0..n).map(|v| !fixed[v] && !parts.iter().any(|p| interior(v, p))).collect();
-    // A band's run sees only one side of its cut columns, so collapses onto a cut-column vertex may
-    // have been refused there: their neighbours get another chance in phase 2.
-    if parts.len() > 1 && grids.len() == 1 {
-        let on_cut = |v: u32| {
-            lattice_x(v).is_some_and(|(_, x)| {
-                parts.iter().any(|p| (x == p.x0 && x > 0) || (x == p.x1 && x + 1 < grids[0].w as u32))
-            })
-        };
-        for t in &mesh.triangles {
-            if t.iter().any(|&v| on_cut(v)) {
-                for &v in t {
-                    phase2_seed[v as usize] |= !fixed[v as usize];
-                }
-            }
-        }
-    }
+    let phases = Phases { shared: &shared, parts: phase_parts(mesh, &shared, grids), fixed };
+    let (tris, terr, mut stats) = phases.run_parts(mesh, done);
+    let phase2_seed = phases.phase2_seeds(mesh, grids);
 
     stats.lattice_ms = clock.elapsed().as_secs_f64() * 1e3;
     let clock = std::time::Instant::now();
     // Phase 2: the whole mesh, from the vertices phase 1 left (their stars span parts).
-    let movable: Vec<bool> = (0..n).map(|v| !fixed[v]).collect();
+    let movable: Vec<bool> = phases.fixed.iter().map(|&f| !f).collect();
     let mut run = Run::new(&shared, tris, Some(terr), movable);
     let seeds: Vec<u32> = (0..n as u32).filter(|&v| phase2_seed[v as usize]).collect();
     run.run(seeds.into_iter());
@@ -254,6 +167,131 @@ pub fn simplify(
     stats.stitch_ms = clock.elapsed().as_secs_f64() * 1e3;
 
     (compact(mesh, run.alive_triangles().collect()), stats)
+}
+
+/// The independent parts of phase 1 and the vertices that never move.
+struct Phases<'a> {
+    shared: &'a Shared<'a>,
+    parts: Vec<PhasePart>,
+    fixed: Vec<bool>,
+}
+
+impl Phases<'_> {
+    fn lattice_x(&self, v: u32) -> Option<(u8, u32)> {
+        match self.shared.loc[v as usize] {
+            Loc::Lattice { g, x, .. } => Some((g, x)),
+            Loc::Pole => None,
+        }
+    }
+
+    /// The part that holds all three vertices of `t`, if one does.
+    fn part_of(&self, t: &[u32; 3]) -> Option<usize> {
+        let l = t.map(|v| self.lattice_x(v));
+        let [Some(a), Some(b), Some(c)] = l else { return None };
+        self.parts.iter().position(|p| [a, b, c].iter().all(|&(g, x)| g == p.g && x >= p.x0 && x <= p.x1))
+    }
+
+    fn touches(&self, t: &[u32; 3], p: &PhasePart) -> bool {
+        t.iter().any(|&v| self.lattice_x(v).is_some_and(|(g, x)| g == p.g && x >= p.x0 && x <= p.x1))
+    }
+
+    /// Whether vertex `v` moves in part `p`'s run: inside it, off every lattice side.
+    fn interior(&self, v: usize, p: &PhasePart) -> bool {
+        !self.fixed[v]
+            && self.shared.sides[v] == 0
+            && self.lattice_x(v as u32).is_some_and(|(g, x)| g == p.g && x > p.x0 && x < p.x1)
+    }
+
+    /// Phase 1: each part's run, in parallel; the triangles (with their errors) of every part in
+    /// turn, then those of no part.
+    fn run_parts(
+        &self,
+        mesh: &LayerMesh,
+        done: &[Option<Vec<f64>>],
+    ) -> (Vec<[u32; 3]>, Vec<f64>, SimplifyStats) {
+        let n = mesh.positions.len();
+        let tri_parts: Vec<Option<usize>> = mesh.triangles.iter().map(|t| self.part_of(t)).collect();
+        type Part = (Vec<[u32; 3]>, Vec<f64>, SimplifyStats);
+        let results: Vec<Part> = self
+            .parts
+            .par_iter()
+            .enumerate()
+            .map(|(k, p)| {
+                let tris: Vec<[u32; 3]> = mesh
+                    .triangles
+                    .iter()
+                    .zip(&tri_parts)
+                    .filter(|(_, q)| **q == Some(k))
+                    .map(|(t, _)| *t)
+                    .collect();
+                let own = tris.len();
+                let known = done.get(p.g as usize).and_then(Option::as_ref).filter(|e| e.len() == own);
+                let mut all = tris;
+                all.extend(
+                    mesh.triangles
+                        .iter()
+                        .zip(&tri_parts)
+                        .filter(|(t, q)| q.is_none() && self.touches(t, p))
+                        .map(|(t, _)| *t),
+                );
+                let movable: Vec<bool> = (0..n).map(|v| self.interior(v, p)).collect();
+                let seeds: Vec<u32> = (0..n as u32).filter(|&v| movable[v as usize]).collect();
+                // Known errors of the lattice's own triangles spare their scans.
+                let terr = known.map(|e| {
+                    let mut terr = e.clone();
+                    terr.extend(all[own..].iter().map(|t| self.shared.max_error(*t, f64::INFINITY)));
+                    terr
+                });
+                let mut run = Run::new(self.shared, all, terr, movable);
+                run.run(seeds.into_iter());
+                let keep: Vec<usize> = (0..own).filter(|&i| run.alive[i]).collect();
+                (
+                    keep.iter().map(|&i| run.tris[i]).collect(),
+                    keep.iter().map(|&i| run.terr[i]).collect(),
+                    run.stats,
+                )
+            })
+            .collect();
+        let (mut tris, mut terr, mut stats) = (Vec::new(), Vec::new(), SimplifyStats::default());
+        for (t, e, s) in results {
+            tris.extend(t);
+            terr.extend(e);
+            stats.add(&s);
+        }
+        for (t, _) in mesh.triangles.iter().zip(&tri_parts).filter(|(_, q)| q.is_none()) {
+            tris.push(*t);
+            terr.push(self.shared.max_error(*t, f64::INFINITY));
+        }
+        (tris, terr, stats)
+    }
+
+    /// Where phase 2 starts: every movable vertex that no part could move (sides, band
+    /// boundaries), and the neighbours of cut columns.
+    fn phase2_seeds(&self, mesh: &LayerMesh, grids: &[Grid]) -> Vec<bool> {
+        let fixed = &self.fixed;
+        let mut seed: Vec<bool> = (0..mesh.positions.len())
+            .map(|v| !fixed[v] && !self.parts.iter().any(|p| self.interior(v, p)))
+            .collect();
+        // A band's run sees only one side of its cut columns, so collapses onto a cut-column vertex
+        // may have been refused there: their neighbours get another chance in phase 2.
+        if self.parts.len() > 1 && grids.len() == 1 {
+            let on_cut = |v: u32| {
+                self.lattice_x(v).is_some_and(|(_, x)| {
+                    self.parts
+                        .iter()
+                        .any(|p| (x == p.x0 && x > 0) || (x == p.x1 && x + 1 < grids[0].w as u32))
+                })
+            };
+            for t in &mesh.triangles {
+                if t.iter().any(|&v| on_cut(v)) {
+                    for &v in t {
+                        seed[v as usize] |= !fixed[v as usize];
+                    }
+                }
+            }
+        }
+        seed
+    }
 }
 
 /// `mesh`'s vertices that `tris` use, in their order (sources stay sorted), and `tris` on them.

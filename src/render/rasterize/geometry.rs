@@ -261,106 +261,13 @@ impl LayerGeometry {
         if !(jump > 0.0 && jump.is_finite()) {
             return Err(RenderError::BadOptions("jump must be a positive relative depth".into()));
         }
-        let planes = Planes::new(layer.image, layer.mapping, false);
-        // Finite depth or NaN, per pixel; and whether the layer has infinity samples.
-        let mut dz = vec![f32::NAN; w * h];
-        let has_infinity = dz
-            .par_chunks_mut(w)
-            .enumerate()
-            .map(|(y, row)| {
-                let mut infinite = false;
-                for (x, d) in row.iter_mut().enumerate() {
-                    match planes.sample(y * w + x) {
-                        Sample::Surface(v) if v > 0.0 && v.is_finite() => *d = v,
-                        Sample::Infinite => infinite = true,
-                        _ => {}
-                    }
-                }
-                infinite
-            })
-            .reduce(|| false, |a, b| a || b);
-        let pa = pixel_angle(&m);
-        let LayerMesh { positions, sources, triangles, .. } = mesh;
-        let vd: Vec<(f64, DVec3)> = positions.iter().map(|p| (p.length(), p.normalize_or_zero())).collect();
+        let (dz, has_infinity) = finite_depth(&Planes::new(layer.image, layer.mapping, false), w, h);
+        let LayerMesh { mut positions, mut sources, triangles, .. } = mesh;
         let mesh_triangles = triangles.len();
         let lattice = Lattice { mapping: m, depth: &dz, jump };
-        let mut kept: Vec<[u32; 3]> = triangles
-            .into_par_iter()
-            .filter(|t| {
-                let v = t.map(|i| vd[i as usize]);
-                !(0..3).any(|k| {
-                    crosses_jump(v[k], v[(k + 1) % 3], jump, pa)
-                        && !lattice.continuous(sources[t[k] as usize], sources[t[(k + 1) % 3] as usize])
-                })
-            })
-            .collect();
+        let mut kept = continuous_triangles(&lattice, &positions, &sources, triangles);
         let jump_triangles = mesh_triangles - kept.len();
-        let nb = Neighbours::new(m);
-        let depth = |p: usize| {
-            let d = dz[p];
-            (!d.is_nan()).then_some(d as f64)
-        };
-        let joined = |a: f64, b: f64| (a - b).abs() <= jump * a.min(b);
-        let corners: Vec<(u32, [DVec3; 4])> = (0..h)
-            .into_par_iter()
-            .flat_map_iter(|y| {
-                let (depth, nb, dz, lattice) = (&depth, &nb, &dz, &lattice);
-                (0..w).filter_map(move |x| {
-                    let p = y * w + x;
-                    let d = depth(p)?;
-                    if nb.is_interior(x, y) {
-                        // Fast path for the common case, a pixel inside the layer: all 8 neighbours
-                        // present and joined (NaN compares false, so an invalid one fails here).
-                        let all = [p + 1, p - 1, p + w, p - w, p + w + 1, p + w - 1, p - w + 1, p - w - 1]
-                            .iter()
-                            .all(|&q| {
-                                let e = dz[q] as f64;
-                                (d - e).abs() <= jump * d.min(e)
-                            });
-                        if all {
-                            return None;
-                        }
-                    }
-                    let nd: [Option<f64>; 8] =
-                        std::array::from_fn(|k| nb.get_at(x, y, k).and_then(depth).filter(|&e| joined(d, e)));
-                    if nd.iter().all(Option::is_some) {
-                        return None;
-                    }
-                    // Depth gradient along canvas x and y from the continuous 4-neighbours.
-                    let grad = |plus: usize, minus: usize| match (nd[plus], nd[minus]) {
-                        (Some(a), Some(b)) => (a - b) / 2.0,
-                        (Some(a), None) => a - d,
-                        (None, Some(b)) => d - b,
-                        (None, None) => 0.0,
-                    };
-                    let (gx, gy) = (grad(0, 1), grad(2, 3));
-                    // Across a line one pixel wide (both sides cut), the pixel's own footprint:
-                    // there is no neighbouring quad to overlap, and ¼ pixel more on each side
-                    // would draw a thin pole or wire half as wide again.
-                    let cut = |k: usize| {
-                        nb.get_at(x, y, k).map_or(true, |q| !lattice.continuous(p as u32, q as u32))
-                    };
-                    let half = |plus: usize, minus: usize| {
-                        if nd[plus].is_none() && nd[minus].is_none() && cut(plus) && cut(minus) {
-                            0.5
-                        } else {
-                            FOOTPRINT
-                        }
-                    };
-                    let (fx, fy) = (half(0, 1), half(2, 3));
-                    let corner = |sx: f64, sy: f64| {
-                        let z = (d + fx * sx * gx + fy * sy * gy).clamp(d / (1.0 + jump), d * (1.0 + jump));
-                        corner_dir(&m, x, y, sx * fx, sy * fy) * z
-                    };
-                    Some((
-                        p as u32,
-                        [corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)],
-                    ))
-                })
-            })
-            .collect();
-        let mut positions = positions;
-        let mut sources = sources;
+        let corners = border_quads(&lattice);
         positions.reserve(4 * corners.len());
         for (p, c) in &corners {
             let base = positions.len() as u32;
@@ -377,4 +284,117 @@ impl LayerGeometry {
             border_pixels: corners.len(),
         })
     }
+}
+
+/// Per pixel of a layer, its finite depth or NaN; and whether the layer has infinity samples.
+fn finite_depth(planes: &Planes, w: usize, h: usize) -> (Vec<f32>, bool) {
+    let mut dz = vec![f32::NAN; w * h];
+    let has_infinity = dz
+        .par_chunks_mut(w)
+        .enumerate()
+        .map(|(y, row)| {
+            let mut infinite = false;
+            for (x, d) in row.iter_mut().enumerate() {
+                match planes.sample(y * w + x) {
+                    Sample::Surface(v) if v > 0.0 && v.is_finite() => *d = v,
+                    Sample::Infinite => infinite = true,
+                    _ => {}
+                }
+            }
+            infinite
+        })
+        .reduce(|| false, |a, b| a || b);
+    (dz, has_infinity)
+}
+
+/// The mesh's triangles less those with an edge across a depth jump that the lattice under it
+/// does not bridge continuously.
+fn continuous_triangles(
+    lattice: &Lattice,
+    positions: &[DVec3],
+    sources: &[u32],
+    triangles: Vec<[u32; 3]>,
+) -> Vec<[u32; 3]> {
+    let pa = pixel_angle(&lattice.mapping);
+    let jump = lattice.jump;
+    let vd: Vec<(f64, DVec3)> = positions.iter().map(|p| (p.length(), p.normalize_or_zero())).collect();
+    triangles
+        .into_par_iter()
+        .filter(|t| {
+            let v = t.map(|i| vd[i as usize]);
+            !(0..3).any(|k| {
+                crosses_jump(v[k], v[(k + 1) % 3], jump, pa)
+                    && !lattice.continuous(sources[t[k] as usize], sources[t[(k + 1) % 3] as usize])
+            })
+        })
+        .collect()
+}
+
+/// A quad (corners in order) for each pixel with a neighbour it is not joined to: the layer's
+/// border drawn to its pixels' edges.
+fn border_quads(lattice: &Lattice) -> Vec<(u32, [DVec3; 4])> {
+    let m = lattice.mapping;
+    let (w, h) = (m.width(), m.height());
+    let nb = Neighbours::new(m);
+    (0..h)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            let nb = &nb;
+            (0..w).filter_map(move |x| border_quad(lattice, nb, x, y))
+        })
+        .collect()
+}
+
+/// [`border_quads`]' quad of pixel `(x, y)`, if it has one.
+fn border_quad(lattice: &Lattice, nb: &Neighbours, x: usize, y: usize) -> Option<(u32, [DVec3; 4])> {
+    let (m, dz, jump) = (&lattice.mapping, lattice.depth, lattice.jump);
+    let w = m.width();
+    let depth = |p: usize| {
+        let d = dz[p];
+        (!d.is_nan()).then_some(d as f64)
+    };
+    let joined = |a: f64, b: f64| (a - b).abs() <= jump * a.min(b);
+    let p = y * w + x;
+    let d = depth(p)?;
+    if nb.is_interior(x, y) {
+        // Fast path for the common case, a pixel inside the layer: all 8 neighbours
+        // present and joined (NaN compares false, so an invalid one fails here).
+        let all = [p + 1, p - 1, p + w, p - w, p + w + 1, p + w - 1, p - w + 1, p - w - 1].iter().all(|&q| {
+            let e = dz[q] as f64;
+            (d - e).abs() <= jump * d.min(e)
+        });
+        if all {
+            return None;
+        }
+    }
+    let nd: [Option<f64>; 8] =
+        std::array::from_fn(|k| nb.get_at(x, y, k).and_then(depth).filter(|&e| joined(d, e)));
+    if nd.iter().all(Option::is_some) {
+        return None;
+    }
+    // Depth gradient along canvas x and y from the continuous 4-neighbours.
+    let grad = |plus: usize, minus: usize| match (nd[plus], nd[minus]) {
+        (Some(a), Some(b)) => (a - b) / 2.0,
+        (Some(a), None) => a - d,
+        (None, Some(b)) => d - b,
+        (None, None) => 0.0,
+    };
+    let (gx, gy) = (grad(0, 1), grad(2, 3));
+    // Across a line one pixel wide (both sides cut), the pixel's own footprint: there is no
+    // neighbouring quad to overlap, and ¼ pixel more on each side would draw a thin pole or wire
+    // half as wide again.
+    let cut = |k: usize| nb.get_at(x, y, k).map_or(true, |q| !lattice.continuous(p as u32, q as u32));
+    let half = |plus: usize, minus: usize| {
+        if nd[plus].is_none() && nd[minus].is_none() && cut(plus) && cut(minus) {
+            0.5
+        } else {
+            FOOTPRINT
+        }
+    };
+    let (fx, fy) = (half(0, 1), half(2, 3));
+    let corner = |sx: f64, sy: f64| {
+        let z = (d + fx * sx * gx + fy * sy * gy).clamp(d / (1.0 + jump), d * (1.0 + jump));
+        corner_dir(m, x, y, sx * fx, sy * fy) * z
+    };
+    Some((p as u32, [corner(-1.0, -1.0), corner(1.0, -1.0), corner(1.0, 1.0), corner(-1.0, 1.0)]))
 }

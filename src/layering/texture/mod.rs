@@ -12,6 +12,9 @@ use rayon::prelude::*;
 use super::fill::{Fill, FillContext, FillPixel, SAME_PLANE_COS};
 use super::shadow::{self, Shadow};
 use crate::mapping::{Mapping, Neighbours};
+use search::Search;
+
+mod search;
 
 /// How the fill is coloured.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -46,39 +49,12 @@ const PLANE_TOL: f32 = 0.03;
 /// Samples that score an offset: of the visible ring around the hole, of the hole itself.
 const RING_SAMPLES: usize = 512;
 const HOLE_SAMPLES: usize = 256;
-/// Cost of a ring sample whose source is not visible surface, and of an uncovered hole sample
-/// (features lie in [0, 1); a good match costs ~1e-4).
-const INVALID: f32 = 0.05;
-const UNCOVERED: f32 = 0.02;
-/// A part is copied when its best offset's ring mismatch is at most this share of what random
-/// texture would give, and the ring varies more than `PLAIN` (else it is a plain surface) and has
-/// `MIN_RING` pixels at least; otherwise it is blended: nothing says what texture continues.
-const COPY_MATCH: f32 = 0.5;
+/// A part is copied when its best offset's ring mismatch is at most [`search::COPY_MATCH`] of
+/// what random texture would give, and the ring varies more than `PLAIN` (else it is a plain
+/// surface) and has `MIN_RING` pixels at least; otherwise it is blended: nothing says what texture
+/// continues.
 const PLAIN: f32 = 1e-4;
 const MIN_RING: usize = 24;
-/// Smallest gain (per channel) a match may apply to its source, and the largest its inverse: the
-/// lighting correction's range ([`MAX_LOG_RATIO`]).
-const MIN_GAIN: f32 = 0.25;
-/// Cost of relighting a source, per (log gain)² and unit of the ring's variance.
-const LIGHT_COST: f32 = 0.25;
-
-fn ln_sq(g: Vec3) -> Vec3 {
-    let l = Vec3::new(g.x.ln(), g.y.ln(), g.z.ln());
-    l * l
-}
-
-/// How well an offset carries the ring onto visible surface: the ring's mean mismatch after the best
-/// gain and offset of its colours (`lit`) and as they are (`raw`), and the share of the hole it
-/// leaves uncovered.
-#[derive(Debug)]
-struct Match {
-    lit: f32,
-    raw: f32,
-    uncovered: f32,
-}
-
-/// Offsets kept per part: each pixel takes the first that lands on visible surface.
-const OFFSETS: usize = 4;
 
 impl FillContext<'_> {
     /// Colour compressed to [0, 1): HDR highlights must not outweigh the texture in a match.
@@ -319,18 +295,7 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
     // deep), with their colours.
     let hole: Vec<Vec3> =
         group.iter().map(|&i| fill.pixels[i as usize]).map(|f| tx.point(f.pixel, f.depth)).collect();
-    let w = tx.nb.width();
-    let mut ring: Vec<usize> = group
-        .par_iter()
-        .map(|&i| fill.pixels[i as usize].pixel)
-        // Only pixels on the hole's border reach visible surface within two steps.
-        .filter(|&q| (0..8).any(|j| tx.nb.get_at(q % w, q / w, j).is_some_and(|r| tx.layer_of[r] == k)))
-        .flat_map_iter(|q| within_two(tx.nb, q))
-        .filter(|&r| valid(r))
-        .collect();
-    ring.sort_unstable();
-    ring.dedup();
-    let ring_pixels = ring;
+    let ring_pixels = ring_around(tx, k, fill, group, &valid);
     let ring: Vec<(Vec3, Vec3)> =
         spread(&ring_pixels, RING_SAMPLES).map(|r| (tx.point(r, tx.depth[r]), tx.feature(r))).collect();
     if ring.len() < MIN_RING {
@@ -352,118 +317,58 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
     if !(footprint > 0.0 && footprint.is_finite() && extent.is_finite()) {
         return none;
     }
-    // Mean mismatch of the ring carried by `t` and the share of the hole it leaves uncovered;
-    // `None` as soon as the ring's invalid sources alone cannot beat `bound`.
-    let parts = |t: Vec3, ring_n: usize, hole_n: usize, bound: f32| -> Option<Match> {
-        let (ring_n, hole_n) = (ring.len().min(ring_n), hole_samples.len().min(hole_n));
-        let cap = bound * ring_n as f32;
-        // Per channel over the valid sources: sums of ring, source and their products, so that the
-        // mismatch is taken after the best gain and offset (the copy's lighting is corrected
-        // afterwards; a far source is lit differently).
-        let (mut r1, mut s1, mut rr, mut rs, mut ss) =
-            (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
-        let (mut n, mut invalid) = (0.0, 0.0);
-        for (x, feat) in spread(&ring, ring_n) {
-            let p = tx.pixel(x + t);
-            if valid(p) {
-                let f = tx.feature(p);
-                n += 1.0;
-                r1 += feat;
-                s1 += f;
-                rr += feat * feat;
-                rs += feat * f;
-                ss += f * f;
-            } else {
-                invalid += INVALID;
-                if invalid >= cap {
-                    return None;
-                }
-            }
-        }
-        let raw = (rr - 2.0 * rs + ss).max(Vec3::ZERO).element_sum();
-        // A fit to a few sources fits anything: below `MIN_RING` of them, colours as they are.
-        let lit = if n >= MIN_RING as f32 {
-            let (mr, ms) = (r1 / n, s1 / n);
-            let (var_r, cov, var_s) = (rr / n - mr * mr, rs / n - mr * ms, ss / n - ms * ms);
-            let gain = (cov / var_s.max(Vec3::splat(1e-12)))
-                .clamp(Vec3::splat(MIN_GAIN), Vec3::splat(1.0 / MIN_GAIN));
-            // A source lit like the ring is preferred: its correction is smaller, so surer.
-            let relit = LIGHT_COST * (var_r * ln_sq(gain)).element_sum();
-            n * ((var_r - 2.0 * gain * cov + gain * gain * var_s).max(Vec3::ZERO).element_sum() + relit)
-        } else {
-            raw
-        };
-        let mut uncovered = 0;
-        for x in spread(&hole_samples, hole_n) {
-            uncovered += !valid(tx.pixel(x + t)) as u32;
-        }
-        let per = |sum: f32| (sum + invalid) / ring_n as f32;
-        Some(Match { lit: per(lit), raw: per(raw), uncovered: uncovered as f32 / hole_n as f32 })
-    };
-    let score = |t: Vec3, ring_n: usize, hole_n: usize, bound: f32| {
-        parts(t, ring_n, hole_n, bound).map_or(f32::INFINITY, |m| m.lit + UNCOVERED * m.uncovered)
-    };
-    // Coarse grid over a disc a few hole sizes wide, then each of the best few refined by
-    // halving steps down to half a pixel.
-    let reach = 4.0 * extent + 32.0 * footprint;
-    let step = (2.0 * footprint).max(reach / 24.0);
-    let cells = (reach / step).ceil() as i32;
-    let mut best: Vec<(f32, Vec3)> = Vec::new();
-    for a in -cells..=cells {
-        for b in -cells..=cells {
-            let t = plane.e1 * (a as f32 * step) + plane.e2 * (b as f32 * step);
-            if t.length() > reach || t.length() < 2.0 * footprint {
-                continue;
-            }
-            best.push((score(t, 64, 32, f32::INFINITY), t));
-        }
-    }
-    best.sort_by(|a, b| a.0.total_cmp(&b.0));
-    best.truncate(2 * OFFSETS);
-    // Each candidate refined on its own (in parallel: a large part is one long search).
-    best.par_iter_mut().for_each(|c| {
-        c.0 = score(c.1, RING_SAMPLES, HOLE_SAMPLES, f32::INFINITY);
-        let mut step = step;
-        while step > 0.5 * footprint {
-            step *= 0.5;
-            let centre = c.1;
-            for (a, b) in [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)] {
-                let t = centre + plane.e1 * (a as f32 * step) + plane.e2 * (b as f32 * step);
-                let s = score(t, RING_SAMPLES, HOLE_SAMPLES, c.0);
-                if s < c.0 {
-                    *c = (s, t);
-                }
-            }
-        }
-    });
-    best.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let clear =
-        best.first().and_then(|b| parts(b.1, RING_SAMPLES, HOLE_SAMPLES, f32::INFINITY)).is_some_and(|m| {
-            (m.lit <= COPY_MATCH * random || m.raw <= 2.0 * COPY_MATCH * random) && m.uncovered <= 0.5
-        });
-    if !clear {
-        return none;
-    }
-    let mut offsets: Vec<Vec3> = Vec::new();
-    for (_, t) in best {
-        if offsets.len() < OFFSETS && offsets.iter().all(|o| (*o - t).length() > 2.0 * footprint) {
-            offsets.push(t);
-        }
-    }
+    let search = Search { tx, valid: &valid, ring, hole: hole_samples };
+    let Some(offsets) = search.offsets(&plane, footprint, extent, random) else { return none };
     let sources = group
         .par_iter()
         .zip(&hole)
         .filter_map(|(&i, &x)| offsets.iter().map(|&t| tx.pixel(x + t)).find(|&p| valid(p)).map(|p| (i, p)))
         .collect();
-    let first = offsets.first().copied();
-    // The occluders' shadow, from the shading of the surface a few pixels around the hole.
     let hole_pixels: Vec<usize> = group.iter().map(|&i| fill.pixels[i as usize].pixel).collect();
+    let (shading, shadow) =
+        shading(tx, k, &ring_pixels, &hole_pixels, &valid, offsets.first().copied(), alpha);
+    Transfer { sources, shading, shadow }
+}
+
+/// The visible pixels of the part's surface within two steps of its border, in order.
+fn ring_around(
+    tx: &FillContext,
+    k: u32,
+    fill: &Fill,
+    group: &[u32],
+    valid: &(impl Fn(usize) -> bool + Sync),
+) -> Vec<usize> {
+    let w = tx.nb.width();
+    let mut ring: Vec<usize> = group
+        .par_iter()
+        .map(|&i| fill.pixels[i as usize].pixel)
+        // Only pixels on the hole's border reach visible surface within two steps.
+        .filter(|&q| (0..8).any(|j| tx.nb.get_at(q % w, q / w, j).is_some_and(|r| tx.layer_of[r] == k)))
+        .flat_map_iter(|q| within_two(tx.nb, q))
+        .filter(|&r| valid(r))
+        .collect();
+    ring.sort_unstable();
+    ring.dedup();
+    ring
+}
+
+/// The shading ratio (log) between each ring pixel and its copy by the `first` offset, less the
+/// occluders' shadow fitted from the surface a few pixels around the hole, and that shadow.
+fn shading(
+    tx: &FillContext,
+    k: u32,
+    ring_pixels: &[usize],
+    hole_pixels: &[usize],
+    valid: &impl Fn(usize) -> bool,
+    first: Option<Vec3>,
+    alpha: f32,
+) -> (Vec<(usize, Vec3)>, Option<Shadow>) {
     let shadow = first.and_then(|t| {
-        let samples = shadow_samples(tx, &hole_pixels, &valid, t);
-        shadow::fit(tx, k, &hole_pixels, &samples, alpha)
+        let samples = shadow_samples(tx, hole_pixels, valid, t);
+        shadow::fit(tx, k, hole_pixels, &samples, alpha)
     });
     // In the ring's order (a hash map's varies from run to run; the build is deterministic).
-    let raw = first.map(|t| ratios(tx, &ring_pixels, &valid, t)).unwrap_or_default();
+    let raw = first.map(|t| ratios(tx, ring_pixels, valid, t)).unwrap_or_default();
     let shading = ring_pixels
         .iter()
         .filter_map(|&r| raw.get(&r).map(|e| (r, e.0)))
@@ -475,7 +380,7 @@ fn copy_group(tx: &FillContext, k: u32, fill: &Fill, clean: &[bool], group: &[u3
             )
         })
         .collect();
-    Transfer { sources, shading, shadow }
+    (shading, shadow)
 }
 
 /// The pixels one and two steps from `r` along the 8 directions.
