@@ -11,7 +11,7 @@
 
 use std::borrow::Cow;
 use std::collections::HashSet;
-use std::path::{Component, Path};
+use std::path::{Component, Path, PathBuf};
 
 use rayon::prelude::*;
 
@@ -185,20 +185,7 @@ fn write_files(
 ) -> Result<Manifest, Error> {
     std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
     let mut out = manifest.clone();
-    // Every destination is checked before the first write: a name that escapes through a
-    // symbolic link must not leave a half-written panorama behind.
-    let files = out
-        .layers
-        .iter()
-        .enumerate()
-        .map(|(k, decl)| {
-            let file = match &decl.source {
-                LayerSource::Native { file } => file.clone(),
-                LayerSource::Thesis { .. } => format!("layer{k}.exr"),
-            };
-            inside(dir, &file).map(|path| (file, path))
-        })
-        .collect::<Result<Vec<_>, Error>>()?;
+    let files = destinations(dir, &out)?;
     if let Layers::Given(given) = layers {
         if given.len() != files.len() {
             let (index, count) = (given.len().min(files.len()), given.len());
@@ -206,41 +193,7 @@ fn write_files(
             return Err(PanoramaError::NoSuchLayer { manifest, index, count }.into());
         }
     }
-    let write_one = |k: usize, file: String, path: &Path| -> Result<Written, Error> {
-        // A made layer is owned: its samples move into the encoder rather than being copied.
-        let image: Cow<LayerImage> = match layers {
-            Layers::Given(given) => Cow::Borrowed(&given[k]),
-            Layers::Made(make) => Cow::Owned(make(k)?),
-        };
-        let size = (image.width as u32, image.height as u32);
-        let canvas = image.width as f64 * image.height as f64;
-        // An atlas never holds fewer pixels than the domain: a layer fuller than the
-        // threshold is not worth cutting up.
-        let worth_packing = options.pack
-            && (image.domain().iter().filter(|&&m| m).count() as f64) <= options.pack_threshold * canvas;
-        let packed =
-            if worth_packing { Some(pack::pack_layer(&image, &options.pack_options)?) } else { None };
-        let packing = match packed {
-            Some(p) if (p.atlas_area() as f64) <= options.pack_threshold * canvas => {
-                drop(image);
-                let packing = Packing {
-                    atlas_width: p.atlas.width as u32,
-                    atlas_height: p.atlas.height as u32,
-                    patches: p.patches,
-                };
-                layer_io::write_exr_owned(path, p.atlas, &options.exr)?;
-                Some(packing)
-            }
-            _ => {
-                match image {
-                    Cow::Owned(m) => layer_io::write_exr_owned(path, m, &options.exr)?,
-                    Cow::Borrowed(b) => layer_io::write_exr(path, b, &options.exr)?,
-                }
-                None
-            }
-        };
-        Ok(Written { file, size, packing })
-    };
+    let write_one = |k: usize, file: String, path: &Path| write_layer(layers, options, k, file, path);
     // Given layers are packed and encoded in parallel (each EXR encode is parallel too, but packing
     // and the small layers are not); made ones one after another, to hold one at a time.
     let jobs = files.into_iter().enumerate();
@@ -248,34 +201,7 @@ fn write_files(
         Layers::Given(_) => {
             jobs.collect::<Vec<_>>().into_par_iter().map(|(k, (f, p))| write_one(k, f, &p)).collect()
         }
-        // A made layer may be read from the file it replaces (`convert` in place): each goes to a
-        // staged name first, and all are renamed into place only once every one is written.
-        Layers::Made(_) => {
-            let mut staged = Vec::new();
-            let mut results = Vec::new();
-            for (k, (file, path)) in jobs {
-                let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-                let stage = path.with_file_name(format!(".pomc-tmp-stage-{name}"));
-                let result = write_one(k, file, &stage);
-                let failed = result.is_err();
-                staged.push((stage, path));
-                results.push(result);
-                if failed {
-                    break;
-                }
-            }
-            if results.iter().any(Result::is_err) {
-                for (stage, _) in &staged {
-                    let _ = std::fs::remove_file(stage);
-                }
-            } else {
-                for (stage, path) in &staged {
-                    std::fs::rename(stage, path)
-                        .map_err(|source| Error::Io { path: path.clone(), source })?;
-                }
-            }
-            results
-        }
+        Layers::Made(_) => write_staged(jobs, write_one)?,
     };
     for (decl, result) in out.layers.iter_mut().zip(written) {
         let Written { file, size, packing } = result?;
@@ -293,6 +219,96 @@ fn write_files(
     }
     fsutil::write_bytes_atomic(&dir.join(MANIFEST_NAME), out.to_xml().as_bytes())?;
     Ok(out)
+}
+
+/// Each layer's file name and path in `dir`, every one checked before the first write: a name
+/// that escapes through a symbolic link must not leave a half-written panorama behind.
+fn destinations(dir: &Path, out: &Manifest) -> Result<Vec<(String, PathBuf)>, Error> {
+    out.layers
+        .iter()
+        .enumerate()
+        .map(|(k, decl)| {
+            let file = match &decl.source {
+                LayerSource::Native { file } => file.clone(),
+                LayerSource::Thesis { .. } => format!("layer{k}.exr"),
+            };
+            inside(dir, &file).map(|path| (file, path))
+        })
+        .collect()
+}
+
+/// Write layer `k` to `path`, packed when that is worth it.
+fn write_layer(
+    layers: &Layers,
+    options: &SaveOptions,
+    k: usize,
+    file: String,
+    path: &Path,
+) -> Result<Written, Error> {
+    // A made layer is owned: its samples move into the encoder rather than being copied.
+    let image: Cow<LayerImage> = match layers {
+        Layers::Given(given) => Cow::Borrowed(&given[k]),
+        Layers::Made(make) => Cow::Owned(make(k)?),
+    };
+    let size = (image.width as u32, image.height as u32);
+    let canvas = image.width as f64 * image.height as f64;
+    // An atlas never holds fewer pixels than the domain: a layer fuller than the
+    // threshold is not worth cutting up.
+    let worth_packing = options.pack
+        && (image.domain().iter().filter(|&&m| m).count() as f64) <= options.pack_threshold * canvas;
+    let packed = if worth_packing { Some(pack::pack_layer(&image, &options.pack_options)?) } else { None };
+    let packing = match packed {
+        Some(p) if (p.atlas_area() as f64) <= options.pack_threshold * canvas => {
+            drop(image);
+            let packing = Packing {
+                atlas_width: p.atlas.width as u32,
+                atlas_height: p.atlas.height as u32,
+                patches: p.patches,
+            };
+            layer_io::write_exr_owned(path, p.atlas, &options.exr)?;
+            Some(packing)
+        }
+        _ => {
+            match image {
+                Cow::Owned(m) => layer_io::write_exr_owned(path, m, &options.exr)?,
+                Cow::Borrowed(b) => layer_io::write_exr(path, b, &options.exr)?,
+            }
+            None
+        }
+    };
+    Ok(Written { file, size, packing })
+}
+
+/// Write made layers one after another. A made layer may be read from the file it replaces
+/// (`convert` in place): each goes to a staged name first, and all are renamed into place only
+/// once every one is written.
+fn write_staged(
+    jobs: impl Iterator<Item = (usize, (String, PathBuf))>,
+    write_one: impl Fn(usize, String, &Path) -> Result<Written, Error>,
+) -> Result<Vec<Result<Written, Error>>, Error> {
+    let mut staged = Vec::new();
+    let mut results = Vec::new();
+    for (k, (file, path)) in jobs {
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let stage = path.with_file_name(format!(".pomc-tmp-stage-{name}"));
+        let result = write_one(k, file, &stage);
+        let failed = result.is_err();
+        staged.push((stage, path));
+        results.push(result);
+        if failed {
+            break;
+        }
+    }
+    if results.iter().any(Result::is_err) {
+        for (stage, _) in &staged {
+            let _ = std::fs::remove_file(stage);
+        }
+    } else {
+        for (stage, path) in &staged {
+            std::fs::rename(stage, path).map_err(|source| Error::Io { path: path.clone(), source })?;
+        }
+    }
+    Ok(results)
 }
 
 /// What writing one layer gives the manifest.

@@ -288,8 +288,6 @@ fn check_pixels(
     loc: &str,
     issues: &mut Vec<Issue>,
 ) {
-    let w = image.width;
-    let n = image.width * image.height;
     let Some(z) = image.depth() else {
         issues.push(issue(
             codes::LAYER_NO_DEPTH,
@@ -299,6 +297,36 @@ fn check_pixels(
         ));
         return;
     };
+    let t = tally_pixels(image, decl, z);
+    #[rustfmt::skip]
+    let findings = [
+        (codes::DEPTH_NEGATIVE_IN_DOMAIN, &t.neg, "inside the domain (A > 0) have negative depth; set A = 0 there or store the true distance", "Z"),
+        (codes::DEPTH_ZERO_IN_DOMAIN, &t.zero, "inside the domain have depth 0, which is no surface; store NaN for unknown depth or mark them outside", "Z"),
+        (codes::DEPTH_UNKNOWN_IN_DOMAIN, &t.nan, "inside the domain have unknown depth (NaN)", "Z"),
+        (codes::DEPTH_OUT_OF_RANGE, &t.range, "have depths outside the layer's declared depthrange; fix the range or the depths", "Z"),
+        (codes::MASK_OUT_OF_RANGE, &t.mask_bad, "have coverage A outside [0, 1] or NaN", "A"),
+        (codes::MASK_DEPTH_DISAGREE, &t.mask_disagree, "have A = 0 (outside) but a non-negative depth; write Z = -1 outside the domain", "A"),
+        (codes::COLOUR_NOT_FINITE, &t.colour_bad, "inside the domain have NaN or infinite colour", "R,G,B"),
+    ];
+    for (code, tally, what, channel) in findings {
+        push_tally(issues, code, tally, what, loc, channel);
+    }
+    if t.inside == 0 {
+        issues.push(issue(
+            codes::LAYER_EMPTY,
+            "the layer has no pixel inside its domain; remove it from the manifest".into(),
+            loc.to_string(),
+        ));
+    }
+    check_channel_sets(image, loc, issues);
+    check_normals(image, options, loc, issues);
+    check_continuity(image, mapping, options, loc, issues);
+}
+
+/// Count, per finding, the pixels of `image` that have it (and where the first is).
+fn tally_pixels(image: &LayerImage, decl: &LayerDecl, z: &[f32]) -> PixelTallies {
+    let w = image.width;
+    let n = image.width * image.height;
     let a = image.coverage();
     let mut t = PixelTallies::default();
     let colour: Vec<&[f32]> =
@@ -334,65 +362,7 @@ fn check_pixels(
             t.colour_bad.add(i, w);
         }
     }
-    push_tally(
-        issues,
-        codes::DEPTH_NEGATIVE_IN_DOMAIN,
-        &t.neg,
-        "inside the domain (A > 0) have negative depth; set A = 0 there or store the true distance",
-        loc,
-        "Z",
-    );
-    push_tally(issues, codes::DEPTH_ZERO_IN_DOMAIN, &t.zero, "inside the domain have depth 0, which is no surface; store NaN for unknown depth or mark them outside", loc, "Z");
-    push_tally(
-        issues,
-        codes::DEPTH_UNKNOWN_IN_DOMAIN,
-        &t.nan,
-        "inside the domain have unknown depth (NaN)",
-        loc,
-        "Z",
-    );
-    push_tally(
-        issues,
-        codes::DEPTH_OUT_OF_RANGE,
-        &t.range,
-        "have depths outside the layer's declared depthrange; fix the range or the depths",
-        loc,
-        "Z",
-    );
-    push_tally(
-        issues,
-        codes::MASK_OUT_OF_RANGE,
-        &t.mask_bad,
-        "have coverage A outside [0, 1] or NaN",
-        loc,
-        "A",
-    );
-    push_tally(
-        issues,
-        codes::MASK_DEPTH_DISAGREE,
-        &t.mask_disagree,
-        "have A = 0 (outside) but a non-negative depth; write Z = -1 outside the domain",
-        loc,
-        "A",
-    );
-    push_tally(
-        issues,
-        codes::COLOUR_NOT_FINITE,
-        &t.colour_bad,
-        "inside the domain have NaN or infinite colour",
-        loc,
-        "R,G,B",
-    );
-    if t.inside == 0 {
-        issues.push(issue(
-            codes::LAYER_EMPTY,
-            "the layer has no pixel inside its domain; remove it from the manifest".into(),
-            loc.to_string(),
-        ));
-    }
-    check_channel_sets(image, loc, issues);
-    check_normals(image, options, loc, issues);
-    check_continuity(image, mapping, options, loc, issues);
+    t
 }
 
 fn check_channel_sets(image: &LayerImage, loc: &str, issues: &mut Vec<Issue>) {

@@ -344,124 +344,166 @@ pub fn add_borders(cx: &FillContext, fills: &mut [Fill]) {
 /// be a thin object's (a table leg's) continued far beyond it, and dropping all it claimed left
 /// a hole in the layer where the nearest seed's surface continues.
 fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill, mut own_plane: HashMap<usize, FillPixel>) {
-    let n = cx.nb.len();
-    let mut d: Vec<f32> = (0..n)
-        .into_par_iter()
-        .map(|p| if cx.layer_of[p] == k && cx.depth[p] > 0.0 { cx.depth[p] } else { f32::NAN })
-        .collect();
-    let mut filled = vec![false; n];
-    for f in &fill.pixels {
-        d[f.pixel] = f.depth;
-        filled[f.pixel] = true;
-    }
-    let w = cx.nb.width();
-    let at = |d: &[f32], i: Option<usize>| i.map(|i| d[i] as f64).filter(|v| *v > 0.0);
-    let mut dropped = Vec::new();
+    let mut c = Continuity::new(cx, k, fill);
     let at_start = fill.pixels.len();
-    // Pixel `q` and its 4-neighbour `r` (in direction `j`) are one surface.
-    let link = |d: &[f32], q: usize, j: usize, r: usize| {
-        let (x, y) = (q % w, q / w);
-        let Some(b) = at(d, Some(r)) else { return false };
-        continuous_with(
-            d[q] as f64,
-            b,
-            || at(d, cx.nb.get_at(x, y, opposite(j))),
-            || at(d, cx.nb.get2_at(x, y, j)),
-            cx.jump,
-            cx.plane_tol,
-        )
-    };
-    // Each pass only removes pixels; one that removes none ends it. A removal can take away the
-    // plane another pair was continued by, hence the passes (few: 1–3 on realistic scenes).
-    for _ in 0..64 {
-        let mut drop: Vec<usize> = fill
-            .pixels
-            .par_iter()
-            .flat_map_iter(|f| {
-                let q = f.pixel;
-                let (x, y) = (q % w, q / w);
-                let (d, filled) = (&d, &filled);
-                // 4-neighbours, as validate checks: a diagonal step is judged by the steps around it.
-                (0..4).filter_map(move |j| {
-                    let r = cx.nb.get_at(x, y, j)?;
-                    let b = at(d, Some(r))?;
-                    if link(d, q, j, r) {
-                        return None;
-                    }
-                    Some(if b < d[q] as f64 && filled[r] { r } else { q })
-                })
-            })
-            .collect();
-        if drop.is_empty() {
-            break;
-        }
-        drop.sort_unstable();
-        drop.dedup();
-        for &p in &drop {
-            d[p] = f32::NAN;
-            filled[p] = false;
-            dropped.extend(own_plane.remove(&p));
-        }
-        fill.pixels.retain(|f| filled[f.pixel]);
-    }
+    let mut dropped = c.drop_breaks(fill, &mut own_plane);
     if fill.pixels.len() == at_start {
         return;
     }
-    // A fill left with no continuous path to the layer's own pixels continues nothing seen: a
-    // remnant of a rival's plane whose surroundings went. It goes too.
-    let mut reached = vec![false; n];
-    let mut queue: VecDeque<usize> = VecDeque::new();
-    for f in &fill.pixels {
-        let (x, y) = (f.pixel % w, f.pixel / w);
-        let anchored =
-            (0..4).any(|j| cx.nb.get_at(x, y, j).is_some_and(|r| !filled[r] && link(&d, f.pixel, j, r)));
-        if anchored {
-            reached[f.pixel] = true;
-            queue.push_back(f.pixel);
+    c.drop_unanchored(fill, &mut own_plane, &mut dropped);
+    c.take_back(fill, dropped);
+}
+
+/// The layer's depth as [`keep_continuous`] edits it: its own pixels and its fill (NaN
+/// elsewhere), and which pixels are filled.
+struct Continuity<'a, 'b> {
+    cx: &'a FillContext<'b>,
+    d: Vec<f32>,
+    filled: Vec<bool>,
+}
+
+impl Continuity<'_, '_> {
+    fn new<'a, 'b>(cx: &'a FillContext<'b>, k: u32, fill: &Fill) -> Continuity<'a, 'b> {
+        let n = cx.nb.len();
+        let mut d: Vec<f32> = (0..n)
+            .into_par_iter()
+            .map(|p| if cx.layer_of[p] == k && cx.depth[p] > 0.0 { cx.depth[p] } else { f32::NAN })
+            .collect();
+        let mut filled = vec![false; n];
+        for f in &fill.pixels {
+            d[f.pixel] = f.depth;
+            filled[f.pixel] = true;
         }
+        Continuity { cx, d, filled }
     }
-    while let Some(q) = queue.pop_front() {
+
+    fn at(&self, i: Option<usize>) -> Option<f64> {
+        i.map(|i| self.d[i] as f64).filter(|v| *v > 0.0)
+    }
+
+    /// Pixel `q` and its 4-neighbour `r` (in direction `j`) are one surface.
+    fn link(&self, q: usize, j: usize, r: usize) -> bool {
+        let w = self.cx.nb.width();
         let (x, y) = (q % w, q / w);
-        for j in 0..4 {
-            if let Some(r) = cx.nb.get_at(x, y, j) {
-                if filled[r] && !reached[r] && link(&d, q, j, r) {
-                    reached[r] = true;
-                    queue.push_back(r);
+        let Some(b) = self.at(Some(r)) else { return false };
+        continuous_with(
+            self.d[q] as f64,
+            b,
+            || self.at(self.cx.nb.get_at(x, y, opposite(j))),
+            || self.at(self.cx.nb.get2_at(x, y, j)),
+            self.cx.jump,
+            self.cx.plane_tol,
+        )
+    }
+
+    /// Remove the filled pixels across a break from a neighbour (the filled side of a break, or the
+    /// nearer when both are filled) until none is left; the pixels of their own plane removed.
+    fn drop_breaks(&mut self, fill: &mut Fill, own_plane: &mut HashMap<usize, FillPixel>) -> Vec<FillPixel> {
+        let w = self.cx.nb.width();
+        let mut dropped = Vec::new();
+        // Each pass only removes pixels; one that removes none ends it. A removal can take away the
+        // plane another pair was continued by, hence the passes (few: 1–3 on realistic scenes).
+        for _ in 0..64 {
+            let this = &*self;
+            let mut drop: Vec<usize> = fill
+                .pixels
+                .par_iter()
+                .flat_map_iter(|f| {
+                    let q = f.pixel;
+                    let (x, y) = (q % w, q / w);
+                    // 4-neighbours, as validate checks: a diagonal step is judged by the steps around it.
+                    (0..4).filter_map(move |j| {
+                        let r = this.cx.nb.get_at(x, y, j)?;
+                        let b = this.at(Some(r))?;
+                        if this.link(q, j, r) {
+                            return None;
+                        }
+                        Some(if b < this.d[q] as f64 && this.filled[r] { r } else { q })
+                    })
+                })
+                .collect();
+            if drop.is_empty() {
+                break;
+            }
+            drop.sort_unstable();
+            drop.dedup();
+            for &p in &drop {
+                self.d[p] = f32::NAN;
+                self.filled[p] = false;
+                dropped.extend(own_plane.remove(&p));
+            }
+            fill.pixels.retain(|f| self.filled[f.pixel]);
+        }
+        dropped
+    }
+
+    /// A fill left with no continuous path to the layer's own pixels continues nothing seen: a
+    /// remnant of a rival's plane whose surroundings went. It goes too.
+    fn drop_unanchored(
+        &mut self,
+        fill: &mut Fill,
+        own_plane: &mut HashMap<usize, FillPixel>,
+        dropped: &mut Vec<FillPixel>,
+    ) {
+        let (w, nb) = (self.cx.nb.width(), self.cx.nb);
+        let mut reached = vec![false; nb.len()];
+        let mut queue: VecDeque<usize> = VecDeque::new();
+        for f in &fill.pixels {
+            let (x, y) = (f.pixel % w, f.pixel / w);
+            let anchored = (0..4)
+                .any(|j| nb.get_at(x, y, j).is_some_and(|r| !self.filled[r] && self.link(f.pixel, j, r)));
+            if anchored {
+                reached[f.pixel] = true;
+                queue.push_back(f.pixel);
+            }
+        }
+        while let Some(q) = queue.pop_front() {
+            let (x, y) = (q % w, q / w);
+            for j in 0..4 {
+                if let Some(r) = nb.get_at(x, y, j) {
+                    if self.filled[r] && !reached[r] && self.link(q, j, r) {
+                        reached[r] = true;
+                        queue.push_back(r);
+                    }
                 }
             }
         }
+        for f in fill.pixels.iter().filter(|f| !reached[f.pixel]) {
+            self.d[f.pixel] = f32::NAN;
+            self.filled[f.pixel] = false;
+            dropped.extend(own_plane.remove(&f.pixel));
+        }
+        fill.pixels.retain(|f| self.filled[f.pixel]);
     }
-    for f in fill.pixels.iter().filter(|f| !reached[f.pixel]) {
-        d[f.pixel] = f32::NAN;
-        filled[f.pixel] = false;
-        dropped.extend(own_plane.remove(&f.pixel));
-    }
-    fill.pixels.retain(|f| filled[f.pixel]);
-    // Each pass takes back the pixels continuous with all their neighbours so far; one taken
-    // back gives its neighbours a value to be judged against, hence the passes.
-    loop {
-        let before = dropped.len();
-        dropped.retain(|f| {
-            let q = f.pixel;
-            let (x, y) = (q % w, q / w);
-            d[q] = f.depth;
-            let mut any = false;
-            let ok = (0..4).all(|j| match cx.nb.get_at(x, y, j) {
-                Some(r) if at(&d, Some(r)).is_some() => {
-                    any = true;
-                    link(&d, q, j, r)
+
+    /// Take back the pixels of their own plane continuous with all their neighbours so far; one
+    /// taken back gives its neighbours a value to be judged against, hence the passes.
+    fn take_back(&mut self, fill: &mut Fill, mut dropped: Vec<FillPixel>) {
+        let (w, nb) = (self.cx.nb.width(), self.cx.nb);
+        loop {
+            let before = dropped.len();
+            dropped.retain(|f| {
+                let q = f.pixel;
+                let (x, y) = (q % w, q / w);
+                self.d[q] = f.depth;
+                let mut any = false;
+                let ok = (0..4).all(|j| match nb.get_at(x, y, j) {
+                    Some(r) if self.at(Some(r)).is_some() => {
+                        any = true;
+                        self.link(q, j, r)
+                    }
+                    _ => true,
+                });
+                if any && ok {
+                    fill.pixels.push(*f);
+                    return false;
                 }
-                _ => true,
+                self.d[q] = f32::NAN;
+                true
             });
-            if any && ok {
-                fill.pixels.push(*f);
-                return false;
+            if dropped.len() == before {
+                break;
             }
-            d[q] = f32::NAN;
-            true
-        });
-        if dropped.len() == before {
-            break;
         }
     }
 }
