@@ -191,99 +191,118 @@ pub(crate) fn to_metres(
     warnings: &mut Vec<Warning>,
 ) -> Result<(Vec<f32>, Option<MetricFit>), PrepareError> {
     check_kind(path, samples, enc)?;
-    let invalid = |v: f32| v.is_nan() || enc.invalid.is_some_and(|i| f64::from(v) == i);
     match enc.kind {
-        DepthKind::Ray | DepthKind::Z => {
-            let mut fit = None;
-            let scale = match (enc.scale, samples.format, enc.camera_height) {
-                (Some(s), _, _) => s,
-                // One known distance gives the unit (float depth too: an estimator's depth up to scale).
-                _ if enc.known_distance.is_some() => {
-                    let (k, v) = known_value(path, samples, mapping, enc, &invalid)?;
-                    let along = if enc.kind == DepthKind::Z { v / z_axis(mapping, k) } else { v };
-                    fit = Some(MetricFit {
-                        a: k.metres / along,
-                        b: 0.0,
-                        from: "known-distance",
-                        floor_share: None,
-                    });
-                    k.metres / along
-                }
-                (None, SampleFormat::F32, _) => 1.0,
-                // Integer depth of unknown unit: the floor under a camera of known height gives it.
-                (None, _, Some(h)) => {
-                    let raw: Vec<f64> = samples
-                        .values
-                        .iter()
-                        .map(|&v| if invalid(v) || v <= 0.0 { f64::NAN } else { f64::from(v) })
-                        .collect();
-                    let f = floor_fit(path, &raw, mapping, h, Line::Scale)?;
-                    fit = Some(f);
-                    f.a
-                }
-                (None, _, None) => return Err(PrepareError::ScaleNeeded { path: path.into() }),
-            };
-            let sentinel = sentinels(samples, scale, enc, warnings, path);
-            let d = samples
-                .values
-                .iter()
-                .map(|&v| {
-                    if invalid(v) || v <= 0.0 || (sentinel && f64::from(v) * scale >= SENTINEL_M) {
-                        f32::NAN
-                    } else {
-                        (f64::from(v) * scale) as f32
-                    }
-                })
-                .collect();
-            Ok((d, fit))
-        }
-        DepthKind::Inverse | DepthKind::Nearness => {
-            let unit = samples.format.unit();
-            let values: Vec<f64> = samples
-                .values
-                .iter()
-                .map(|&v| if invalid(v) || !v.is_finite() { f64::NAN } else { f64::from(v) * unit })
-                .collect();
-            let fit = match enc.known_distance {
-                // Inverse depth without shift: 1/depth = a·value.
-                Some(_) if enc.kind == DepthKind::Inverse => {
-                    let (k, v) = known_value(path, samples, mapping, enc, &invalid)?;
-                    let v = v * unit;
-                    if v <= 0.0 {
-                        return Err(PrepareError::BadOption {
-                            option: "--known-distance",
-                            why: format!("{}: the inverse depth at pixel ({},{}) is {v}, not above 0: pick a pixel nearer than the farthest", path.display(), k.x, k.y),
-                        });
-                    }
-                    MetricFit { a: 1.0 / (k.metres * v), b: 0.0, from: "known-distance", floor_share: None }
-                }
-                _ => relative_fit(path, &values, mapping, enc)?,
-            };
-            let inverse = enc.kind == DepthKind::Inverse;
-            let d = values
-                .iter()
-                .map(|&v| {
-                    if v.is_nan() {
-                        return f32::NAN;
-                    }
-                    let t = fit.a * v + fit.b;
-                    if inverse {
-                        // 1/depth at or below 0: beyond any finite distance.
-                        if t <= 0.0 {
-                            f32::INFINITY
-                        } else {
-                            (1.0 / t) as f32
-                        }
-                    } else if t > 0.0 {
-                        t as f32
-                    } else {
-                        f32::NAN
-                    }
-                })
-                .collect();
-            Ok((d, Some(fit)))
-        }
+        DepthKind::Ray | DepthKind::Z => metric_to_metres(path, samples, mapping, enc, warnings),
+        DepthKind::Inverse | DepthKind::Nearness => relative_to_metres(path, samples, mapping, enc),
     }
+}
+
+/// Whether a stored value means "no depth".
+fn is_invalid(enc: &DepthEncoding, v: f32) -> bool {
+    v.is_nan() || enc.invalid.is_some_and(|i| f64::from(v) == i)
+}
+
+/// Metric depth (ray or z) in metres: its unit given, known from one distance, or fitted to the
+/// floor under a camera of known height.
+fn metric_to_metres(
+    path: &Path,
+    samples: &DepthSamples,
+    mapping: &AnyMapping,
+    enc: &DepthEncoding,
+    warnings: &mut Vec<Warning>,
+) -> Result<(Vec<f32>, Option<MetricFit>), PrepareError> {
+    let invalid = |v: f32| is_invalid(enc, v);
+    let mut fit = None;
+    let scale = match (enc.scale, samples.format, enc.camera_height) {
+        (Some(s), _, _) => s,
+        // One known distance gives the unit (float depth too: an estimator's depth up to scale).
+        _ if enc.known_distance.is_some() => {
+            let (k, v) = known_value(path, samples, mapping, enc, &invalid)?;
+            let along = if enc.kind == DepthKind::Z { v / z_axis(mapping, k) } else { v };
+            fit = Some(MetricFit { a: k.metres / along, b: 0.0, from: "known-distance", floor_share: None });
+            k.metres / along
+        }
+        (None, SampleFormat::F32, _) => 1.0,
+        // Integer depth of unknown unit: the floor under a camera of known height gives it.
+        (None, _, Some(h)) => {
+            let raw: Vec<f64> = samples
+                .values
+                .iter()
+                .map(|&v| if invalid(v) || v <= 0.0 { f64::NAN } else { f64::from(v) })
+                .collect();
+            let f = floor_fit(path, &raw, mapping, h, Line::Scale)?;
+            fit = Some(f);
+            f.a
+        }
+        (None, _, None) => return Err(PrepareError::ScaleNeeded { path: path.into() }),
+    };
+    let sentinel = sentinels(samples, scale, enc, warnings, path);
+    let d = samples
+        .values
+        .iter()
+        .map(|&v| {
+            if invalid(v) || v <= 0.0 || (sentinel && f64::from(v) * scale >= SENTINEL_M) {
+                f32::NAN
+            } else {
+                (f64::from(v) * scale) as f32
+            }
+        })
+        .collect();
+    Ok((d, fit))
+}
+
+/// Relative depth (inverse, nearness) in metres by the fit of its scale and shift.
+fn relative_to_metres(
+    path: &Path,
+    samples: &DepthSamples,
+    mapping: &AnyMapping,
+    enc: &DepthEncoding,
+) -> Result<(Vec<f32>, Option<MetricFit>), PrepareError> {
+    let invalid = |v: f32| is_invalid(enc, v);
+    let unit = samples.format.unit();
+    let values: Vec<f64> = samples
+        .values
+        .iter()
+        .map(|&v| if invalid(v) || !v.is_finite() { f64::NAN } else { f64::from(v) * unit })
+        .collect();
+    let fit = match enc.known_distance {
+        // Inverse depth without shift: 1/depth = a·value.
+        Some(_) if enc.kind == DepthKind::Inverse => {
+            let (k, v) = known_value(path, samples, mapping, enc, &invalid)?;
+            let v = v * unit;
+            if v <= 0.0 {
+                return Err(PrepareError::BadOption {
+                    option: "--known-distance",
+                    why: format!("{}: the inverse depth at pixel ({},{}) is {v}, not above 0: pick a pixel nearer than the farthest", path.display(), k.x, k.y),
+                });
+            }
+            MetricFit { a: 1.0 / (k.metres * v), b: 0.0, from: "known-distance", floor_share: None }
+        }
+        _ => relative_fit(path, &values, mapping, enc)?,
+    };
+    let inverse = enc.kind == DepthKind::Inverse;
+    let d = values
+        .iter()
+        .map(|&v| {
+            if v.is_nan() {
+                return f32::NAN;
+            }
+            let t = fit.a * v + fit.b;
+            if inverse {
+                // 1/depth at or below 0: beyond any finite distance.
+                if t <= 0.0 {
+                    f32::INFINITY
+                } else {
+                    (1.0 / t) as f32
+                }
+            } else if t > 0.0 {
+                t as f32
+            } else {
+                f32::NAN
+            }
+        })
+        .collect();
+    Ok((d, Some(fit)))
 }
 
 /// The known distance (its pixel on the depth's canvas) and the median stored value within 2

@@ -317,36 +317,9 @@ pub fn prepare_depth(
     check_encoding(enc)?;
     let (sw, sh) = (samples.width, samples.height);
     let kind = mapping.kind();
-    let source = AnyMapping::new(kind, sw, sh).map_err(|_| PrepareError::Shape {
-        cw: mapping.width(),
-        ch: mapping.height(),
-        depth: path.into(),
-        dw: sw,
-        dh: sh,
-        kind: match kind {
-            MappingKind::Equirect => "2:1 equirect",
-            MappingKind::Cube3x2 => "3:2 cube-map",
-        },
-    })?;
+    let source = depth_canvas(path, mapping, sw, sh)?;
     let mut warnings = Vec::new();
-    // The known distance's pixel is the colour's: onto the depth's canvas.
-    let mut enc = *enc;
-    if let Some(k) = &mut enc.known_distance {
-        if !(k.x >= 0.0 && k.y >= 0.0 && k.x < mapping.width() as f64 && k.y < mapping.height() as f64) {
-            return Err(PrepareError::BadOption {
-                option: "--known-distance",
-                why: format!(
-                    "pixel ({},{}) is outside the {}x{} colour image",
-                    k.x,
-                    k.y,
-                    mapping.width(),
-                    mapping.height()
-                ),
-            });
-        }
-        k.x *= sw as f64 / mapping.width() as f64;
-        k.y *= sh as f64 / mapping.height() as f64;
-    }
+    let enc = known_on_depth_canvas(enc, mapping, sw, sh)?;
     let enc = &enc;
     let (mut depth, metric) = decode::to_metres(path, samples, &source, enc, &mut warnings)?;
     if enc.kind == DepthKind::Z {
@@ -366,22 +339,7 @@ pub fn prepare_depth(
     let unknown: Vec<bool> = depth.par_iter().map(|d| d.is_nan()).collect();
     let unknown_count = unknown.iter().filter(|&&u| u).count();
     let unknown_share = unknown_count as f64 / n.max(1) as f64;
-    let mut report = PrepareReport {
-        source_size: (sw, sh),
-        resized,
-        unknown_share,
-        completed_pixels: 0,
-        sky_pixels: 0,
-        edges: EdgeScan::default(),
-        snapped: false,
-        snap_radius: 0,
-        snapped_pixels: 0,
-        speck_pixels: 0,
-        noise: 0.0,
-        smoothed: false,
-        metric,
-        warnings,
-    };
+    let mut report = PrepareReport::new((sw, sh), resized, unknown_share, metric, warnings);
     // Nothing known at all: the build makes such a canvas one layer at infinity.
     if unknown_count == n {
         return Ok(PreparedDepth { width: mapping.width(), height: mapping.height(), depth, report });
@@ -409,6 +367,77 @@ pub fn prepare_depth(
     }
     refine_depth(&nb, &guide, &mut depth, &unknown, s, &mut report);
     Ok(PreparedDepth { width: mapping.width(), height: mapping.height(), depth, report })
+}
+
+/// The depth's own canvas: the colour's mapping at the depth's size (any size of that shape).
+fn depth_canvas(path: &Path, mapping: &AnyMapping, sw: usize, sh: usize) -> Result<AnyMapping, PrepareError> {
+    let kind = mapping.kind();
+    AnyMapping::new(kind, sw, sh).map_err(|_| PrepareError::Shape {
+        cw: mapping.width(),
+        ch: mapping.height(),
+        depth: path.into(),
+        dw: sw,
+        dh: sh,
+        kind: match kind {
+            MappingKind::Equirect => "2:1 equirect",
+            MappingKind::Cube3x2 => "3:2 cube-map",
+        },
+    })
+}
+
+/// `enc` with its known distance's pixel (the colour's) moved onto the depth's `sw × sh` canvas.
+fn known_on_depth_canvas(
+    enc: &DepthEncoding,
+    mapping: &AnyMapping,
+    sw: usize,
+    sh: usize,
+) -> Result<DepthEncoding, PrepareError> {
+    let mut enc = *enc;
+    if let Some(k) = &mut enc.known_distance {
+        if !(k.x >= 0.0 && k.y >= 0.0 && k.x < mapping.width() as f64 && k.y < mapping.height() as f64) {
+            return Err(PrepareError::BadOption {
+                option: "--known-distance",
+                why: format!(
+                    "pixel ({},{}) is outside the {}x{} colour image",
+                    k.x,
+                    k.y,
+                    mapping.width(),
+                    mapping.height()
+                ),
+            });
+        }
+        k.x *= sw as f64 / mapping.width() as f64;
+        k.y *= sh as f64 / mapping.height() as f64;
+    }
+    Ok(enc)
+}
+
+impl PrepareReport {
+    /// What is known before anything is completed or refined.
+    fn new(
+        source_size: (usize, usize),
+        resized: bool,
+        unknown_share: f64,
+        metric: Option<MetricFit>,
+        warnings: Vec<Warning>,
+    ) -> Self {
+        PrepareReport {
+            source_size,
+            resized,
+            unknown_share,
+            completed_pixels: 0,
+            sky_pixels: 0,
+            edges: EdgeScan::default(),
+            snapped: false,
+            snap_radius: 0,
+            snapped_pixels: 0,
+            speck_pixels: 0,
+            noise: 0.0,
+            smoothed: false,
+            metric,
+            warnings,
+        }
+    }
 }
 
 /// Ranges of the settings that have them (relative kinds' range and height).

@@ -162,9 +162,6 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let bar = out.spinner("reading");
     let pano = Panorama::open(&args.pano)?;
     let m = &pano.manifest;
-    let radius = m.freedom_radius;
-    let offset = |eye: DVec3| m.eye_offset(eye);
-    let outside = |eye: DVec3| !m.inside_freedom(eye);
     let single = [Shot { eye: args.eye.unwrap_or(m.centre()), look_at: args.look_at }];
     let shots: &[Shot] = shots.as_deref().unwrap_or(&single);
     // Every camera is checked before the layers are read.
@@ -173,23 +170,12 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     if args.method == RenderMethod::Mesh {
         bar.set_message("reading and meshing");
     }
-    let method = args.method;
-    let renderer = Renderer::new(&pano, method)?;
+    let renderer = Renderer::new(&pano, args.method)?;
     let (_, mesh_s) = renderer.setup_seconds();
     let read_s = start.elapsed().as_secs_f64() - mesh_s.unwrap_or(0.0);
-    let mesh_extra = renderer.mesh_info().map(|(sources, warnings, triangles, border)| {
-        if !out.quiet && !out.json {
-            for w in warnings {
-                eprintln!("warning: {w}");
-            }
-        }
-        serde_json::json!({
-            "mesh": {"sources": sources, "triangles": triangles, "border_pixels": border, "warnings": warnings},
-        })
-    });
     bar.finish_and_clear();
+    let mesh_extra = mesh_json(&renderer, &out);
     let progress = (args.path.is_some()).then(|| out.progress(cams.len() as u64, "rendering"));
-    let method = format!("{:?}", args.method).to_lowercase();
     let mut frames = Vec::new();
     let mut last = None;
     for (i, (cam, shot)) in cams.iter().zip(shots).enumerate() {
@@ -204,8 +190,8 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
             stages[format!("{}_s", st.name)] = serde_json::json!(st.seconds);
         }
         frames.push(serde_json::json!({
-            "output": colour, "eye": shot.eye.to_array(), "eye_offset": offset(shot.eye),
-            "inside_freedom_radius": !outside(shot.eye), "holes": r.holes, "hole_ratio": r.hole_ratio,
+            "output": colour, "eye": shot.eye.to_array(), "eye_offset": m.eye_offset(shot.eye),
+            "inside_freedom_radius": m.inside_freedom(shot.eye), "holes": r.holes, "hole_ratio": r.hole_ratio,
             "counts": r.counts, "stages": stages,
         }));
         if let Some(p) = &progress {
@@ -217,57 +203,11 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         p.finish_and_clear();
     }
     let Some((r, colour)) = last else { return Ok(0) };
-
+    let run = Run { args: &args, pano: &pano, renderer: &renderer, shots, start, read_s, mesh_s };
     let mut report = if args.path.is_none() {
-        // One view: its stages flat, as before paths existed.
-        let mut stages = serde_json::json!({"read_s": read_s});
-        if let Some(s) = mesh_s {
-            stages["mesh_s"] = serde_json::json!(s);
-        }
-        if let Some(f) = frames[0]["stages"].as_object() {
-            for (k, v) in f.iter().filter(|(k, _)| k.as_str() != "frame_s") {
-                stages[k.as_str()] = v.clone();
-            }
-        }
-        stages["total_s"] = serde_json::json!(start.elapsed().as_secs_f64());
-        serde_json::json!({
-            "output": colour,
-            "method": method,
-            "camera": format!("{:?}", args.camera).to_lowercase(),
-            "eye": shots[0].eye.to_array(),
-            "freedom_radius": radius,
-            "eye_offset": offset(shots[0].eye),
-            "inside_freedom_radius": !outside(shots[0].eye),
-            "width": r.frame.width,
-            "height": r.frame.height,
-            "layers": renderer.layer_count(),
-            "holes": r.holes,
-            "hole_ratio": r.hole_ratio,
-            "counts": r.counts,
-            "stages": stages,
-        })
+        run.view_report(&r, &colour, &frames[0])
     } else {
-        let mut per_frame: Vec<f64> = frames.iter().filter_map(|f| f["stages"]["frame_s"].as_f64()).collect();
-        per_frame.sort_by(f64::total_cmp);
-        let worst_holes = frames.iter().filter_map(|f| f["hole_ratio"].as_f64()).fold(0.0, f64::max);
-        serde_json::json!({
-            "method": method,
-            "camera": format!("{:?}", args.camera).to_lowercase(),
-            "width": r.frame.width,
-            "height": r.frame.height,
-            "layers": renderer.layer_count(),
-            "freedom_radius": radius,
-            "frames_outside_freedom_radius": shots.iter().filter(|s| outside(s.eye)).count(),
-            "frames": frames,
-            "max_hole_ratio": worst_holes,
-            "stages": {
-                "read_s": read_s,
-                "mesh_s": mesh_s,
-                "frame_median_s": per_frame[per_frame.len() / 2],
-                "frame_max_s": per_frame[per_frame.len() - 1],
-                "total_s": start.elapsed().as_secs_f64(),
-            },
-        })
+        run.path_report(&r, frames)
     };
     if let (Some(obj), Some(extra)) =
         (report.as_object_mut(), mesh_extra.as_ref().and_then(|e| e.as_object()))
@@ -275,47 +215,150 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         obj.extend(extra.clone());
     }
     out.json(&report);
-    if args.path.is_some() {
-        out.say(format!(
-            "rendered {} frames {}x{} ({method}) from {} layer(s) in {:.2} s ({:.3} s per frame, median), worst holes {:.3} % -> {}",
-            frames.len(),
-            r.frame.width,
-            r.frame.height,
-            renderer.layer_count(),
-            start.elapsed().as_secs_f64(),
-            report["stages"]["frame_median_s"].as_f64().unwrap_or(0.0),
-            100.0 * report["max_hole_ratio"].as_f64().unwrap_or(0.0),
-            args.output.display()
-        ));
-        let far = shots.iter().filter(|s| outside(s.eye)).count();
-        if far > 0 {
-            out.say(format!(
-                "note: {far} of {} frames have the eye outside the freedom radius ({radius} m): holes are expected there",
-                shots.len()
-            ));
+    run.say(&out, &r, &colour, &report);
+    Ok(0)
+}
+
+/// The mesh renderer's sources, warnings and counts as JSON (its warnings printed).
+fn mesh_json(renderer: &Renderer, out: &Output) -> Option<serde_json::Value> {
+    renderer.mesh_info().map(|(sources, warnings, triangles, border)| {
+        if !out.quiet && !out.json {
+            for w in warnings {
+                eprintln!("warning: {w}");
+            }
         }
-    } else {
-        let eye = shots[0].eye;
-        out.say(format!(
-            "rendered {}x{} ({method}) from {} layer(s) at eye ({:.3}, {:.3}, {:.3}) in {:.2} s, {:.3} % holes -> {}",
-            r.frame.width,
-            r.frame.height,
-            renderer.layer_count(),
-            eye.x,
-            eye.y,
-            eye.z,
-            start.elapsed().as_secs_f64(),
-            100.0 * r.hole_ratio,
-            colour.display()
-        ));
-        if outside(eye) {
+        serde_json::json!({
+            "mesh": {"sources": sources, "triangles": triangles, "border_pixels": border, "warnings": warnings},
+        })
+    })
+}
+
+/// One finished run of `pomc render`: what the reports are made of.
+struct Run<'a> {
+    args: &'a Args,
+    pano: &'a Panorama,
+    renderer: &'a Renderer,
+    shots: &'a [Shot],
+    start: Instant,
+    read_s: f64,
+    mesh_s: Option<f64>,
+}
+
+impl Run<'_> {
+    fn method(&self) -> String {
+        format!("{:?}", self.args.method).to_lowercase()
+    }
+
+    fn outside(&self, eye: DVec3) -> bool {
+        !self.pano.manifest.inside_freedom(eye)
+    }
+
+    /// One view: its stages flat, as before paths existed.
+    fn view_report(
+        &self,
+        r: &View,
+        colour: &std::path::Path,
+        frame: &serde_json::Value,
+    ) -> serde_json::Value {
+        let m = &self.pano.manifest;
+        let mut stages = serde_json::json!({"read_s": self.read_s});
+        if let Some(s) = self.mesh_s {
+            stages["mesh_s"] = serde_json::json!(s);
+        }
+        if let Some(f) = frame["stages"].as_object() {
+            for (k, v) in f.iter().filter(|(k, _)| k.as_str() != "frame_s") {
+                stages[k.as_str()] = v.clone();
+            }
+        }
+        stages["total_s"] = serde_json::json!(self.start.elapsed().as_secs_f64());
+        let eye = self.shots[0].eye;
+        serde_json::json!({
+            "output": colour,
+            "method": self.method(),
+            "camera": format!("{:?}", self.args.camera).to_lowercase(),
+            "eye": eye.to_array(),
+            "freedom_radius": m.freedom_radius,
+            "eye_offset": m.eye_offset(eye),
+            "inside_freedom_radius": !self.outside(eye),
+            "width": r.frame.width,
+            "height": r.frame.height,
+            "layers": self.renderer.layer_count(),
+            "holes": r.holes,
+            "hole_ratio": r.hole_ratio,
+            "counts": r.counts,
+            "stages": stages,
+        })
+    }
+
+    /// A camera path: every frame's figures and the medians.
+    fn path_report(&self, r: &View, frames: Vec<serde_json::Value>) -> serde_json::Value {
+        let mut per_frame: Vec<f64> = frames.iter().filter_map(|f| f["stages"]["frame_s"].as_f64()).collect();
+        per_frame.sort_by(f64::total_cmp);
+        let worst_holes = frames.iter().filter_map(|f| f["hole_ratio"].as_f64()).fold(0.0, f64::max);
+        serde_json::json!({
+            "method": self.method(),
+            "camera": format!("{:?}", self.args.camera).to_lowercase(),
+            "width": r.frame.width,
+            "height": r.frame.height,
+            "layers": self.renderer.layer_count(),
+            "freedom_radius": self.pano.manifest.freedom_radius,
+            "frames_outside_freedom_radius": self.shots.iter().filter(|s| self.outside(s.eye)).count(),
+            "frames": frames,
+            "max_hole_ratio": worst_holes,
+            "stages": {
+                "read_s": self.read_s,
+                "mesh_s": self.mesh_s,
+                "frame_median_s": per_frame[per_frame.len() / 2],
+                "frame_max_s": per_frame[per_frame.len() - 1],
+                "total_s": self.start.elapsed().as_secs_f64(),
+            },
+        })
+    }
+
+    /// The human summary.
+    fn say(&self, out: &Output, r: &View, colour: &std::path::Path, report: &serde_json::Value) {
+        let (method, radius) = (self.method(), self.pano.manifest.freedom_radius);
+        if self.args.path.is_some() {
             out.say(format!(
-                "note: the eye is {:.3} m from the centre, outside the freedom radius ({radius} m): holes are expected",
-                offset(eye)
+                "rendered {} frames {}x{} ({method}) from {} layer(s) in {:.2} s ({:.3} s per frame, median), worst holes {:.3} % -> {}",
+                self.shots.len(),
+                r.frame.width,
+                r.frame.height,
+                self.renderer.layer_count(),
+                self.start.elapsed().as_secs_f64(),
+                report["stages"]["frame_median_s"].as_f64().unwrap_or(0.0),
+                100.0 * report["max_hole_ratio"].as_f64().unwrap_or(0.0),
+                self.args.output.display()
             ));
+            let far = self.shots.iter().filter(|s| self.outside(s.eye)).count();
+            if far > 0 {
+                out.say(format!(
+                    "note: {far} of {} frames have the eye outside the freedom radius ({radius} m): holes are expected there",
+                    self.shots.len()
+                ));
+            }
+        } else {
+            let eye = self.shots[0].eye;
+            out.say(format!(
+                "rendered {}x{} ({method}) from {} layer(s) at eye ({:.3}, {:.3}, {:.3}) in {:.2} s, {:.3} % holes -> {}",
+                r.frame.width,
+                r.frame.height,
+                self.renderer.layer_count(),
+                eye.x,
+                eye.y,
+                eye.z,
+                self.start.elapsed().as_secs_f64(),
+                100.0 * r.hole_ratio,
+                colour.display()
+            ));
+            if self.outside(eye) {
+                out.say(format!(
+                    "note: the eye is {:.3} m from the centre, outside the freedom radius ({radius} m): holes are expected",
+                    self.pano.manifest.eye_offset(eye)
+                ));
+            }
         }
     }
-    Ok(0)
 }
 
 fn write_name_check(p: &std::path::Path) -> Result<(), Failure> {
