@@ -326,7 +326,7 @@ pub fn parse_vec3(s: &str) -> Result<DVec3, String> {
 }
 
 /// `NEAR,FAR` distances (m): two finite numbers with `0 < NEAR < FAR`.
-pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
+fn parse_range(s: &str) -> Result<(f64, f64), String> {
     let v = numbers(s, "two distances NEAR,FAR in metres")?;
     match v.as_slice() {
         [near, far] if *near > 0.0 && far > near && far.is_finite() => Ok((*near, *far)),
@@ -335,7 +335,7 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
 }
 
 /// `X,Y,METRES`: a pixel of the colour image and its distance along the ray.
-pub fn parse_known_distance(s: &str) -> Result<KnownDistance, String> {
+fn parse_known_distance(s: &str) -> Result<KnownDistance, String> {
     let v = numbers(s, "X,Y,METRES (a colour pixel and its distance)")?;
     match v.as_slice() {
         [x, y, m]
@@ -378,7 +378,7 @@ impl Range {
     pub const OPEN_ANGLE: Range = Range { lo: 0.0, lo_closed: false, hi: 180.0, hi_closed: false };
 
     /// Whether `x` is in the domain.
-    pub fn contains(&self, x: f64) -> bool {
+    fn contains(&self, x: f64) -> bool {
         x.is_finite()
             && (if self.lo_closed { x >= self.lo } else { x > self.lo })
             && (if self.hi_closed { x <= self.hi } else { x < self.hi })

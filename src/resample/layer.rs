@@ -34,31 +34,7 @@ pub(super) fn convert_layer_in_bands(
     band_samples: usize,
 ) -> Result<LayerImage, ResampleError> {
     let ch = src.channels.len();
-    let px = src.width.checked_mul(src.height).ok_or(ResampleError::TooLarge {
-        width: src.width,
-        height: src.height,
-        channels: ch,
-    })?;
-    if let Some(c) = src.channels.iter().find(|c| c.data.len() != px) {
-        return Err(ResampleError::ChannelSize {
-            name: c.name.clone(),
-            len: c.data.len(),
-            width: src.width,
-            height: src.height,
-            expected: px,
-        });
-    }
-    if ch == 0 {
-        return Err(ResampleError::NoChannels);
-    }
-    let mut inter = vec![0.0f32; px * ch];
-    for (c, channel) in src.channels.iter().enumerate() {
-        for (i, v) in channel.data.iter().enumerate() {
-            inter[i * ch + c] = *v;
-        }
-    }
-    let raster =
-        Raster::from_vec(src.width, src.height, ch, inter).map_err(|_| ResampleError::Unsupported)?;
+    let raster = interleaved(src)?;
     let pos = |name: &str| src.channels.iter().position(|c| c.name == name);
     let mut o = *opts;
     o.depth_channel = pos("Z");
@@ -77,15 +53,7 @@ pub(super) fn convert_layer_in_bands(
     };
     // The output is made a band of rows at a time and scattered into its planar channels, so that
     // memory holds the output once (plus a band), not an interleaved copy of it too.
-    let too_large = || ResampleError::TooLarge { width: w, height: h, channels: ch };
-    let mut planes: Vec<Vec<f32>> = Vec::with_capacity(ch);
-    for _ in 0..ch {
-        // Memory the system refuses is an error with a code, not an abort.
-        let mut plane = Vec::new();
-        plane.try_reserve_exact(w * h).map_err(|_| too_large())?;
-        plane.resize(w * h, 0.0f32);
-        planes.push(plane);
-    }
+    let mut planes = zeroed_planes(ch, w, h)?;
     let band_rows = (band_samples / (w * ch)).clamp(1, h);
     let mut band = vec![0.0f32; band_rows * w * ch];
     let mut band_ids = if nearest { vec![0.0f32; band_rows * w * ch] } else { Vec::new() };
@@ -129,6 +97,48 @@ pub(super) fn convert_layer_in_bands(
         dst.set_channel(&channel.name, channel.sample_type, data);
     }
     Ok(dst)
+}
+
+/// The layer's channels interleaved into one raster (every channel checked to fill the canvas).
+fn interleaved(src: &LayerImage) -> Result<Raster<f32>, ResampleError> {
+    let ch = src.channels.len();
+    let px = src.width.checked_mul(src.height).ok_or(ResampleError::TooLarge {
+        width: src.width,
+        height: src.height,
+        channels: ch,
+    })?;
+    if let Some(c) = src.channels.iter().find(|c| c.data.len() != px) {
+        return Err(ResampleError::ChannelSize {
+            name: c.name.clone(),
+            len: c.data.len(),
+            width: src.width,
+            height: src.height,
+            expected: px,
+        });
+    }
+    if ch == 0 {
+        return Err(ResampleError::NoChannels);
+    }
+    let mut inter = vec![0.0f32; px * ch];
+    for (c, channel) in src.channels.iter().enumerate() {
+        for (i, v) in channel.data.iter().enumerate() {
+            inter[i * ch + c] = *v;
+        }
+    }
+    Raster::from_vec(src.width, src.height, ch, inter).map_err(|_| ResampleError::Unsupported)
+}
+
+/// `ch` planes of `w × h` zeros; memory the system refuses is an error with a code, not an abort.
+fn zeroed_planes(ch: usize, w: usize, h: usize) -> Result<Vec<Vec<f32>>, ResampleError> {
+    let too_large = || ResampleError::TooLarge { width: w, height: h, channels: ch };
+    let mut planes: Vec<Vec<f32>> = Vec::with_capacity(ch);
+    for _ in 0..ch {
+        let mut plane = Vec::new();
+        plane.try_reserve_exact(w * h).map_err(|_| too_large())?;
+        plane.resize(w * h, 0.0f32);
+        planes.push(plane);
+    }
+    Ok(planes)
 }
 
 /// The mapping of a layer canvas: layers live on the equirect and the canonical 3 × 2 cube (an
