@@ -196,8 +196,11 @@ pub(super) fn parts(
 /// [`continuity::LAYER_JUMP`] that no plane through pixels of the same layer continues): segments
 /// can be linked through a plane test whose third pixel went to another layer (a ramp of soft depth
 /// cut in pieces). The looser pixel of each such pair moves to a neighbouring layer it is
-/// continuous with, if there is one. Passes until none moves (at most a few).
-pub(super) fn repair_breaks(nb: &Neighbours, depth: &[f32], layer_of: &mut [u32]) {
+/// continuous with, if there is one; a sliver pixel with no such layer (joined to its own by one
+/// link at most: an in-between depth a soft edge left beside an object) is unknown depth instead,
+/// and takes its farthest neighbour's layer and depth as a mixed pixel does ([`assign_unknown`]).
+/// Passes until none moves (at most a few).
+pub(super) fn repair_breaks(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [u32], first_finite: u32) {
     for _ in 0..4 {
         let layer = &*layer_of;
         let breaks = breaks(nb, depth, |p| (layer[p] != u32::MAX).then_some(layer[p]));
@@ -214,25 +217,70 @@ pub(super) fn repair_breaks(nb: &Neighbours, depth: &[f32], layer_of: &mut [u32]
                 0.0,
             )
         };
-        let moves: Vec<(usize, u32)> = breaks
+        // Per break, the loose pixel and the layer it moves to (`None`: a sliver made unknown).
+        let moves: Vec<(usize, Option<u32>)> = breaks
             .iter()
             .filter_map(|&(p, q)| {
                 let l = layer[p];
                 let ties = |r: usize| nb.all(r).filter(|&s| layer[s] == l && joined(r, s)).count();
-                let loose = if ties(p) <= ties(q) { p } else { q };
-                nb.all(loose)
+                let (tp, tq) = (ties(p), ties(q));
+                let loose = if tp <= tq { p } else { q };
+                let to = nb
+                    .all(loose)
                     .filter(|&s| layer[s] != l && layer[s] != u32::MAX && joined(loose, s))
                     .min_by(|&a, &b| {
                         (depth[a] - depth[loose]).abs().total_cmp(&(depth[b] - depth[loose]).abs())
                     })
-                    .map(|s| (loose, layer[s]))
+                    .map(|s| layer[s]);
+                match to {
+                    Some(t) => Some((loose, Some(t))),
+                    None if tp.min(tq) <= 1 => Some((loose, None)),
+                    None => None,
+                }
             })
             .collect();
         if moves.is_empty() {
             return;
         }
+        let mut unknown = false;
         for (p, l) in moves {
-            layer_of[p] = l;
+            layer_of[p] = l.unwrap_or(u32::MAX);
+            unknown |= l.is_none();
         }
+        if unknown {
+            assign_unknown(nb, depth, layer_of, first_finite);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mapping::{AnyMapping, MappingKind};
+
+    /// A sliver of in-between depth beside an object (a soft edge's remnant), in the object's layer
+    /// and continuous with no layer around it: it goes to the far side, as a mixed pixel does, and
+    /// the layer has no break left.
+    #[test]
+    fn a_sliver_with_no_layer_to_join_goes_to_the_far_side() {
+        let (w, h) = (32, 16);
+        let nb = Neighbours::new(AnyMapping::new(MappingKind::Equirect, w, h).unwrap());
+        let mut depth = vec![4.0f32; w * h];
+        let mut layer_of = vec![0u32; w * h];
+        for y in 5..11 {
+            for x in 10..16 {
+                depth[y * w + x] = 1.0;
+                layer_of[y * w + x] = 1;
+            }
+        }
+        let sliver = 8 * w + 16;
+        (depth[sliver], layer_of[sliver]) = (1.6, 1);
+        let layer = |l: &[u32]| -> Vec<(usize, usize)> { breaks(&nb, &depth, |p| Some(l[p])) };
+        assert_eq!(layer(&layer_of), vec![(sliver - 1, sliver)]);
+        repair_breaks(&nb, &mut depth, &mut layer_of, 0);
+        assert_eq!((layer_of[sliver], depth[sliver]), (0, 4.0));
+        assert!(breaks(&nb, &depth, |p| Some(layer_of[p])).is_empty());
+        // The object is untouched.
+        assert_eq!(layer_of.iter().filter(|&&l| l == 1).count(), 36);
     }
 }
