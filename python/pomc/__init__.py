@@ -36,11 +36,17 @@ __all__ = [
     "save_colour",
 ]
 
+#: Options :func:`build` and :func:`build_files` take as named parameters, not in ``**options``.
+_NAMED = ("freedom_radius", "convention", "center")
+
+
 def _defaults(job: str) -> Dict[str, Any]:
     """The options of ``pomc JOB`` as keywords, with the command's defaults as Python values (the
     library declares them once; ``_pomc.option_defaults`` lists them)."""
     out: Dict[str, Any] = {}
     for key, text in _pomc.option_defaults(job):
+        if key in _NAMED:
+            continue
         value: Any = text
         if text in ("true", "false"):
             value = text == "true"
