@@ -242,8 +242,19 @@ pub enum Keyword {
     /// `True` or `False`: the flag of that name is given or not; for a name whose flag is only
     /// `--no-NAME`, its negation.
     Flag(bool),
-    /// A value, as text.
+    /// A value, as text (for a flag: `True`, `False`, `true`, `false`, `1` or `0`).
     Value(String),
+    /// No value (Python's `None`): the option keeps its default; the name must still be one.
+    Unset,
+}
+
+/// A flag's truth written as text by a binding (a NumPy bool, an integer).
+fn truth(text: &str) -> Option<bool> {
+    match text {
+        "True" | "true" | "1" => Some(true),
+        "False" | "false" | "0" => Some(false),
+        _ => None,
+    }
 }
 
 /// Options given as keywords (each an option's long name with `_` for `-`), parsed and checked by
@@ -261,20 +272,28 @@ pub fn from_keywords<A: clap::Args + clap::FromArgMatches>(
     for (key, value) in keywords {
         let long = key.replace('_', "-");
         let negation = format!("no-{long}");
-        match (value, takes_value(&long), takes_value(&negation)) {
-            (Keyword::Value(text), Some(true), _) => argv.push(format!("--{long}={text}")),
-            (Keyword::Flag(on), Some(false), _) => argv.extend(on.then(|| format!("--{long}"))),
-            (Keyword::Flag(on), None, Some(false)) => argv.extend((!on).then_some(format!("--{negation}"))),
-            (Keyword::Flag(_), Some(true), _) => {
-                return Err(format!("{key} takes a value, not True or False"))
-            }
-            (Keyword::Value(text), Some(false), _) | (Keyword::Value(text), None, Some(false)) => {
-                return Err(format!("{key} is True or False, not `{text}`"))
-            }
+        let (flag, negated) = match (takes_value(&long), takes_value(&negation)) {
+            (Some(takes), _) => (!takes, false),
+            (None, Some(false)) => (true, true),
             _ => {
                 let known: Vec<String> = keyword_defaults::<A>().into_iter().map(|(k, _)| k).collect();
                 return Err(format!("unknown {what} option `{key}`; known: {}", known.join(", ")));
             }
+        };
+        let on = match (value, flag) {
+            (Keyword::Unset, _) => continue,
+            (Keyword::Value(text), false) => {
+                argv.push(format!("--{long}={text}"));
+                continue;
+            }
+            (Keyword::Flag(_), false) => return Err(format!("{key} takes a value, not True or False")),
+            (Keyword::Flag(on), true) => *on,
+            (Keyword::Value(text), true) => {
+                truth(text).ok_or_else(|| format!("{key} is True or False, not `{text}`"))?
+            }
+        };
+        if on != negated {
+            argv.push(format!("--{}", if negated { &negation } else { &long }));
         }
     }
     let matches = cmd.try_get_matches_from_mut(argv).map_err(|e| clap_message(&e))?;

@@ -288,7 +288,8 @@ def build(
         else:
             raise _usage(f"colour must be uint8, uint16 or float32, got {colour.dtype}")
     depth_arr = np.asarray(depth)
-    if np.issubdtype(depth_arr.dtype, np.integer) and "depth_scale" not in opts and "preset" not in opts:
+    unitless = opts.get("depth_scale") is None and opts.get("preset") is None
+    if np.issubdtype(depth_arr.dtype, np.integer) and unitless:
         err = PomcError(
             "integer depth has no unit; give depth_scale (metres per stored unit, e.g. 0.001 for "
             "millimetres) or a dataset preset (matterport3d, stanford2d3ds, structured3d)"

@@ -13,7 +13,7 @@ use numpy::{
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyList, PyTuple};
+use pyo3::types::{PyBool, PyBytes, PyDict, PyInt, PyString};
 
 use pomc::jobs::{self, BuildSettings, RenderMethod, Renderer};
 use pomc::layer::{LayerImage, Sample};
@@ -426,27 +426,41 @@ fn settings(o: &Bound<'_, PyDict>) -> PyResult<BuildSettings> {
     Ok(args.settings())
 }
 
-/// Keyword values in the command line's syntax: `None` left out, `True`/`False` as flags, a
-/// sequence as comma-separated values, a path as its text, anything else as `str(value)`.
+/// Keyword values in the command line's syntax: `None` unset, `True`/`False` as flags, an integer
+/// as written, any other number (NumPy's too) as the shortest text of its `f64` (so it parses back
+/// to the same value), a path as its text, a sequence (list, tuple, array) as comma-separated
+/// values; an empty sequence is unset.
 fn keywords(o: &Bound<'_, PyDict>) -> PyResult<Vec<(String, Keyword)>> {
-    let text = |v: &Bound<'_, PyAny>| -> PyResult<String> {
+    fn scalar(v: &Bound<'_, PyAny>) -> PyResult<String> {
+        if v.is_instance_of::<PyInt>() {
+            return Ok(v.str()?.to_string());
+        }
+        if let Ok(x) = v.extract::<f64>() {
+            return Ok(format!("{x}"));
+        }
         match v.extract::<PathBuf>() {
             Ok(p) => Ok(p.to_string_lossy().into_owned()),
             Err(_) => Ok(v.str()?.to_string()),
         }
-    };
+    }
     let mut out = Vec::new();
     for (k, v) in o.iter() {
         let key: String = k.extract()?;
         let value = if v.is_none() {
-            continue;
+            Keyword::Unset
         } else if let Ok(b) = v.downcast::<PyBool>() {
             Keyword::Flag(b.is_true())
-        } else if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
-            let parts: Vec<String> = v.try_iter()?.map(|x| text(&x?)).collect::<PyResult<_>>()?;
-            Keyword::Value(parts.join(","))
+        } else if v.is_instance_of::<PyString>() || v.is_instance_of::<PyBytes>() {
+            Keyword::Value(scalar(&v)?)
+        } else if let Ok(items) = v.try_iter() {
+            let parts: Vec<String> = items.map(|x| scalar(&x?)).collect::<PyResult<_>>()?;
+            if parts.is_empty() {
+                Keyword::Unset
+            } else {
+                Keyword::Value(parts.join(","))
+            }
         } else {
-            Keyword::Value(text(&v)?)
+            Keyword::Value(scalar(&v)?)
         };
         out.push((key, value));
     }

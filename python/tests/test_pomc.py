@@ -287,3 +287,18 @@ def test_one_known_distance_gives_the_scale(tmp_path):
     assert e.value.code == "INPUT_BAD_OPTION" and "--known-distance" in str(e.value)
     with pytest.raises(pomc.PomcError):
         pomc.prepare_depth(FIXTURE / "colour.png", path, known_distance=(x, y, -1))
+
+
+def test_keywords_take_numpy_values_and_none_as_plain_ones():
+    """NumPy scalars, arrays and None are what a script passes: the same build as plain values."""
+    colour, depth = fixture_arrays()
+    plain = pomc.build(colour, depth, normals=True, depth_bands=[2.0], fill_margin=3.0, jump=0.08)
+    numpy = pomc.build(colour, depth, normals=np.True_, depth_bands=np.array([2.0]), fill_margin=np.float32(3.0),
+                       jump=np.float64(0.08), depth_scale=None, preset=None, no_pack=0, depth_range=())
+    assert plain.manifest_xml == numpy.manifest_xml
+    with pytest.raises(pomc.PomcError) as e:
+        pomc.build(colour, (depth * 1000).astype(np.uint16), depth_scale=None)
+    assert e.value.code == "INPUT_DEPTH_SCALE_NEEDED"
+    with pytest.raises(pomc.PomcError) as e:
+        pomc.build(colour, depth, no_such_option=None)
+    assert e.value.code == "CLI_USAGE" and "no_such_option" in str(e.value)

@@ -569,7 +569,7 @@ fn assign_layers(
         })
         .collect();
     assign_unknown(nb, depth, &mut layer_of, first);
-    repair_breaks(nb, depth, &mut layer_of, first);
+    repair_breaks(nb, depth, &mut layer_of);
     (keys, layer_of, first)
 }
 

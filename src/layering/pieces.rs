@@ -197,10 +197,10 @@ pub(super) fn parts(
 /// can be linked through a plane test whose third pixel went to another layer (a ramp of soft depth
 /// cut in pieces). The looser pixel of each such pair moves to a neighbouring layer it is
 /// continuous with, if there is one; a sliver pixel with no such layer (joined to its own by one
-/// link at most: an in-between depth a soft edge left beside an object) is unknown depth instead,
-/// and takes its farthest neighbour's layer and depth as a mixed pixel does ([`assign_unknown`]).
-/// Passes until none moves (at most a few).
-pub(super) fn repair_breaks(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [u32], first_finite: u32) {
+/// link at most: an in-between depth a soft edge left beside an object) takes the layer and depth of
+/// its farthest finite neighbour beyond it, as a mixed pixel does ([`mixed_pixels_of`]). Passes until
+/// none moves (at most a few).
+pub(super) fn repair_breaks(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [u32]) {
     for _ in 0..4 {
         let layer = &*layer_of;
         let breaks = breaks(nb, depth, |p| (layer[p] != u32::MAX).then_some(layer[p]));
@@ -217,38 +217,39 @@ pub(super) fn repair_breaks(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [
                 0.0,
             )
         };
-        // Per break, the loose pixel and the layer it moves to (`None`: a sliver made unknown).
-        let moves: Vec<(usize, Option<u32>)> = breaks
+        // Per break, the loose pixel, the layer it moves to and, for a sliver, the depth it takes.
+        let moves: Vec<(usize, u32, Option<f32>)> = breaks
             .iter()
             .filter_map(|&(p, q)| {
                 let l = layer[p];
                 let ties = |r: usize| nb.all(r).filter(|&s| layer[s] == l && joined(r, s)).count();
                 let (tp, tq) = (ties(p), ties(q));
                 let loose = if tp <= tq { p } else { q };
+                let other = |s: &usize| layer[*s] != l && layer[*s] != u32::MAX;
                 let to = nb
                     .all(loose)
-                    .filter(|&s| layer[s] != l && layer[s] != u32::MAX && joined(loose, s))
+                    .filter(|s| other(s) && joined(loose, *s))
                     .min_by(|&a, &b| {
                         (depth[a] - depth[loose]).abs().total_cmp(&(depth[b] - depth[loose]).abs())
                     })
-                    .map(|s| layer[s]);
-                match to {
-                    Some(t) => Some((loose, Some(t))),
-                    None if tp.min(tq) <= 1 => Some((loose, None)),
-                    None => None,
-                }
+                    .map(|s| (loose, layer[s], None));
+                let far_side = || {
+                    nb.all(loose)
+                        .filter(|s| other(s) && depth[*s].is_finite() && depth[*s] > depth[loose])
+                        .max_by(|&a, &b| depth[a].total_cmp(&depth[b]).then(b.cmp(&a)))
+                        .map(|s| (loose, layer[s], Some(depth[s])))
+                };
+                to.or_else(|| if tp.min(tq) <= 1 { far_side() } else { None })
             })
             .collect();
         if moves.is_empty() {
             return;
         }
-        let mut unknown = false;
-        for (p, l) in moves {
-            layer_of[p] = l.unwrap_or(u32::MAX);
-            unknown |= l.is_none();
-        }
-        if unknown {
-            assign_unknown(nb, depth, layer_of, first_finite);
+        for (p, l, d) in moves {
+            layer_of[p] = l;
+            if let Some(d) = d {
+                depth[p] = d;
+            }
         }
     }
 }
@@ -277,7 +278,7 @@ mod tests {
         (depth[sliver], layer_of[sliver]) = (1.6, 1);
         let layer = |l: &[u32]| -> Vec<(usize, usize)> { breaks(&nb, &depth, |p| Some(l[p])) };
         assert_eq!(layer(&layer_of), vec![(sliver - 1, sliver)]);
-        repair_breaks(&nb, &mut depth, &mut layer_of, 0);
+        repair_breaks(&nb, &mut depth, &mut layer_of);
         assert_eq!((layer_of[sliver], depth[sliver]), (0, 4.0));
         assert!(breaks(&nb, &depth, |p| Some(layer_of[p])).is_empty());
         // The object is untouched.

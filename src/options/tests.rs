@@ -76,6 +76,13 @@ fn keywords_parse_as_the_command_line_does() {
     assert_eq!(m.params(), MeshOptions::quadtree());
     let m: MeshArgs = from_keywords("mesh", &kw(&[("greedy", Keyword::Flag(true))])).unwrap();
     assert_eq!(m.params(), MeshOptions::default());
+    // A flag's truth as text (a NumPy bool, an integer); an unset option keeps its default.
+    let m: MeshArgs =
+        from_keywords("mesh", &kw(&[("simplify", text("0")), ("residual", Keyword::Unset)])).unwrap();
+    assert_eq!(m.params(), MeshOptions::quadtree());
+    let b: BuildArgs =
+        from_keywords("build", &kw(&[("normals", text("True")), ("no_pack", text("1"))])).unwrap();
+    assert!(b.settings().options.normals_out && !b.settings().save.pack);
 }
 
 #[test]
@@ -85,6 +92,8 @@ fn bad_keywords_are_refused_with_the_reason() {
     assert!(e.contains("jump") && e.contains("> 0"), "{e}");
     let e = err(&[("depth_kind", text("metric"))]);
     assert!(e.contains("metric") && e.contains("ray"), "{e}");
+    let e = err(&[("jumps", Keyword::Unset)]);
+    assert!(e.contains("unknown build option `jumps`"), "{e}");
     let e = err(&[("jumps", text("1"))]);
     assert!(e.contains("unknown build option `jumps`") && e.contains("fill_margin"), "{e}");
     let e = err(&[("jump", Keyword::Flag(true))]);
