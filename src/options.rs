@@ -263,8 +263,7 @@ pub fn from_keywords<A: clap::Args + clap::FromArgMatches>(
     what: &str,
     keywords: &[(String, Keyword)],
 ) -> Result<A, String> {
-    let mut cmd = A::augment_args(clap::Command::new("pomc").no_binary_name(true).disable_help_flag(true));
-    cmd.build();
+    let mut cmd = command::<A>().no_binary_name(true);
     let takes_value = |long: &str| {
         cmd.get_arguments().find(|a| a.get_long() == Some(long)).map(|a| a.get_action().takes_values())
     };
@@ -300,6 +299,13 @@ pub fn from_keywords<A: clap::Args + clap::FromArgMatches>(
     A::from_arg_matches(&matches).map_err(|e| clap_message(&e))
 }
 
+/// The options of `A` alone, built (no help flag: it is no option of a job).
+fn command<A: clap::Args>() -> clap::Command {
+    let mut cmd = A::augment_args(clap::Command::new("pomc").disable_help_flag(true));
+    cmd.build();
+    cmd
+}
+
 /// A clap error on one line, without its `error: ` prefix, usage and help hint.
 fn clap_message(e: &clap::Error) -> String {
     let text = e.render().to_string();
@@ -315,9 +321,8 @@ fn clap_message(e: &clap::Error) -> String {
 /// Each option as a keyword (`_` for `-`) with its default as the command line shows it (`None`
 /// without one; `false` for a flag), in declaration order.
 pub fn keyword_defaults<A: clap::Args>() -> Vec<(String, Option<String>)> {
-    let mut cmd = A::augment_args(clap::Command::new("options").disable_help_flag(true));
-    cmd.build();
-    cmd.get_arguments()
+    command::<A>()
+        .get_arguments()
         .filter_map(|a| {
             let long = a.get_long()?;
             let default = a.get_default_values().first().map(|v| v.to_string_lossy().into_owned());

@@ -224,7 +224,7 @@ pub(super) fn repair_breaks(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [
                 let l = layer[p];
                 let ties = |r: usize| nb.all(r).filter(|&s| layer[s] == l && joined(r, s)).count();
                 let (tp, tq) = (ties(p), ties(q));
-                let loose = if tp <= tq { p } else { q };
+                let (loose, loose_ties) = if tp <= tq { (p, tp) } else { (q, tq) };
                 let other = |s: &usize| layer[*s] != l && layer[*s] != u32::MAX;
                 let to = nb
                     .all(loose)
@@ -239,7 +239,7 @@ pub(super) fn repair_breaks(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [
                         .max_by(|&a, &b| depth[a].total_cmp(&depth[b]).then(b.cmp(&a)))
                         .map(|s| (loose, layer[s], Some(depth[s])))
                 };
-                to.or_else(|| if tp.min(tq) <= 1 { far_side() } else { None })
+                to.or_else(|| if loose_ties <= 1 { far_side() } else { None })
             })
             .collect();
         if moves.is_empty() {
