@@ -48,6 +48,23 @@ macro_rules! declare_codes {
 }
 pub(crate) use declare_codes;
 
+/// An error enum's `code()`, declared once: each variant's code (a constant of this module), and
+/// after `; from` the variants that keep the code of the error in their field `0` or `source`.
+macro_rules! error_codes {
+    ($ty:ident: $($v:ident $code:ident),* $(; from $($dv:ident . $f:tt),*)?) => {
+        impl $ty {
+            /// Stable machine-readable code, one of [`crate::codes`]'s.
+            pub fn code(&self) -> &'static str {
+                match self {
+                    $( $ty::$v { .. } => $crate::codes::$code, )*
+                    $($( $ty::$dv { $f: e, .. } => e.code(), )*)?
+                }
+            }
+        }
+    };
+}
+pub(crate) use error_codes;
+
 /// The manifest's codes (spec/02-manifest.md §2.9), re-exported as [`crate::manifest::CODES`].
 pub mod manifest {
     declare_codes! {

@@ -32,15 +32,18 @@ pub fn srgb8(l: f32) -> u8 {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ColourSpace {
+    /// sRGB for 8/16-bit images, linear for float ones
+    ///
     /// sRGB for 8/16-bit images (PNG, JPEG), linear for float ones (OpenEXR, Radiance HDR).
     #[default]
-    #[cfg_attr(feature = "clap", value(help = "sRGB for 8/16-bit images, linear for float ones"))]
     Auto,
+    /// sRGB-encoded values
+    ///
     /// sRGB-encoded, whatever the format.
-    #[cfg_attr(feature = "clap", value(help = "sRGB-encoded values"))]
     Srgb,
+    /// Linear values
+    ///
     /// Already linear (e.g. a PNG written from linear values without encoding).
-    #[cfg_attr(feature = "clap", value(help = "Linear values"))]
     Linear,
 }
 

@@ -151,17 +151,12 @@ pub enum ConvertError {
     },
 }
 
-impl ConvertError {
-    /// Stable code: `CONVERT_*`, or the layout's or sampler's own.
-    pub fn code(&self) -> &'static str {
-        match self {
-            ConvertError::NotFound(_) => crate::codes::CONVERT_NOT_FOUND,
-            ConvertError::Usage(_) => crate::codes::CONVERT_USAGE,
-            ConvertError::TooLarge { .. } => crate::codes::CONVERT_TOO_LARGE,
-            ConvertError::NotACube { source, .. } => source.code(),
-            ConvertError::Resample { source, .. } => source.code(),
-        }
-    }
+crate::codes::error_codes! {
+    ConvertError:
+        NotFound CONVERT_NOT_FOUND,
+        Usage CONVERT_USAGE,
+        TooLarge CONVERT_TOO_LARGE;
+        from NotACube.source, Resample.source
 }
 
 fn ms(t: Instant) -> f64 {

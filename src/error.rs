@@ -53,25 +53,10 @@ pub enum Error {
     },
 }
 
-impl Error {
-    /// Stable code, e.g. `IO_ERROR`, `MANIFEST_XML_MALFORMED`.
-    pub fn code(&self) -> &'static str {
-        match self {
-            Error::Manifest(e) => e.code(),
-            Error::LayerIo(e) => e.code(),
-            Error::Pack(e) => e.code(),
-            Error::Resample(e) => e.code(),
-            Error::Convert(e) => e.code(),
-            Error::Panorama(e) => e.code(),
-            Error::Build(e) => e.code(),
-            Error::Input(e) => e.code(),
-            Error::Prepare(e) => e.code(),
-            Error::Mesh(e) => e.code(),
-            Error::Render(e) => e.code(),
-            Error::Image(e) => e.code(),
-            Error::Io { .. } => crate::codes::IO_ERROR,
-        }
-    }
+crate::codes::error_codes! {
+    Error:
+        Io IO_ERROR;
+        from Manifest.0, LayerIo.0, Pack.0, Resample.0, Convert.0, Panorama.0, Build.0, Input.0, Prepare.0, Mesh.0, Render.0, Image.0
 }
 
 impl From<crate::fsutil::IoError> for Error {

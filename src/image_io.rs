@@ -64,18 +64,14 @@ pub enum ImageIoError {
     },
 }
 
-impl ImageIoError {
-    /// Stable code: `IMAGE_*`.
-    pub fn code(&self) -> &'static str {
-        match self {
-            ImageIoError::Unreadable { .. } => crate::codes::IMAGE_UNREADABLE,
-            ImageIoError::TooLarge { .. } => crate::codes::IMAGE_TOO_LARGE,
-            ImageIoError::Unsupported { .. } => crate::codes::IMAGE_UNSUPPORTED,
-            ImageIoError::Io { .. } => crate::codes::IMAGE_IO,
-            ImageIoError::UnknownFormat { .. } => crate::codes::IMAGE_UNKNOWN_FORMAT,
-            ImageIoError::Encode { .. } => crate::codes::IMAGE_ENCODE,
-        }
-    }
+crate::codes::error_codes! {
+    ImageIoError:
+        Unreadable IMAGE_UNREADABLE,
+        TooLarge IMAGE_TOO_LARGE,
+        Unsupported IMAGE_UNSUPPORTED,
+        Io IMAGE_IO,
+        UnknownFormat IMAGE_UNKNOWN_FORMAT,
+        Encode IMAGE_ENCODE
 }
 
 /// Decoded pixels of a plain image, kept in their own sample type.

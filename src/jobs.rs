@@ -248,17 +248,15 @@ fn prepare_and_build(
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum RenderMethod {
+    /// Adaptive 8-neighbourhood point splatting (thesis Alg. 10)
+    ///
     /// Adaptive point splatting (thesis Alg. 9-10).
     #[default]
-    #[cfg_attr(feature = "clap", value(help = "Adaptive 8-neighbourhood point splatting (thesis Alg. 10)"))]
     Splat,
+    /// Z-buffered rasterisation of each layer's adaptive quadtree mesh (thesis 7.4); a mesh stored
+    /// with `pomc mesh --store` is decoded instead of rebuilt
+    ///
     /// Z-buffered rasterisation of each layer's quadtree mesh (stored meshes decoded).
-    #[cfg_attr(
-        feature = "clap",
-        value(
-            help = "Z-buffered rasterisation of each layer's adaptive quadtree mesh (thesis 7.4); a mesh stored with `pomc mesh --store` is decoded instead of rebuilt"
-        )
-    )]
     Mesh,
 }
 

@@ -79,18 +79,14 @@ pub enum PanoramaError {
     },
 }
 
-impl PanoramaError {
-    /// Stable code for reports, e.g. `PANORAMA_NOT_FOUND` or `LAYER_PATH_ESCAPES`.
-    pub fn code(&self) -> &'static str {
-        match self {
-            PanoramaError::NotFound { .. } => crate::codes::PANORAMA_NOT_FOUND,
-            PanoramaError::PathEscapes { .. } => crate::codes::LAYER_PATH_ESCAPES,
-            PanoramaError::NoSuchLayer { .. } => crate::codes::PANORAMA_NO_SUCH_LAYER,
-            PanoramaError::SizeMismatch { .. } => crate::codes::LAYER_SIZE_MISMATCH,
-            PanoramaError::PackedWithoutCanvas { .. } => crate::codes::PATCH_CANVAS_UNDECLARED,
-            PanoramaError::OutputNotDirectory { .. } => crate::codes::OUTPUT_NOT_DIRECTORY,
-        }
-    }
+crate::codes::error_codes! {
+    PanoramaError:
+        NotFound PANORAMA_NOT_FOUND,
+        PathEscapes LAYER_PATH_ESCAPES,
+        NoSuchLayer PANORAMA_NO_SUCH_LAYER,
+        SizeMismatch LAYER_SIZE_MISMATCH,
+        PackedWithoutCanvas PATCH_CANVAS_UNDECLARED,
+        OutputNotDirectory OUTPUT_NOT_DIRECTORY
 }
 
 /// An opened panorama: where it is and what its manifest says.

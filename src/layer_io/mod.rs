@@ -260,21 +260,17 @@ pub enum LayerIoError {
     },
 }
 
-impl LayerIoError {
-    /// Stable code, one of the `LAYER_*` constants of [`crate::codes`].
-    pub fn code(&self) -> &'static str {
-        match self {
-            LayerIoError::NotFound { .. } => crate::codes::LAYER_NOT_FOUND,
-            LayerIoError::Io { .. } => crate::codes::LAYER_IO_ERROR,
-            LayerIoError::Unreadable { .. } => crate::codes::LAYER_UNREADABLE,
-            LayerIoError::Truncated { .. } => crate::codes::LAYER_TRUNCATED,
-            LayerIoError::TooLarge { .. } => crate::codes::LAYER_TOO_LARGE,
-            LayerIoError::MultiPart { .. } => crate::codes::LAYER_MULTIPART,
-            LayerIoError::Deep { .. } => crate::codes::LAYER_DEEP,
-            LayerIoError::Unsupported { .. } => crate::codes::LAYER_UNSUPPORTED,
-            LayerIoError::SizeMismatch { .. } => crate::codes::LAYER_SIZE_MISMATCH,
-        }
-    }
+crate::codes::error_codes! {
+    LayerIoError:
+        NotFound LAYER_NOT_FOUND,
+        Io LAYER_IO_ERROR,
+        Unreadable LAYER_UNREADABLE,
+        Truncated LAYER_TRUNCATED,
+        TooLarge LAYER_TOO_LARGE,
+        MultiPart LAYER_MULTIPART,
+        Deep LAYER_DEEP,
+        Unsupported LAYER_UNSUPPORTED,
+        SizeMismatch LAYER_SIZE_MISMATCH
 }
 
 #[cfg(test)]

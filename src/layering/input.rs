@@ -21,24 +21,22 @@ pub use crate::prepare::{DepthEncoding, DepthKind, Preset};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Convention {
+    /// POMC / thesis: azimuth 2πu from +X towards +Y, +Z up
+    ///
     /// The thesis and POMC: azimuth `φ = 2πu` from +X towards +Y, `+Z` up.
     #[default]
-    #[cfg_attr(feature = "clap", value(help = "POMC / thesis: azimuth 2πu from +X towards +Y, +Z up"))]
     Thesis,
+    /// Blender equirect camera: azimuth π(1−2u), centre column along +X
+    ///
     /// Blender's equirect camera: azimuth `π(1 − 2u)`, centre column along +X, `+Z` up:
     /// `world = Scale(−1, 1, 1) · local`.
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "Blender equirect camera: azimuth π(1−2u), centre column along +X")
-    )]
     Blender,
+    /// OpenEXR lat-long: longitude decreasing, +Y up
+    ///
     /// OpenEXR lat-long: longitude `π − 2πu`, latitude `π/2 − πv`, `+Y` up, direction
     /// `(sin lon cos lat, sin lat, cos lon cos lat)`: `world = Rotate((1,1,1), −120°) ·
     /// Scale(−1, 1, 1) · local`.
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "OpenEXR lat-long: longitude decreasing, +Y up", name = "openexr")
-    )]
+    #[cfg_attr(feature = "clap", value(name = "openexr"))]
     OpenExr,
 }
 
@@ -120,18 +118,14 @@ pub enum InputError {
     },
 }
 
-impl InputError {
-    /// Stable code, e.g. `INPUT_UNREADABLE`; a [`InputError::Layer`] error keeps the layer reader's.
-    pub fn code(&self) -> &'static str {
-        match self {
-            InputError::Image { .. } => crate::codes::INPUT_UNREADABLE,
-            InputError::TooLarge { .. } => crate::codes::INPUT_TOO_LARGE,
-            InputError::Layer(e) => e.code(),
-            InputError::NoDepthChannel { .. } => crate::codes::INPUT_NO_DEPTH,
-            InputError::NotAPanorama { .. } => crate::codes::INPUT_NOT_PANORAMA,
-            InputError::SizeMismatch { .. } => crate::codes::INPUT_SIZE_MISMATCH,
-        }
-    }
+crate::codes::error_codes! {
+    InputError:
+        Image INPUT_UNREADABLE,
+        TooLarge INPUT_TOO_LARGE,
+        NoDepthChannel INPUT_NO_DEPTH,
+        NotAPanorama INPUT_NOT_PANORAMA,
+        SizeMismatch INPUT_SIZE_MISMATCH;
+        from Layer.0
 }
 
 /// The mapping a canvas size implies: 2:1 equirect or 3:2 cube.

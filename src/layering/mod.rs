@@ -92,13 +92,13 @@ impl Default for BuildOptions {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Classify {
-    /// Occlusion levels (and depth bands) only.
+    /// Occlusion levels (and depth bands) only
     #[default]
-    #[cfg_attr(feature = "clap", value(help = "Occlusion levels (and depth bands) only"))]
     Depth,
+    /// Also split the background into floor, ceiling and walls
+    ///
     /// Also split the background into floor, ceiling and walls by the segments' mean normals
     /// (thesis 6.2.4.2; `+Z` is up in the panorama frame).
-    #[cfg_attr(feature = "clap", value(help = "Also split the background into floor, ceiling and walls"))]
     Geometry,
 }
 
@@ -178,14 +178,10 @@ pub enum BuildError {
     BadRadius(f64),
 }
 
-impl BuildError {
-    /// Stable code: `BUILD_SIZE_MISMATCH` or `BUILD_BAD_RADIUS`.
-    pub fn code(&self) -> &'static str {
-        match self {
-            BuildError::SizeMismatch { .. } => crate::codes::BUILD_SIZE_MISMATCH,
-            BuildError::BadRadius(_) => crate::codes::BUILD_BAD_RADIUS,
-        }
-    }
+crate::codes::error_codes! {
+    BuildError:
+        SizeMismatch BUILD_SIZE_MISMATCH,
+        BadRadius BUILD_BAD_RADIUS
 }
 
 /// One output layer.

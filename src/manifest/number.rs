@@ -58,32 +58,27 @@ fn finite_f32(t: &str) -> Result<f32, NumberError> {
 
 /// Exactly `N` finite numbers.
 pub fn floats<const N: usize>(s: &str) -> Result<[f64; N], NumberError> {
-    let mut out = [0.0; N];
-    let mut found = 0;
-    for t in tokens(s).take(N + 1) {
-        if found == N {
-            return Err(NumberError::Count(N, N + 1));
-        }
-        out[found] = finite_f64(t)?;
-        found += 1;
-    }
-    if found == N {
-        Ok(out)
-    } else {
-        Err(NumberError::Count(N, found))
-    }
+    exactly(s, finite_f64)
 }
 
 /// Exactly `N` finite single-precision numbers (depth ranges are stored as `f32`, so they are
 /// parsed as `f32` directly: writing them back with the shortest `f32` form round-trips).
 pub fn floats32<const N: usize>(s: &str) -> Result<[f32; N], NumberError> {
-    let mut out = [0.0; N];
+    exactly(s, finite_f32)
+}
+
+/// Exactly `N` numbers of `s`, each read by `one`.
+fn exactly<T: Copy + Default, const N: usize>(
+    s: &str,
+    one: impl Fn(&str) -> Result<T, NumberError>,
+) -> Result<[T; N], NumberError> {
+    let mut out = [T::default(); N];
     let mut found = 0;
     for t in tokens(s).take(N + 1) {
         if found == N {
             return Err(NumberError::Count(N, N + 1));
         }
-        out[found] = finite_f32(t)?;
+        out[found] = one(t)?;
         found += 1;
     }
     if found == N {

@@ -107,14 +107,10 @@ pub enum LayoutError {
     UnknownName(String),
 }
 
-impl LayoutError {
-    /// Stable code for reports: `LAYOUT_BAD_SIZE` or `LAYOUT_UNKNOWN`.
-    pub fn code(&self) -> &'static str {
-        match self {
-            LayoutError::BadSize { .. } => crate::codes::LAYOUT_BAD_SIZE,
-            LayoutError::UnknownName(_) => crate::codes::LAYOUT_UNKNOWN,
-        }
-    }
+crate::codes::error_codes! {
+    LayoutError:
+        BadSize LAYOUT_BAD_SIZE,
+        UnknownName LAYOUT_UNKNOWN
 }
 
 impl CubeLayout {

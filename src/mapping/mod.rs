@@ -55,11 +55,14 @@ pub trait Mapping: Send + Sync {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum MappingKind {
+    /// Equirect (lat-long) 2:1 canvas
+    ///
     /// Equirect (lat-long) 2:1 canvas, [`Equirect`].
-    #[cfg_attr(feature = "clap", value(help = "Equirect (lat-long) 2:1 canvas"))]
     Equirect,
+    /// 3×2 cube map
+    ///
     /// The thesis's 3×2 cube map, [`Cube3x2`].
-    #[cfg_attr(feature = "clap", value(name = "cube", help = "3×2 cube map"))]
+    #[cfg_attr(feature = "clap", value(name = "cube"))]
     Cube3x2,
 }
 

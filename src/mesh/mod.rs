@@ -75,18 +75,14 @@ pub enum MeshError {
     },
 }
 
-impl MeshError {
-    /// Stable machine-readable code.
-    pub fn code(&self) -> &'static str {
-        match self {
-            MeshError::NoDepth => crate::codes::MESH_NO_DEPTH,
-            MeshError::CanvasMismatch { .. } => crate::codes::MESH_CANVAS_MISMATCH,
-            MeshError::Params(_) => crate::codes::MESH_PARAMS_INVALID,
-            MeshError::Encoding(_) => crate::codes::MESH_ENCODING_INVALID,
-            MeshError::Export(_) => crate::codes::MESH_EXPORT_FAILED,
-            MeshError::Io { .. } => crate::codes::IO_ERROR,
-        }
-    }
+crate::codes::error_codes! {
+    MeshError:
+        NoDepth MESH_NO_DEPTH,
+        CanvasMismatch MESH_CANVAS_MISMATCH,
+        Params MESH_PARAMS_INVALID,
+        Encoding MESH_ENCODING_INVALID,
+        Export MESH_EXPORT_FAILED,
+        Io IO_ERROR
 }
 
 /// What drives the subdivision. Several tests may be combined; `uniform` overrides the others.

@@ -91,16 +91,11 @@ pub enum PackError {
     },
 }
 
-impl PackError {
-    /// Stable code for reports: the table problem's `PATCH_*` code, `LAYER_TOO_LARGE` or
-    /// `PACK_PADDING_TOO_LARGE`.
-    pub fn code(&self) -> &'static str {
-        match self {
-            PackError::BadTable(p) => p.code(),
-            PackError::TooLarge { .. } => crate::codes::LAYER_TOO_LARGE,
-            PackError::PaddingTooLarge { .. } => crate::codes::PACK_PADDING_TOO_LARGE,
-        }
-    }
+crate::codes::error_codes! {
+    PackError:
+        TooLarge LAYER_TOO_LARGE,
+        PaddingTooLarge PACK_PADDING_TOO_LARGE;
+        from BadTable.0
 }
 
 /// What is wrong with one patch of a table.

@@ -60,30 +60,24 @@ pub struct KnownDistance {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum DepthKind {
+    /// Distance along the ray (metres, or units × --depth-scale)
+    ///
     /// Euclidean distance from the centre along the pixel's ray (the default).
     #[default]
-    #[cfg_attr(feature = "clap", value(help = "Distance along the ray (metres, or units × --depth-scale)"))]
     Ray,
+    /// Planar depth along each cube face's axis (cube maps only)
+    ///
     /// Planar depth along a cube face's axis; converted to ray distance (cube maps only).
-    #[cfg_attr(feature = "clap", value(help = "Planar depth along each cube face's axis (cube maps only)"))]
     Z,
+    /// Inverse depth / disparity, larger = nearer, unknown scale and shift (MiDaS, Depth Anything)
+    ///
     /// Inverse depth / disparity with unknown scale and shift, as monocular estimators give it
     /// (MiDaS, Depth Anything): `1/depth = a·value + b`, larger = nearer.
-    #[cfg_attr(
-        feature = "clap",
-        value(
-            help = "Inverse depth / disparity, larger = nearer, unknown scale and shift (MiDaS, Depth Anything)"
-        )
-    )]
     Inverse,
+    /// 8/16-bit nearness map: brighter = nearer, 0 = far, linear in distance (three.js, krpano)
+    ///
     /// "Nearness" as in web viewers (three.js, krpano): brighter = nearer, 0 = far, linear in
     /// distance between the range's ends; 8/16-bit values are taken as 0–1.
-    #[cfg_attr(
-        feature = "clap",
-        value(
-            help = "8/16-bit nearness map: brighter = nearer, 0 = far, linear in distance (three.js, krpano)"
-        )
-    )]
     Nearness,
 }
 
@@ -108,17 +102,21 @@ impl DepthKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Preset {
+    /// uint16 PNG, metres = value / 4000, 0 invalid
+    ///
     /// Matterport3D: uint16 PNG, metres = value / 4000, 0 invalid.
-    #[cfg_attr(feature = "clap", value(help = "uint16 PNG, metres = value / 4000, 0 invalid"))]
     Matterport3d,
+    /// uint16 PNG, value / 512, 65535 invalid, Euclidean
+    ///
     /// Stanford 2D-3D-S equirect panoramas: uint16 PNG, value / 512, 65535 invalid, Euclidean.
-    #[cfg_attr(feature = "clap", value(help = "uint16 PNG, value / 512, 65535 invalid, Euclidean"))]
     Stanford2d3ds,
+    /// uint16 PNG in millimetres, 0 invalid
+    ///
     /// Structured3D: uint16 PNG in millimetres, 0 invalid.
-    #[cfg_attr(feature = "clap", value(help = "uint16 PNG in millimetres, 0 invalid"))]
     Structured3d,
+    /// float EXR in metres
+    ///
     /// Pano3D / 3D60: float EXR in metres.
-    #[cfg_attr(feature = "clap", value(help = "float EXR in metres"))]
     Pano3d,
 }
 
@@ -191,10 +189,23 @@ pub(crate) fn to_metres(
     warnings: &mut Vec<Warning>,
 ) -> Result<(Vec<f32>, Option<MetricFit>), PrepareError> {
     check_kind(path, samples, enc)?;
-    match enc.kind {
-        DepthKind::Ray | DepthKind::Z => metric_to_metres(path, samples, mapping, enc, warnings),
-        DepthKind::Inverse | DepthKind::Nearness => relative_to_metres(path, samples, mapping, enc),
+    if matches!(enc.kind, DepthKind::Inverse | DepthKind::Nearness) {
+        return relative_to_metres(path, samples, mapping, enc);
     }
+    let (scale, fit) = metric_scale(path, samples, mapping, enc)?;
+    let sentinel = sentinels(samples, scale, enc, warnings, path);
+    let d = samples
+        .values
+        .iter()
+        .map(|&v| {
+            if is_invalid(enc, v) || v <= 0.0 || (sentinel && f64::from(v) * scale >= SENTINEL_M) {
+                f32::NAN
+            } else {
+                (f64::from(v) * scale) as f32
+            }
+        })
+        .collect();
+    Ok((d, fit))
 }
 
 /// Whether a stored value means "no depth".
@@ -202,27 +213,25 @@ fn is_invalid(enc: &DepthEncoding, v: f32) -> bool {
     v.is_nan() || enc.invalid.is_some_and(|i| f64::from(v) == i)
 }
 
-/// Metric depth (ray or z) in metres: its unit given, known from one distance, or fitted to the
-/// floor under a camera of known height.
-fn metric_to_metres(
+/// The unit of metric depth (ray or z), metres per stored value: given, known from one distance,
+/// or fitted to the floor under a camera of known height.
+fn metric_scale(
     path: &Path,
     samples: &DepthSamples,
     mapping: &AnyMapping,
     enc: &DepthEncoding,
-    warnings: &mut Vec<Warning>,
-) -> Result<(Vec<f32>, Option<MetricFit>), PrepareError> {
+) -> Result<(f64, Option<MetricFit>), PrepareError> {
     let invalid = |v: f32| is_invalid(enc, v);
-    let mut fit = None;
-    let scale = match (enc.scale, samples.format, enc.camera_height) {
-        (Some(s), _, _) => s,
+    Ok(match (enc.scale, samples.format, enc.camera_height) {
+        (Some(s), _, _) => (s, None),
         // One known distance gives the unit (float depth too: an estimator's depth up to scale).
         _ if enc.known_distance.is_some() => {
             let (k, v) = known_value(path, samples, mapping, enc, &invalid)?;
             let along = if enc.kind == DepthKind::Z { v / z_axis(mapping, k) } else { v };
-            fit = Some(MetricFit { a: k.metres / along, b: 0.0, from: "known-distance", floor_share: None });
-            k.metres / along
+            let a = k.metres / along;
+            (a, Some(MetricFit { a, b: 0.0, from: "known-distance", floor_share: None }))
         }
-        (None, SampleFormat::F32, _) => 1.0,
+        (None, SampleFormat::F32, _) => (1.0, None),
         // Integer depth of unknown unit: the floor under a camera of known height gives it.
         (None, _, Some(h)) => {
             let raw: Vec<f64> = samples
@@ -231,24 +240,10 @@ fn metric_to_metres(
                 .map(|&v| if invalid(v) || v <= 0.0 { f64::NAN } else { f64::from(v) })
                 .collect();
             let f = floor_fit(path, &raw, mapping, h, Line::Scale)?;
-            fit = Some(f);
-            f.a
+            (f.a, Some(f))
         }
         (None, _, None) => return Err(PrepareError::ScaleNeeded { path: path.into() }),
-    };
-    let sentinel = sentinels(samples, scale, enc, warnings, path);
-    let d = samples
-        .values
-        .iter()
-        .map(|&v| {
-            if invalid(v) || v <= 0.0 || (sentinel && f64::from(v) * scale >= SENTINEL_M) {
-                f32::NAN
-            } else {
-                (f64::from(v) * scale) as f32
-            }
-        })
-        .collect();
-    Ok((d, fit))
+    })
 }
 
 /// Relative depth (inverse, nearness) in metres by the fit of its scale and shift.

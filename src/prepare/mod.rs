@@ -74,15 +74,18 @@ impl SampleFormat {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Refine {
+    /// Smooth measured noise; do not snap edges
+    ///
     /// Smooth noise where it is measured; no snapping (measured to lose, docs/build.md).
     #[default]
-    #[cfg_attr(feature = "clap", value(help = "Smooth measured noise; do not snap edges"))]
     Auto,
+    /// Also snap soft edges onto colour edges (experimental)
+    ///
     /// Also snap soft edges onto colour edges (experimental: sharper depth, not yet better layers).
-    #[cfg_attr(feature = "clap", value(help = "Also snap soft edges onto colour edges (experimental)"))]
     On,
+    /// Neither smooth nor snap
+    ///
     /// Neither: the depth as decoded and resized (holes still completed).
-    #[cfg_attr(feature = "clap", value(help = "Neither smooth nor snap"))]
     Off,
 }
 
@@ -91,18 +94,13 @@ pub enum Refine {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum UnknownDepth {
-    /// A surface not measured: completed from the depth around it.
+    /// A surface not measured: completed from the depth around it
     #[default]
-    #[cfg_attr(feature = "clap", value(help = "A surface not measured: completed from the depth around it"))]
     Complete,
+    /// Unknown regions open to the zenith are the sky (a scan outdoors); the rest is completed
+    ///
     /// Regions open to the zenith are the sky (nothing there: infinitely far, as a scanner sees
     /// the sky); the rest is completed.
-    #[cfg_attr(
-        feature = "clap",
-        value(
-            help = "Unknown regions open to the zenith are the sky (a scan outdoors); the rest is completed"
-        )
-    )]
     Sky,
 }
 
@@ -266,21 +264,17 @@ pub enum PrepareError {
     },
 }
 
-impl PrepareError {
-    /// Stable code, e.g. `INPUT_DEPTH_8BIT`.
-    pub fn code(&self) -> &'static str {
-        match self {
-            PrepareError::ScaleNeeded { .. } => crate::codes::INPUT_DEPTH_SCALE_NEEDED,
-            PrepareError::ZDepthOnEquirect { .. } => crate::codes::INPUT_Z_DEPTH_EQUIRECT,
-            PrepareError::EightBit { .. } => crate::codes::INPUT_DEPTH_8BIT,
-            PrepareError::NotDepth { .. } => crate::codes::INPUT_NOT_DEPTH,
-            PrepareError::RelativeNeedsScale { .. } => crate::codes::INPUT_DEPTH_RELATIVE,
-            PrepareError::NoFloor { .. } => crate::codes::INPUT_NO_FLOOR,
-            PrepareError::PresetMismatch { .. } => crate::codes::INPUT_PRESET_MISMATCH,
-            PrepareError::Shape { .. } => crate::codes::INPUT_SIZE_MISMATCH,
-            PrepareError::BadOption { .. } => crate::codes::INPUT_BAD_OPTION,
-        }
-    }
+crate::codes::error_codes! {
+    PrepareError:
+        ScaleNeeded INPUT_DEPTH_SCALE_NEEDED,
+        ZDepthOnEquirect INPUT_Z_DEPTH_EQUIRECT,
+        EightBit INPUT_DEPTH_8BIT,
+        NotDepth INPUT_NOT_DEPTH,
+        RelativeNeedsScale INPUT_DEPTH_RELATIVE,
+        NoFloor INPUT_NO_FLOOR,
+        PresetMismatch INPUT_PRESET_MISMATCH,
+        Shape INPUT_SIZE_MISMATCH,
+        BadOption INPUT_BAD_OPTION
 }
 
 /// Prepared depth: metres along the ray on the colour's grid (`+inf` infinitely far; NaN only

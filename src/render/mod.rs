@@ -15,6 +15,17 @@
 //! - [`metrics`]: PSNR, WS-PSNR, depth error.
 
 pub(crate) mod accum;
+/// `add` of a struct of counters: the sum, field by field.
+macro_rules! add_counts {
+    ($ty:ident: $($f:ident),*) => {
+        impl $ty {
+            fn add(self, o: $ty) -> $ty {
+                $ty { $($f: self.$f + o.$f),* }
+            }
+        }
+    };
+}
+
 pub mod camera;
 pub mod frame;
 pub mod metrics;
@@ -99,20 +110,16 @@ pub enum RenderError {
     },
 }
 
-impl RenderError {
-    /// Stable machine-readable code.
-    pub fn code(&self) -> &'static str {
-        match self {
-            RenderError::BadCamera(_) => crate::codes::RENDER_BAD_CAMERA,
-            RenderError::BadSize { .. } => crate::codes::RENDER_BAD_SIZE,
-            RenderError::BadOptions(_) => crate::codes::RENDER_BAD_OPTIONS,
-            RenderError::NoLayers => crate::codes::RENDER_NO_LAYERS,
-            RenderError::LayerChannel { .. } => crate::codes::RENDER_LAYER_CHANNEL,
-            RenderError::LayerSize { .. } => crate::codes::RENDER_LAYER_SIZE,
-            RenderError::Mesh { .. } => crate::codes::RENDER_MESH,
-            RenderError::OutputFormat { .. } => crate::codes::RENDER_OUTPUT_FORMAT,
-        }
-    }
+crate::codes::error_codes! {
+    RenderError:
+        BadCamera RENDER_BAD_CAMERA,
+        BadSize RENDER_BAD_SIZE,
+        BadOptions RENDER_BAD_OPTIONS,
+        NoLayers RENDER_NO_LAYERS,
+        LayerChannel RENDER_LAYER_CHANNEL,
+        LayerSize RENDER_LAYER_SIZE,
+        Mesh RENDER_MESH,
+        OutputFormat RENDER_OUTPUT_FORMAT
 }
 
 /// One layer to render: its full-canvas image and parametrisation.

@@ -66,15 +66,7 @@ pub struct SplatCounts {
     pub samples: u64,
 }
 
-impl SplatCounts {
-    fn add(mut self, o: SplatCounts) -> SplatCounts {
-        self.tiles += o.tiles;
-        self.tiles_culled += o.tiles_culled;
-        self.pixels += o.pixels;
-        self.samples += o.samples;
-        self
-    }
-}
+add_counts!(SplatCounts: tiles, tiles_culled, pixels, samples);
 
 /// One layer's planes, borrowed for splatting.
 #[derive(Clone, Copy, Debug)]

@@ -62,9 +62,9 @@ pub(super) fn convert_layer_in_bands(
         let rows = band_rows.min(h - y0);
         let ids_len = band_ids.len().min(rows * w * ch);
         let (band, band_ids) = (&mut band[..rows * w * ch], &mut band_ids[..ids_len]);
-        source.rows(to, size, &o, y0, band, &none)?;
+        source.rows(&o, Rows { to, size, y0, out: band, progress: &none })?;
         if nearest {
-            source.rows(to, size, &nearest_opts, y0, band_ids, &none)?;
+            source.rows(&nearest_opts, Rows { to, size, y0, out: band_ids, progress: &none })?;
         }
         let at = y0 * w;
         for (c, channel) in src.channels.iter().enumerate() {

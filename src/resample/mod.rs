@@ -91,21 +91,17 @@ pub enum ResampleError {
     },
 }
 
-impl ResampleError {
-    /// Stable code for reports: `RESAMPLE_*`, or the layout's code for [`ResampleError::Layout`].
-    pub fn code(&self) -> &'static str {
-        match self {
-            ResampleError::Unsupported => crate::codes::RESAMPLE_UNSUPPORTED,
-            ResampleError::Layout(e) => e.code(),
-            ResampleError::NotEquirect { .. } => crate::codes::RESAMPLE_NOT_EQUIRECT,
-            ResampleError::BadTargetSize(_) => crate::codes::RESAMPLE_BAD_SIZE,
-            ResampleError::TooLarge { .. } => crate::codes::RESAMPLE_TOO_LARGE,
-            ResampleError::NoSuchChannel { .. } => crate::codes::RESAMPLE_NO_SUCH_CHANNEL,
-            ResampleError::NoChannels => crate::codes::RESAMPLE_NO_CHANNELS,
-            ResampleError::OutputLength { .. } => crate::codes::RESAMPLE_OUTPUT_LENGTH,
-            ResampleError::ChannelSize { .. } => crate::codes::RESAMPLE_CHANNEL_SIZE,
-        }
-    }
+crate::codes::error_codes! {
+    ResampleError:
+        Unsupported RESAMPLE_UNSUPPORTED,
+        NotEquirect RESAMPLE_NOT_EQUIRECT,
+        BadTargetSize RESAMPLE_BAD_SIZE,
+        TooLarge RESAMPLE_TOO_LARGE,
+        NoSuchChannel RESAMPLE_NO_SUCH_CHANNEL,
+        NoChannels RESAMPLE_NO_CHANNELS,
+        OutputLength RESAMPLE_OUTPUT_LENGTH,
+        ChannelSize RESAMPLE_CHANNEL_SIZE;
+        from Layout.0
 }
 
 /// Reconstruction filter.
@@ -131,12 +127,6 @@ impl Filter {
     }
 }
 
-impl fmt::Display for Filter {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
 impl FromStr for Filter {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
@@ -146,6 +136,12 @@ impl FromStr for Filter {
             "bicubic" | "cubic" => Ok(Filter::Bicubic),
             _ => Err(format!("unknown filter '{s}'; expected nearest, bilinear or bicubic")),
         }
+    }
+}
+
+impl fmt::Display for Filter {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
     }
 }
 
@@ -253,17 +249,13 @@ fn target_size(target: Canvas, size: usize, ch: usize) -> Result<(usize, usize),
     }
 }
 
-/// Fill `data`, target rows `y0..` of a `target` canvas of `size` (whole rows of `ch` interleaved
-/// samples), calling `segment` on runs of directions and `progress(1)` per row.
+/// Fill `rows` (of `ch` interleaved samples), calling `segment` on runs of directions.
 fn render_rows<T: Texel>(
-    target: Canvas,
-    size: usize,
+    rows: Rows<T>,
     ch: usize,
-    y0: usize,
-    data: &mut [T],
-    progress: &(dyn Fn(usize) + Sync),
     segment: impl Fn(&Dirs, &mut Coords, &mut [T]) + Sync,
 ) -> Result<(), ResampleError> {
+    let Rows { to: target, size, y0, out: data, progress } = rows;
     let (w, h) = target_size(target, size, ch)?;
     if data.len() % (w * ch) != 0 || y0 + data.len() / (w * ch) > h {
         return Err(ResampleError::Unsupported);
@@ -277,7 +269,7 @@ fn render_rows<T: Texel>(
                 })
                 .unzip();
             data.par_chunks_mut(w * ch).enumerate().for_each_init(
-                || (Dirs::with_len(w), Coords::with_len(w)),
+                || batch(w),
                 |(dirs, coords), (y, row)| {
                     let y = y0 + y;
                     let (st, ct) = (std::f64::consts::PI * (y as f64 + 0.5) / h as f64).sin_cos();
@@ -299,7 +291,7 @@ fn render_rows<T: Texel>(
             let a_tab: Vec<f32> = (0..n).map(|i| ((2 * i + 1) as f64 / n as f64 - 1.0) as f32).collect();
             let v = |a: [i32; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
             data.par_chunks_mut(w * ch).enumerate().for_each_init(
-                || (Dirs::with_len(n), Coords::with_len(n)),
+                || batch(n),
                 |(dirs, coords), (y, row)| {
                     let y = y0 + y;
                     let b = a_tab[y % n];
@@ -361,7 +353,7 @@ pub fn convert_with_progress<T: Texel>(
     let source = Prepared::new(src, from, opts)?;
     let (w, h) = target_size(to, size, src.channels())?;
     let mut data = vec![T::from_f32(0.0); w * h * src.channels()];
-    source.rows(to, size, opts, 0, &mut data, progress)?;
+    source.rows(opts, Rows { to, size, y0: 0, out: &mut data, progress })?;
     Ok(Raster::from_vec(w, h, src.channels(), data).expect("length checked by target_size"))
 }
 
@@ -425,37 +417,34 @@ impl<'a, T: Texel> Prepared<'a, T> {
         }
     }
 
-    /// Resample target rows `y0..` (as many as `out` holds) of a `to` canvas of `size`.
-    fn rows(
-        &self,
-        to: Canvas,
-        size: usize,
-        opts: &SampleOptions,
-        y0: usize,
-        out: &mut [T],
-        progress: &(dyn Fn(usize) + Sync),
-    ) -> Result<(), ResampleError> {
+    /// Resample `rows` under `opts`.
+    fn rows(&self, opts: &SampleOptions, rows: Rows<T>) -> Result<(), ResampleError> {
         match self {
-            Prepared::Equirect(data, ch, s) => run(data, *ch, s, to, size, opts, y0, out, progress),
-            Prepared::Cube(data, ch, s) => run(data.data(), *ch, s, to, size, opts, y0, out, progress),
+            Prepared::Equirect(data, ch, s) => run(data, *ch, s, opts, rows),
+            Prepared::Cube(data, ch, s) => run(data.data(), *ch, s, opts, rows),
         }
     }
 }
 
-#[allow(clippy::too_many_arguments)]
+/// Target rows `y0..` (as many as `out` holds) of a `to` canvas of `size`, whole rows of
+/// interleaved samples; `progress(1)` is called per row.
+pub(super) struct Rows<'a, T> {
+    pub(super) to: Canvas,
+    pub(super) size: usize,
+    pub(super) y0: usize,
+    pub(super) out: &'a mut [T],
+    pub(super) progress: &'a (dyn Fn(usize) + Sync),
+}
+
 fn run<T: Texel, S: Source>(
     data: &[T],
     ch: usize,
     source: &S,
-    to: Canvas,
-    size: usize,
     opts: &SampleOptions,
-    y0: usize,
-    out: &mut [T],
-    progress: &(dyn Fn(usize) + Sync),
+    rows: Rows<T>,
 ) -> Result<(), ResampleError> {
     let plain = opts.depth_channel.is_none();
-    render_rows(to, size, ch, y0, out, progress, |dirs: &Dirs, coords: &mut Coords, out: &mut [T]| {
+    render_rows(rows, ch, |dirs: &Dirs, coords: &mut Coords, out: &mut [T]| {
         source.coords(dirs, coords);
         if plain && opts.filter == Filter::Bilinear {
             for (i, px) in out.chunks_exact_mut(ch).enumerate() {

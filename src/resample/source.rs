@@ -90,7 +90,7 @@ pub(super) trait Source: Sync {
     /// Source coordinates (face, x, y) of one direction.
     fn coords_of(&self, d: Vec3) -> (u8, f32, f32) {
         let dirs = Dirs { x: vec![d.x], y: vec![d.y], z: vec![d.z] };
-        let mut c = Coords::with_len(1);
+        let (_, mut c) = batch(1);
         self.coords(&dirs, &mut c);
         (c.face[0], c.x[0], c.y[0])
     }
@@ -143,12 +143,6 @@ pub(super) struct Dirs {
     pub(super) z: Vec<f32>,
 }
 
-impl Dirs {
-    pub(super) fn with_len(n: usize) -> Self {
-        Dirs { x: vec![0.0; n], y: vec![0.0; n], z: vec![0.0; n] }
-    }
-}
-
 /// Source coordinates of a batch of directions.
 pub(super) struct Coords {
     pub(super) face: Vec<u8>,
@@ -156,10 +150,10 @@ pub(super) struct Coords {
     pub(super) y: Vec<f32>,
 }
 
-impl Coords {
-    pub(super) fn with_len(n: usize) -> Self {
-        Coords { face: vec![0; n], x: vec![0.0; n], y: vec![0.0; n] }
-    }
+/// Scratch for a batch of `n` directions and their source coordinates.
+pub(super) fn batch(n: usize) -> (Dirs, Coords) {
+    let zeros = || vec![0.0; n];
+    (Dirs { x: zeros(), y: zeros(), z: zeros() }, Coords { face: vec![0; n], x: zeros(), y: zeros() })
 }
 
 /// Equirect source of `w × h` pixels.
@@ -294,15 +288,7 @@ impl Source for EquirectSource {
         let i01 = (r0 * w + col(col(c1 + s0))) as usize * ch;
         let i10 = (r1 * w + col(col(c0 + s1))) as usize * ch;
         let i11 = (r1 * w + col(col(c1 + s1))) as usize * ch;
-        let (w00, w01) = ((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty));
-        let (w10, w11) = ((1.0 - tx) * ty, tx * ty);
-        let (p00, p01, p10, p11) =
-            (&data[i00..i00 + ch], &data[i01..i01 + ch], &data[i10..i10 + ch], &data[i11..i11 + ch]);
-        for c in 0..ch {
-            out[c] = T::from_f32(
-                w00 * p00[c].to_f32() + w01 * p01[c].to_f32() + w10 * p10[c].to_f32() + w11 * p11[c].to_f32(),
-            );
-        }
+        blend4(data, ch, [i00, i01, i10, i11], tx, ty, out);
     }
 
     #[inline]
@@ -440,15 +426,7 @@ impl Source for CubeSource {
         let row = 3 * self.n * ch;
         let (i01, i10) = (i00 + ch, i00 + row);
         let i11 = i10 + ch;
-        let (w00, w01) = ((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty));
-        let (w10, w11) = ((1.0 - tx) * ty, tx * ty);
-        let (p00, p01, p10, p11) =
-            (&data[i00..i00 + ch], &data[i01..i01 + ch], &data[i10..i10 + ch], &data[i11..i11 + ch]);
-        for c in 0..ch {
-            out[c] = T::from_f32(
-                w00 * p00[c].to_f32() + w01 * p01[c].to_f32() + w10 * p10[c].to_f32() + w11 * p11[c].to_f32(),
-            );
-        }
+        blend4(data, ch, [i00, i01, i10, i11], tx, ty, out);
     }
 
     #[inline]
@@ -472,5 +450,19 @@ impl Source for CubeSource {
         out.n = k;
         let last = self.n - 1;
         out.nearest = self.face_index(face, (x as usize).min(last), (y as usize).min(last));
+    }
+}
+
+/// Bilinear blend of the texels starting at `i` (`[i00, i01, i10, i11]`, `ch` samples each) at
+/// fractions `(tx, ty)` into `out`.
+#[inline(always)]
+fn blend4<T: Texel>(data: &[T], ch: usize, i: [usize; 4], tx: f32, ty: f32, out: &mut [T]) {
+    let (w00, w01) = ((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty));
+    let (w10, w11) = ((1.0 - tx) * ty, tx * ty);
+    let [p00, p01, p10, p11] = i.map(|i| &data[i..i + ch]);
+    for c in 0..ch {
+        out[c] = T::from_f32(
+            w00 * p00[c].to_f32() + w01 * p01[c].to_f32() + w10 * p10[c].to_f32() + w11 * p11[c].to_f32(),
+        );
     }
 }

@@ -425,21 +425,15 @@ fn check_continuity(
     };
     let h = image.height;
     // Per row: the count and the first pair's pixel (a hostile layer can break at every pixel).
-    let rows: Vec<(usize, usize)> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let (mut count, mut first) = (0, usize::MAX);
-            continuity::row_breaks(&nb, depth, options.jump_threshold, y, |p, _| {
-                count += 1;
-                first = first.min(p);
-            });
-            (count, first)
-        })
-        .collect();
-    let count: usize = rows.iter().map(|r| r.0).sum();
-    if count > 0 {
-        let first = rows.iter().map(|r| r.1).min().unwrap_or(0);
-        let (x, y) = (first % w, first / w);
+    let found = count_rows(w, h, |y| {
+        let (mut count, mut first) = (0, usize::MAX);
+        continuity::row_breaks(&nb, depth, options.jump_threshold, y, |p, _| {
+            count += 1;
+            first = first.min(p);
+        });
+        (count, first)
+    });
+    if let Some((count, x, y)) = found {
         issues.push(issue(
             codes::DEPTH_DISCONTINUITY,
             format!(
@@ -462,32 +456,26 @@ fn check_coverage(name: &str, domains: &[(AnyMapping, Vec<bool>)], issues: &mut 
         .unwrap_or(0);
     let (fm, _) = &domains[finest];
     let (w, h) = (fm.width(), fm.height());
-    let holes: Vec<(usize, usize)> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let mut count = 0;
-            let mut first = usize::MAX;
-            for x in 0..w {
-                // A layer on the finest layer's canvas is looked up by pixel, the others by direction.
-                let covered = domains.iter().any(|(m, dom)| {
-                    if m == fm {
-                        return dom[y * w + x];
-                    }
-                    let (i, j) = m.pixel_of(fm.pixel_dir(x, y));
-                    dom[j * m.width() + i]
-                });
-                if !covered {
-                    count += 1;
-                    first = first.min(y * w + x);
+    let found = count_rows(w, h, |y| {
+        let mut count = 0;
+        let mut first = usize::MAX;
+        for x in 0..w {
+            // A layer on the finest layer's canvas is looked up by pixel, the others by direction.
+            let covered = domains.iter().any(|(m, dom)| {
+                if m == fm {
+                    return dom[y * w + x];
                 }
+                let (i, j) = m.pixel_of(fm.pixel_dir(x, y));
+                dom[j * m.width() + i]
+            });
+            if !covered {
+                count += 1;
+                first = first.min(y * w + x);
             }
-            (count, first)
-        })
-        .collect();
-    let count: usize = holes.iter().map(|r| r.0).sum();
-    if count > 0 {
-        let first = holes.iter().map(|r| r.1).min().unwrap_or(0);
-        let (x, y) = (first % w, first / w);
+        }
+        (count, first)
+    });
+    if let Some((count, x, y)) = found {
         let dir = fm.pixel_dir(x, y);
         issues.push(issue(
             codes::COVERAGE_INCOMPLETE,
@@ -502,6 +490,19 @@ fn check_coverage(name: &str, domains: &[(AnyMapping, Vec<bool>)], issues: &mut 
             format!("{name} layer[{finest}] pixel ({x},{y})"),
         ));
     }
+}
+
+/// Per row `y` of a `w × h` canvas (in parallel), `row(y)` counts what it finds and its first
+/// pixel index: the total and the first pixel `(x, y)`, `None` when nothing is found.
+fn count_rows(
+    w: usize,
+    h: usize,
+    row: impl Fn(usize) -> (usize, usize) + Send + Sync,
+) -> Option<(usize, usize, usize)> {
+    let rows: Vec<(usize, usize)> = (0..h).into_par_iter().map(row).collect();
+    let count: usize = rows.iter().map(|r| r.0).sum();
+    let first = rows.iter().map(|r| r.1).min().unwrap_or(0);
+    (count > 0).then_some((count, first % w, first / w))
 }
 
 #[cfg(test)]

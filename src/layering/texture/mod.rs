@@ -20,25 +20,22 @@ mod search;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum FillColour {
+    /// Continue the hidden surface's texture: patches matched in its plane
+    ///
     /// Exemplar: the hidden surface copied from elsewhere on it by the offsets in its plane that
     /// best continue the texture around the hole.
     #[default]
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "Continue the hidden surface's texture: patches matched in its plane")
-    )]
     Exemplar,
+    /// Copy the nearest visible pixel (fast; textures come out as streaks)
+    ///
     /// Each filled pixel takes the colour of the visible pixel nearest its seed: fast, but
     /// textured surfaces come out as streaks.
-    #[cfg_attr(
-        feature = "clap",
-        value(help = "Copy the nearest visible pixel (fast; textures come out as streaks)")
-    )]
     Nearest,
+    /// Blend the border's colours smoothly across the hole
+    ///
     /// Inwards from the border, each filled pixel takes the distance-weighted mean of the known
     /// pixels around it, then relaxation sweeps smooth it: the border's colours blend
     /// across the hole without streaks or texture.
-    #[cfg_attr(feature = "clap", value(help = "Blend the border's colours smoothly across the hole"))]
     Smooth,
 }
 

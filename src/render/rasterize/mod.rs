@@ -92,19 +92,8 @@ pub struct RasterCounts {
     pub infinity_pixels: u64,
 }
 
-impl RasterCounts {
-    fn add(mut self, o: RasterCounts) -> RasterCounts {
-        self.triangles += o.triangles;
-        self.triangles_jump += o.triangles_jump;
-        self.triangles_culled += o.triangles_culled;
-        self.triangles_clipped += o.triangles_clipped;
-        self.triangles_drawn += o.triangles_drawn;
-        self.tests += o.tests;
-        self.fragments += o.fragments;
-        self.infinity_pixels += o.infinity_pixels;
-        self
-    }
-}
+add_counts!(RasterCounts: triangles, triangles_jump, triangles_culled, triangles_clipped,
+    triangles_drawn, tests, fragments, infinity_pixels);
 
 /// Figures of one mesh render: stages `raster` (set-up, binning, z-buffer) and `compose` (colour,
 /// infinity, frame).
