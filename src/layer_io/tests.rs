@@ -314,6 +314,24 @@ fn exr_bytes(c: Compression) -> Vec<u8> {
 
 // ---- thesis form ----
 
+/// The colour map and depth file of a thesis layer in `d`.
+fn thesis_paths(d: &tempfile::TempDir) -> (PathBuf, PathBuf) {
+    (d.path().join("c.png"), d.path().join("c_d.exr"))
+}
+
+/// A thesis layer of 6 × 4 RGB pixels, its depth `w` × 4 in channel `channel`.
+fn thesis_pair(w: usize, channel: &str) -> (tempfile::TempDir, PathBuf, PathBuf) {
+    let d = tmp();
+    let (map, depth) = thesis_paths(&d);
+    write_png_rgba(&map, 6, 4, false);
+    write_depth(&depth, w, 4, channel);
+    (d, map, depth)
+}
+
+fn read_thesis(map: &Path, depth: &Path) -> Result<LayerImage, LayerIoError> {
+    read_thesis_layer(map, depth, None, &ReadLimits::default())
+}
+
 fn write_png_rgba(p: &Path, w: u32, h: u32, alpha: bool) {
     if alpha {
         let img = image::RgbaImage::from_fn(w, h, |x, y| {
@@ -334,11 +352,8 @@ fn write_depth(p: &Path, w: usize, h: usize, name: &str) {
 
 #[test]
 fn thesis_layer_without_alpha_uses_negative_depth() {
-    let d = tmp();
-    let (map, depth) = (d.path().join("c.png"), d.path().join("c_d.exr"));
-    write_png_rgba(&map, 6, 4, false);
-    write_depth(&depth, 6, 4, "Y");
-    let l = read_thesis_layer(&map, &depth, None, &ReadLimits::default()).unwrap();
+    let (_d, map, depth) = thesis_pair(6, "Y");
+    let l = read_thesis(&map, &depth).unwrap();
     let r = l.channel("R").unwrap();
     assert_eq!(r.sample_type, SampleType::F16);
     // sRGB-decoded to linear: code 5 is 0.00152 linear, and encodes back to 5.
@@ -353,7 +368,7 @@ fn thesis_layer_without_alpha_uses_negative_depth() {
 #[test]
 fn thesis_layer_with_alpha_and_normals() {
     let d = tmp();
-    let (map, depth, normals) = (d.path().join("c.png"), d.path().join("c_d.exr"), d.path().join("n.exr"));
+    let ((map, depth), normals) = (thesis_paths(&d), d.path().join("n.exr"));
     write_png_rgba(&map, 6, 4, true);
     write_depth(&depth, 6, 4, "Z");
     let mut n = LayerImage::new(6, 4);
@@ -370,11 +385,8 @@ fn thesis_layer_with_alpha_and_normals() {
 
 #[test]
 fn thesis_layer_size_mismatch_names_both_files() {
-    let d = tmp();
-    let (map, depth) = (d.path().join("c.png"), d.path().join("c_d.exr"));
-    write_png_rgba(&map, 6, 4, false);
-    write_depth(&depth, 5, 4, "Z");
-    let e = read_thesis_layer(&map, &depth, None, &ReadLimits::default()).unwrap_err();
+    let (d, map, depth) = thesis_pair(5, "Z");
+    let e = read_thesis(&map, &depth).unwrap_err();
     assert_eq!(e.code(), "LAYER_SIZE_MISMATCH");
     let msg = e.to_string();
     assert!(msg.contains("c.png") && msg.contains("c_d.exr"), "{msg}");
@@ -385,12 +397,12 @@ fn thesis_layer_size_mismatch_names_both_files() {
 #[test]
 fn thesis_16_bit_colour_is_float() {
     let d = tmp();
-    let (map, depth) = (d.path().join("c.png"), d.path().join("c_d.exr"));
+    let (map, depth) = thesis_paths(&d);
     image::ImageBuffer::<image::Rgb<u16>, _>::from_fn(6, 4, |x, _| image::Rgb([x as u16 * 1000, 0, 65535]))
         .save(&map)
         .unwrap();
     write_depth(&depth, 6, 4, "Z");
-    let l = read_thesis_layer(&map, &depth, None, &ReadLimits::default()).unwrap();
+    let l = read_thesis(&map, &depth).unwrap();
     let r = l.channel("R").unwrap();
     assert_eq!(r.sample_type, SampleType::F32);
     assert_eq!(r.data[3], crate::colour::srgb_to_linear(3000.0 / 65535.0));
@@ -401,11 +413,11 @@ fn thesis_16_bit_colour_is_float() {
 #[test]
 fn thesis_8_bit_codes_round_trip_through_linear_half() {
     let d = tmp();
-    let (map, depth) = (d.path().join("c.png"), d.path().join("c_d.exr"));
+    let (map, depth) = thesis_paths(&d);
     let img = image::RgbaImage::from_fn(256, 2, |x, _| image::Rgba([x as u8, 0, 255, x as u8]));
     img.save(&map).unwrap();
     write_depth(&depth, 256, 2, "Z");
-    let l = read_thesis_layer(&map, &depth, None, &ReadLimits::default()).unwrap();
+    let l = read_thesis(&map, &depth).unwrap();
     let (r, a) = (&l.channel("R").unwrap().data, &l.channel("A").unwrap().data);
     for code in 0..256usize {
         assert_eq!(crate::colour::srgb8(r[code]) as usize, code);

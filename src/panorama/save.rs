@@ -57,7 +57,7 @@ pub fn write_panorama(
     layers: &[LayerImage],
     options: &SaveOptions,
 ) -> Result<Manifest, Error> {
-    save(dir, manifest, &Layers::Given(layers), options, None)
+    save(dir, |d| write_files(d, manifest, &Layers::Given(layers), options, None))
 }
 
 /// [`write_panorama`] with each layer made on demand by `layer(k)` and dropped once written: one
@@ -68,7 +68,7 @@ pub fn write_panorama_with(
     layer: &(dyn Fn(usize) -> Result<LayerImage, Error> + Sync),
     options: &SaveOptions,
 ) -> Result<Manifest, Error> {
-    save(dir, manifest, &Layers::Made(layer), options, None)
+    save(dir, |d| write_files(d, manifest, &Layers::Made(layer), options, None))
 }
 
 /// Where [`write_files`] takes the layers from.
@@ -82,23 +82,19 @@ impl Panorama {
     /// gives them) into `dir`, which may be this panorama's own directory, like
     /// [`write_panorama`]; stored meshes are copied along with their `<Mesh>` references.
     pub fn save(&self, dir: &Path, layers: &[LayerImage], options: &SaveOptions) -> Result<Manifest, Error> {
-        save(dir, &self.manifest, &Layers::Given(layers), options, Some(&self.dir))
+        save(dir, |d| write_files(d, &self.manifest, &Layers::Given(layers), options, Some(&self.dir)))
     }
 }
 
-fn save(
-    dir: &Path,
-    manifest: &Manifest,
-    layers: &Layers,
-    options: &SaveOptions,
-    meshes_from: Option<&Path>,
-) -> Result<Manifest, Error> {
+/// Write a panorama into `dir` by `write` (which writes its files into the directory it is given):
+/// into a sibling swapped in whole where `dir` is the panorama's own, else in place.
+fn save(dir: &Path, write: impl Fn(&Path) -> Result<Manifest, Error>) -> Result<Manifest, Error> {
     if std::fs::metadata(dir).is_ok_and(|m| !m.is_dir()) {
         return Err(PanoramaError::OutputNotDirectory { path: dir.to_path_buf() }.into());
     }
     let in_place = || {
         remove_temp_files(dir);
-        write_files(dir, manifest, layers, options, meshes_from)
+        write(dir)
     };
     // No lock file beside a mount point or in a read-only parent: write in place, unlocked.
     let Ok(_lock) = fsutil::lock_dir(dir) else { return in_place() };
@@ -106,7 +102,7 @@ fn save(
         return in_place();
     }
     let Ok(tmp) = fsutil::temp_sibling(dir) else { return in_place() };
-    let written = write_files(tmp.path(), manifest, layers, options, meshes_from)?;
+    let written = write(tmp.path())?;
     // The swap fails before touching anything (another device, a busy mount point): in place then.
     match fsutil::swap_in(tmp, dir) {
         Ok(()) => Ok(written),
@@ -351,6 +347,17 @@ fn copy_mesh(from: &Path, to: &Path, file: &str) -> Result<bool, Error> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A temporary root and the output directory `out` in it (not created).
+    fn root_out() -> (tempfile::TempDir, PathBuf) {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("out");
+        (root, out)
+    }
+
+    fn save_default(out: &Path, m: &Manifest, l: &[LayerImage]) {
+        write_panorama(out, m, l, &SaveOptions::default()).unwrap();
+    }
     use crate::layer::SampleType;
     use crate::manifest::{LayerDecl, MappingDecl, MappingKind};
 
@@ -405,12 +412,11 @@ mod tests {
 
     #[test]
     fn a_made_layer_that_fails_leaves_the_old_files() {
-        let root = tempfile::tempdir().unwrap();
-        let out = root.path().join("out");
+        let (_root, out) = root_out();
         let (mut m, mut l) = pano("a.exr", 2.0);
         m.layers.push(LayerDecl::native("b.exr"));
         l.push(pano("b.exr", 3.0).1.remove(0));
-        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        save_default(&out, &m, &l);
         // A foreign file keeps the next write in place, over the files the layers are made from.
         std::fs::write(out.join("input.png"), b"x").unwrap();
         let before: Vec<Vec<u8>> =
@@ -433,8 +439,7 @@ mod tests {
     #[cfg(unix)]
     #[test]
     fn an_escaping_symlink_stops_the_write_before_any_file() {
-        let root = tempfile::tempdir().unwrap();
-        let out = root.path().join("out");
+        let (root, out) = root_out();
         std::fs::create_dir(&out).unwrap();
         // A foreign file keeps the write in place, where the symlink is in the way.
         std::fs::write(out.join("input.png"), b"x").unwrap();
@@ -451,16 +456,15 @@ mod tests {
 
     #[test]
     fn a_panorama_replaces_the_old_one_whole_and_cleans_up() {
-        let root = tempfile::tempdir().unwrap();
-        let out = root.path().join("out");
+        let (root, out) = root_out();
         let (m, l) = pano("a.exr", 2.0);
-        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        save_default(&out, &m, &l);
         assert_eq!(names(&out), ["a.exr", "panorama.xml"]);
         // A killed writer's temporaries beside and inside the output.
         std::fs::create_dir(root.path().join(".out.pomc-tmp-dead")).unwrap();
         std::fs::write(out.join(".pomc-tmp-x"), b"half").unwrap();
         let (m, l) = pano("b.exr", 3.0);
-        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        save_default(&out, &m, &l);
         // The old layer file went with the old panorama; only the lock file stays beside it.
         assert_eq!(names(&out), ["b.exr", "panorama.xml"]);
         assert_eq!(names(root.path()), [".out.pomc-lock", "out"]);
@@ -470,12 +474,11 @@ mod tests {
 
     #[test]
     fn foreign_files_are_kept_and_written_beside() {
-        let root = tempfile::tempdir().unwrap();
-        let out = root.path().join("out");
+        let (root, out) = root_out();
         std::fs::create_dir(&out).unwrap();
         std::fs::write(out.join("colour.png"), b"input").unwrap();
         let (m, l) = pano("a.exr", 2.0);
-        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        save_default(&out, &m, &l);
         assert_eq!(names(&out), ["a.exr", "colour.png", "panorama.xml"]);
         assert_eq!(std::fs::read(out.join("colour.png")).unwrap(), b"input");
         let file = root.path().join("file");
@@ -486,12 +489,11 @@ mod tests {
 
     #[test]
     fn files_beside_a_nested_layer_are_kept() {
-        let root = tempfile::tempdir().unwrap();
-        let out = root.path().join("out");
+        let (_root, out) = root_out();
         let (m, l) = pano("images/l0.exr", 2.0);
-        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        save_default(&out, &m, &l);
         std::fs::write(out.join("images/colour.png"), b"input").unwrap();
-        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        save_default(&out, &m, &l);
         assert_eq!(std::fs::read(out.join("images/colour.png")).unwrap(), b"input");
         // The working directory, or one above it, is never swapped away.
         assert!(holds_working_directory(Path::new("/")) && !holds_working_directory(&out));
@@ -499,10 +501,9 @@ mod tests {
 
     #[test]
     fn a_writer_killed_between_the_fallback_renames_loses_nothing() {
-        let root = tempfile::tempdir().unwrap();
-        let out = root.path().join("out");
+        let (root, out) = root_out();
         let (m, l) = pano("a.exr", 2.0);
-        write_panorama(&out, &m, &l, &SaveOptions::default()).unwrap();
+        save_default(&out, &m, &l);
         // The state the two-rename swap leaves when killed between its renames.
         std::fs::rename(&out, root.path().join(".out.pomc-old-4242")).unwrap();
         std::fs::create_dir(root.path().join(".out.pomc-tmp-x")).unwrap();
@@ -513,8 +514,7 @@ mod tests {
 
     #[test]
     fn concurrent_writers_leave_one_whole_panorama() {
-        let root = tempfile::tempdir().unwrap();
-        let out = root.path().join("out");
+        let (_root, out) = root_out();
         std::thread::scope(|s| {
             for k in 0..4 {
                 let out = &out;

@@ -554,7 +554,7 @@ fn refine_depth<'a>(
         // otherwise join into wider stretched surfaces (measured: docs/build.md).
         if report.resized {
             let max = (w * h / SPECK_SHARE).max(MIN_SPECK);
-            report.speck_pixels = specks::remove(nb, &mut log, guide(), max, complete::SKY_LOG - 1e-3);
+            report.speck_pixels = specks::remove(nb, &mut log, guide(), max);
         }
     }
     depth.par_iter_mut().zip(log.par_iter().zip(&original)).for_each(|(d, (&l, &o))| {

@@ -59,97 +59,135 @@ pub(crate) fn resize(depth: &[f32], from: &AnyMapping, to: &AnyMapping, guide: &
     (0..guide.len())
         .into_par_iter()
         .map(|p| {
-            let (x, y) = (p % cw, p / cw);
-            let (ox, fx) = g.axis(x, true);
-            let (oy, fy) = g.axis(y, false);
-            let fy = fy.clamp(0.0, (g.tile_d.1 - 1) as f64);
-            let fx = if g.wrap { fx } else { fx.clamp(0.0, (g.tile_d.0 - 1) as f64) };
-            let (x0, y0) = (fx.floor() as i64, fy.floor() as i64);
-            let (tx, ty) = (fx - x0 as f64, fy - y0 as f64);
-            // The 4 × 4 window, row by row; the 2 × 2 nearest are (1,1), (2,1), (1,2), (2,2).
-            let mut idx = [0usize; 16];
-            let mut d = [0f32; 16];
-            for (k, (i, j)) in (-1..3).flat_map(|j| (-1..3).map(move |i| (i, j))).enumerate() {
-                idx[k] = g.index(ox, oy, x0 + i, y0 + j);
-                d[k] = depth[idx[k]];
-            }
-            let nearest = 5 + (tx >= 0.5) as usize + 4 * (ty >= 0.5) as usize;
-            if d[nearest].is_nan() {
+            let win = Window::at(&g, depth, p % cw, p / cw);
+            if win.d[win.nearest].is_nan() {
                 return f32::NAN;
             }
-            let bilinear =
-                [(5, (1.0 - tx) * (1.0 - ty)), (6, tx * (1.0 - ty)), (9, (1.0 - tx) * ty), (10, tx * ty)];
-            // Most windows: finite samples within one step of each other, one surface.
-            let (lo, hi) = d.iter().fold((f32::INFINITY, 0f32), |(lo, hi), &v| (lo.min(v), hi.max(v)));
-            if lo > 0.0
-                && hi.is_finite()
-                && !d.iter().any(|v| v.is_nan())
-                && f64::from(hi - lo) <= continuity::JUMP * f64::from(lo)
-            {
-                let inv: f64 = bilinear.iter().map(|&(k, wt)| wt / f64::from(d[k])).sum();
-                return (1.0 / inv) as f32;
+            if let Some(v) = win.one_surface() {
+                return v;
             }
-            let surface = surfaces(&d);
+            let surface = surfaces(&win.d);
             let chosen = if surface.iter().all(|&s| s == surface[5]) && surface[5] != NONE {
                 surface[5]
             } else {
-                // The surface whose samples' colours and positions are nearest the pixel's.
-                let c0 = guide[p];
-                let mut score = [0f32; 16];
-                for k in 0..16 {
-                    if surface[k] == NONE {
-                        continue;
-                    }
-                    let (sx, sy) = ((k % 4) as f64 - 1.0 - tx, (k / 4) as f64 - 1.0 - ty);
-                    let c = sample_colour[idx[k]];
-                    let dc = (0..3).map(|i| (c[i] - c0[i]).powi(2)).sum::<f32>();
-                    score[surface[k] as usize] +=
-                        (-(sx * sx + sy * sy) as f32 / 2.0 - dc / (2.0 * SIGMA_COLOUR * SIGMA_COLOUR)).exp();
-                }
-                // A small surface between a nearer and a farther one is the mix of the two (an
-                // area-averaged sample across the edge), no surface of its own.
-                let between = |l: u8| {
-                    let of = |k: &usize| surface[*k] == l;
-                    let (lo, hi) = (0..16)
-                        .filter(of)
-                        .fold((f32::INFINITY, 0f32), |(lo, hi), k| (lo.min(d[k]), hi.max(d[k])));
-                    let others = (0..16).filter(|&k| surface[k] != l && surface[k] != NONE);
-                    (0..16).filter(of).count() <= 3
-                        && others.clone().any(|k| d[k] < lo)
-                        && others.into_iter().any(|k| d[k] > hi)
-                };
-                let best = (0..16)
-                    .filter(|&k| surface[k] == k as u8 && !between(k as u8))
-                    .max_by(|&a, &b| score[a].total_cmp(&score[b]));
-                match best {
-                    Some(k) if score[k] > 0.0 => k as u8,
-                    _ => surface[nearest],
-                }
+                win.choose(&surface, guide[p], &sample_colour)
             };
-            let mine: Vec<(usize, f64)> =
-                bilinear.into_iter().filter(|&(k, _)| surface[k] == chosen).collect();
-            let of_surface = if mine.is_empty() {
-                // None of the 2 × 2: the surface's nearest sample.
-                let dist =
-                    |k: usize| ((k % 4) as f64 - 1.0 - tx).powi(2) + ((k / 4) as f64 - 1.0 - ty).powi(2);
-                let k =
-                    (0..16).filter(|&k| surface[k] == chosen).min_by(|&a, &b| dist(a).total_cmp(&dist(b)));
-                vec![(k.unwrap_or(nearest), 1.0)]
-            } else {
-                mine
-            };
-            if of_surface.iter().any(|&(k, _)| d[k].is_infinite()) {
-                return f32::INFINITY;
-            }
-            let total: f64 = of_surface.iter().map(|s| s.1).sum();
-            let inv: f64 = of_surface.iter().map(|&(k, wt)| wt / f64::from(d[k])).sum::<f64>();
-            if total > 0.0 {
-                (total / inv) as f32
-            } else {
-                d[of_surface[0].0]
-            }
+            win.depth_on(&surface, chosen)
         })
         .collect()
+}
+
+/// The 4 × 4 source window of a target pixel, row by row; the 2 × 2 nearest are (1,1), (2,1),
+/// (1,2), (2,2).
+struct Window {
+    /// Source sample indices.
+    idx: [usize; 16],
+    /// Their depths.
+    d: [f32; 16],
+    /// The pixel's position in the 2 × 2's cell.
+    tx: f64,
+    ty: f64,
+    /// The nearest sample.
+    nearest: usize,
+}
+
+impl Window {
+    fn at(g: &Grid, depth: &[f32], x: usize, y: usize) -> Window {
+        let (ox, fx) = g.axis(x, true);
+        let (oy, fy) = g.axis(y, false);
+        let fy = fy.clamp(0.0, (g.tile_d.1 - 1) as f64);
+        let fx = if g.wrap { fx } else { fx.clamp(0.0, (g.tile_d.0 - 1) as f64) };
+        let (x0, y0) = (fx.floor() as i64, fy.floor() as i64);
+        let (tx, ty) = (fx - x0 as f64, fy - y0 as f64);
+        let mut idx = [0usize; 16];
+        let mut d = [0f32; 16];
+        for (k, (i, j)) in (-1..3).flat_map(|j| (-1..3).map(move |i| (i, j))).enumerate() {
+            idx[k] = g.index(ox, oy, x0 + i, y0 + j);
+            d[k] = depth[idx[k]];
+        }
+        let nearest = 5 + (tx >= 0.5) as usize + 4 * (ty >= 0.5) as usize;
+        Window { idx, d, tx, ty, nearest }
+    }
+
+    /// The 2 × 2 nearest and their bilinear weights.
+    fn bilinear(&self) -> [(usize, f64); 4] {
+        let (tx, ty) = (self.tx, self.ty);
+        [(5, (1.0 - tx) * (1.0 - ty)), (6, tx * (1.0 - ty)), (9, (1.0 - tx) * ty), (10, tx * ty)]
+    }
+
+    /// Most windows: finite samples within one step of each other, one surface, interpolated.
+    fn one_surface(&self) -> Option<f32> {
+        let d = &self.d;
+        let (lo, hi) = d.iter().fold((f32::INFINITY, 0f32), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        let one = lo > 0.0
+            && hi.is_finite()
+            && !d.iter().any(|v| v.is_nan())
+            && f64::from(hi - lo) <= continuity::JUMP * f64::from(lo);
+        one.then(|| {
+            let inv: f64 = self.bilinear().iter().map(|&(k, wt)| wt / f64::from(d[k])).sum();
+            (1.0 / inv) as f32
+        })
+    }
+
+    /// The surface whose samples' colours (`sample_colour`) and positions are nearest the
+    /// pixel's (colour `c0`).
+    fn choose(&self, surface: &[u8; 16], c0: [f32; 3], sample_colour: &[[f32; 3]]) -> u8 {
+        let (d, tx, ty) = (&self.d, self.tx, self.ty);
+        let mut score = [0f32; 16];
+        for k in 0..16 {
+            if surface[k] == NONE {
+                continue;
+            }
+            let (sx, sy) = ((k % 4) as f64 - 1.0 - tx, (k / 4) as f64 - 1.0 - ty);
+            let c = sample_colour[self.idx[k]];
+            let dc = (0..3).map(|i| (c[i] - c0[i]).powi(2)).sum::<f32>();
+            score[surface[k] as usize] +=
+                (-(sx * sx + sy * sy) as f32 / 2.0 - dc / (2.0 * SIGMA_COLOUR * SIGMA_COLOUR)).exp();
+        }
+        // A small surface between a nearer and a farther one is the mix of the two (an
+        // area-averaged sample across the edge), no surface of its own.
+        let between = |l: u8| {
+            let of = |k: &usize| surface[*k] == l;
+            let (lo, hi) =
+                (0..16).filter(of).fold((f32::INFINITY, 0f32), |(lo, hi), k| (lo.min(d[k]), hi.max(d[k])));
+            let others = (0..16).filter(|&k| surface[k] != l && surface[k] != NONE);
+            (0..16).filter(of).count() <= 3
+                && others.clone().any(|k| d[k] < lo)
+                && others.into_iter().any(|k| d[k] > hi)
+        };
+        let best = (0..16)
+            .filter(|&k| surface[k] == k as u8 && !between(k as u8))
+            .max_by(|&a, &b| score[a].total_cmp(&score[b]));
+        match best {
+            Some(k) if score[k] > 0.0 => k as u8,
+            _ => surface[self.nearest],
+        }
+    }
+
+    /// The depth of surface `chosen` at the pixel: its samples among the 2 × 2 interpolated, or
+    /// (none there) its nearest sample.
+    fn depth_on(&self, surface: &[u8; 16], chosen: u8) -> f32 {
+        let (d, tx, ty) = (&self.d, self.tx, self.ty);
+        let mine: Vec<(usize, f64)> =
+            self.bilinear().into_iter().filter(|&(k, _)| surface[k] == chosen).collect();
+        let of_surface = if mine.is_empty() {
+            let dist = |k: usize| ((k % 4) as f64 - 1.0 - tx).powi(2) + ((k / 4) as f64 - 1.0 - ty).powi(2);
+            let k = (0..16).filter(|&k| surface[k] == chosen).min_by(|&a, &b| dist(a).total_cmp(&dist(b)));
+            vec![(k.unwrap_or(self.nearest), 1.0)]
+        } else {
+            mine
+        };
+        if of_surface.iter().any(|&(k, _)| d[k].is_infinite()) {
+            return f32::INFINITY;
+        }
+        let total: f64 = of_surface.iter().map(|s| s.1).sum();
+        let inv: f64 = of_surface.iter().map(|&(k, wt)| wt / f64::from(d[k])).sum::<f64>();
+        if total > 0.0 {
+            (total / inv) as f32
+        } else {
+            d[of_surface[0].0]
+        }
+    }
 }
 
 /// No surface: an unknown sample.

@@ -10,16 +10,12 @@ use rayon::prelude::*;
 
 use crate::continuity;
 use crate::mapping::{opposite, Neighbours};
+use crate::prepare::complete::SKY_LOG;
 
-/// Replace the specks of `log` (log depth; `sky_log` and above is infinitely far) smaller than
+/// Replace the specks of `log` (log depth; the sky's, [`SKY_LOG`], is infinitely far) smaller than
 /// `max` pixels. Returns the pixels changed.
-pub(crate) fn remove(
-    nb: &Neighbours,
-    log: &mut [f32],
-    guide: &[[f32; 3]],
-    max: usize,
-    sky_log: f32,
-) -> usize {
+pub(crate) fn remove(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]], max: usize) -> usize {
+    let sky_log = SKY_LOG - 1e-3;
     let n = log.len();
     let depth: Vec<f64> =
         log.par_iter().map(|&l| if l >= sky_log { f64::INFINITY } else { f64::from(l).exp() }).collect();

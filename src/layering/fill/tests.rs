@@ -31,6 +31,12 @@ fn context<'a>(
     }
 }
 
+/// A `w × w/2` equirect canvas: its mapping, width, pixel count and neighbours.
+fn equirect(w: usize) -> (AnyMapping, usize, usize, Neighbours) {
+    let m = AnyMapping::new(MappingKind::Equirect, w, w / 2).unwrap();
+    (m, w, w * w / 2, Neighbours::new(m))
+}
+
 /// [`planar_reach`] in pixels of seeds on a wall at x = `wall` and on a sphere of 0.5 m radius
 /// centred `dist` away along +x, on a `w` × `w/2` equirect canvas: the sphere seed `az`° off
 /// the sphere's centre direction (with its own normal, then without), the wall seed 40° off.
@@ -95,9 +101,7 @@ fn a_curved_surface_is_continued_only_as_far_as_its_plane_fits() {
 /// fill, and an island cut off from everything (the fill pixels around it went).
 #[test]
 fn a_rival_plane_dropped_gives_back_the_nearest_seeds_plane_and_leaves_no_remnant() {
-    let m = AnyMapping::new(MappingKind::Equirect, 64, 32).unwrap();
-    let (w, n) = (64, 64 * 32);
-    let nb = Neighbours::new(m);
+    let (m, w, n, nb) = equirect(64);
     let hidden = |p: usize| (20..44).contains(&(p % w)) && (8..24).contains(&(p / w));
     let depth: Vec<f32> = (0..n).map(|p| if hidden(p) { 1.0 } else { 3.0 }).collect();
     let layer_of: Vec<u32> = (0..n).map(|p| hidden(p) as u32).collect();
@@ -134,9 +138,7 @@ fn a_rival_plane_dropped_gives_back_the_nearest_seeds_plane_and_leaves_no_remnan
 /// 1.3 m (which a camera moved aside saw as a ghost of the box).
 #[test]
 fn specks_without_a_plane_seed_no_fill() {
-    let m = AnyMapping::new(MappingKind::Equirect, 128, 64).unwrap();
-    let (w, n) = (128, 128 * 64);
-    let nb = Neighbours::new(m);
+    let (m, w, n, nb) = equirect(128);
     let hidden = |p: usize| (52..76).contains(&(p % w)) && (24..40).contains(&(p / w));
     let speck = |p: usize| (52..76).contains(&(p % w)) && p / w == 23;
     let depth: Vec<f32> = (0..n)
@@ -182,9 +184,7 @@ fn specks_without_a_plane_seed_no_fill() {
 /// empty.
 #[test]
 fn a_seed_whose_plane_misses_leaves_the_pixel_to_one_whose_plane_meets_it() {
-    let m = AnyMapping::new(MappingKind::Equirect, 128, 64).unwrap();
-    let (w, n) = (128, 128 * 64);
-    let nb = Neighbours::new(m);
+    let (m, w, n, nb) = equirect(128);
     let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
     let (x, y) = (|p: usize| p % w, |p: usize| p / w);
     let block = |p: usize| (4..12).contains(&x(p)) && (28..36).contains(&y(p));

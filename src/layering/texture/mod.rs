@@ -506,83 +506,115 @@ fn diffuse(
     sources: Sources,
     known: impl Fn(usize) -> Option<Vec3> + Sync,
 ) -> Vec<Vec3> {
-    let w = tx.nb.width();
-    let m = fill.pixels.len();
-    let mut done = vec![false; m];
-    // One and two steps along the 8 directions, weighted 1/d².
-    let ring = |q: usize| {
-        let (x, y) = (q % w, q / w);
-        (0..8).flat_map(move |j| {
-            let diag = if j >= 4 { 2.0 } else { 1.0 };
-            [(tx.nb.get_at(x, y, j), 1.0 / diag), (tx.nb.get2_at(x, y, j), 0.25 / diag)]
-        })
-    };
-    // Where filled pixel `i` takes neighbour `r`'s value from: a filled pixel (its index), a pixel
-    // around the fill (KNOWN: what is known there) or nowhere (NONE).
-    const KNOWN: u32 = NONE - 1;
-    let source = |i: usize, r: usize| -> u32 {
-        let s = slot[r];
+    let d = Diffusion { tx, fill, slot, solve, sources, w: tx.nb.width() };
+    d.inwards(&mut value, &known);
+    let around = d.around();
+    for _ in 0..SMOOTH_SWEEPS {
+        value = d.sweep(&value, &around, &known);
+    }
+    value
+}
+
+/// Where filled pixel `i` of a [`Diffusion`] takes a neighbour's value from: a filled pixel (its
+/// index), a pixel around the fill (`KNOWN`: what is known there) or nowhere (`NONE`).
+const KNOWN: u32 = NONE - 1;
+
+/// What [`diffuse`] spreads values over.
+struct Diffusion<'a> {
+    tx: &'a FillContext<'a>,
+    fill: &'a Fill,
+    slot: &'a [u32],
+    solve: &'a [bool],
+    sources: Sources,
+    w: usize,
+}
+
+impl Diffusion<'_> {
+    /// Where filled pixel `i` takes the value of canvas pixel `r` from.
+    fn source(&self, i: usize, r: usize) -> u32 {
+        let (tx, fill, s) = (self.tx, self.fill, self.slot[r]);
         let surface = || tx.surface[if s == NONE { r } else { fill.pixels[s as usize].surface }];
-        if sources == Sources::SameSurface && surface() != tx.surface[fill.pixels[i].surface] {
+        if self.sources == Sources::SameSurface && surface() != tx.surface[fill.pixels[i].surface] {
             NONE
         } else if s == NONE {
             KNOWN
-        } else if solve[s as usize] || sources == Sources::All {
+        } else if self.solve[s as usize] || self.sources == Sources::All {
             s
         } else {
             NONE
         }
-    };
-    // A neighbour's value: a filled pixel's once solved (or fixed), else what is known there.
-    let at = |i: usize, r: usize, value: &[Vec3], done: &[bool]| match source(i, r) {
-        NONE => None,
-        KNOWN => known(r),
-        s => (!solve[s as usize] || done[s as usize]).then(|| value[s as usize]),
-    };
-    for i in (0..m).filter(|&i| solve[i]) {
-        let (mut sum, mut weight) = (Vec3::ZERO, 0.0);
-        for (r, wt) in ring(fill.pixels[i].pixel) {
-            if let Some(v) = r.and_then(|r| at(i, r, &value, &done)) {
-                sum += v * wt;
-                weight += wt;
-            }
-        }
-        if weight > 0.0 {
-            value[i] = sum / weight;
-            done[i] = true;
-        }
     }
-    // The sweeps' sources, found once: per solved pixel, its 8 neighbours in order.
-    let sources_of: Vec<[u32; 8]> = (0..m)
-        .into_par_iter()
-        .map(|i| {
-            let mut e = [NONE; 8];
-            if solve[i] {
-                let q = fill.pixels[i].pixel;
-                let (x, y) = (q % w, q / w);
-                for (j, e) in e.iter_mut().enumerate() {
-                    if let Some(r) = tx.nb.get_at(x, y, j) {
-                        *e = source(i, r);
+
+    /// The first pass, inwards from the border in the fill's order: each pixel to solve takes the
+    /// mean of the neighbours one and two steps away along the 8 directions (weighted 1/d²) that
+    /// have a value by then (a filled pixel's once solved or fixed, else what is known there).
+    fn inwards(&self, value: &mut [Vec3], known: &impl Fn(usize) -> Option<Vec3>) {
+        let (tx, w) = (self.tx, self.w);
+        let mut done = vec![false; value.len()];
+        for i in (0..value.len()).filter(|&i| self.solve[i]) {
+            let q = self.fill.pixels[i].pixel;
+            let (x, y) = (q % w, q / w);
+            let (mut sum, mut weight) = (Vec3::ZERO, 0.0);
+            for j in 0..8 {
+                let diag = if j >= 4 { 2.0 } else { 1.0 };
+                for (r, wt) in [(tx.nb.get_at(x, y, j), 1.0 / diag), (tx.nb.get2_at(x, y, j), 0.25 / diag)] {
+                    let v = r.and_then(|r| match self.source(i, r) {
+                        NONE => None,
+                        KNOWN => known(r),
+                        s => (!self.solve[s as usize] || done[s as usize]).then(|| value[s as usize]),
+                    });
+                    if let Some(v) = v {
+                        sum += v * wt;
+                        weight += wt;
                     }
                 }
             }
-            e
-        })
-        .collect();
-    for _ in 0..SMOOTH_SWEEPS {
-        value = (0..m)
+            if weight > 0.0 {
+                value[i] = sum / weight;
+                done[i] = true;
+            }
+        }
+    }
+
+    /// The sweeps' sources, found once: per pixel to solve, its 8 neighbours' in order.
+    fn around(&self) -> Vec<[u32; 8]> {
+        (0..self.fill.pixels.len())
             .into_par_iter()
             .map(|i| {
-                if !solve[i] {
+                let mut e = [NONE; 8];
+                if self.solve[i] {
+                    let q = self.fill.pixels[i].pixel;
+                    for (j, e) in e.iter_mut().enumerate() {
+                        if let Some(r) = self.tx.nb.get_at(q % self.w, q / self.w, j) {
+                            *e = self.source(i, r);
+                        }
+                    }
+                }
+                e
+            })
+            .collect()
+    }
+
+    /// One relaxation sweep: each pixel to solve the mean of itself and its neighbours' values.
+    fn sweep(
+        &self,
+        value: &[Vec3],
+        around: &[[u32; 8]],
+        known: &(impl Fn(usize) -> Option<Vec3> + Sync),
+    ) -> Vec<Vec3> {
+        (0..value.len())
+            .into_par_iter()
+            .map(|i| {
+                if !self.solve[i] {
                     return value[i];
                 }
                 let (mut sum, mut weight) = (value[i], 1.0);
-                for (j, &e) in sources_of[i].iter().enumerate() {
+                for (j, &e) in around[i].iter().enumerate() {
                     let v = match e {
                         NONE => None,
                         KNOWN => {
-                            let q = fill.pixels[i].pixel;
-                            tx.nb.get_at(q % w, q / w, j).and_then(&known)
+                            let q = self.fill.pixels[i].pixel;
+                            self.tx.nb.get_at(q % self.w, q / self.w, j).and_then(known)
                         }
                         s => Some(value[s as usize]),
                     };
@@ -593,9 +625,8 @@ fn diffuse(
                 }
                 sum / weight
             })
-            .collect();
+            .collect()
     }
-    value
 }
 
 /// Relaxation sweeps of [`diffuse`].

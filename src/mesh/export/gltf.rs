@@ -7,7 +7,7 @@
 //! compose [`z_up_to_y_up`] with LocalToWorld.
 
 use glam::DMat4;
-use serde_json::json;
+use serde_json::{json, Value};
 
 use super::super::MeshError;
 use super::{ExportMesh, SceneLayer};
@@ -40,22 +40,62 @@ pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8], bool)]) -> Result<Vec<
     if layers.is_empty() || layers.iter().any(|l| l.1.triangles.is_empty()) {
         return Err(MeshError::Export("the mesh has no triangles (glTF accessors cannot be empty)".into()));
     }
-    let mut bin = Vec::new();
-    let mut views = Vec::new();
-    let mut view = |bin: &mut Vec<u8>, data: &[u8], target: Option<u32>| {
-        pad4(bin, 0);
-        let mut v = json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": data.len()});
+    let mut g = Gltf::default();
+    for (k, &(l, m, png, wraps)) in layers.iter().enumerate() {
+        g.add_layer(k, l, m, png, wraps);
+    }
+    pad4(&mut g.bin, 0);
+    let doc = json!({
+        "asset": {"version": "2.0", "generator": "pomc mesh"},
+        "extensionsUsed": ["KHR_materials_unlit"],
+        "scene": 0,
+        "scenes": [{"nodes": (0..layers.len()).collect::<Vec<_>>()}],
+        "nodes": g.nodes,
+        "meshes": g.meshes,
+        "materials": g.materials,
+        "textures": g.textures,
+        "samplers": [
+            {"magFilter": 9729, "minFilter": 9729, "wrapS": 10497, "wrapT": 33071},
+            {"magFilter": 9729, "minFilter": 9729, "wrapS": 33071, "wrapT": 33071}
+        ],
+        "images": g.images,
+        "accessors": g.accessors,
+        "bufferViews": g.views,
+        "buffers": [{"byteLength": g.bin.len()}]
+    });
+    let mut js = serde_json::to_vec(&doc).map_err(|e| MeshError::Export(e.to_string()))?;
+    pad4(&mut js, b' ');
+    container(&js, &g.bin)
+}
+
+/// A glTF document's arrays and binary buffer as layers are added.
+#[derive(Default)]
+struct Gltf {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    nodes: Vec<Value>,
+    meshes: Vec<Value>,
+    materials: Vec<Value>,
+    textures: Vec<Value>,
+    images: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl Gltf {
+    /// Append `data` to the buffer as a buffer view (`target`: vertex or index data); its index.
+    fn view(&mut self, data: &[u8], target: Option<u32>) -> usize {
+        pad4(&mut self.bin, 0);
+        let mut v = json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": data.len()});
         if let Some(t) = target {
             v["target"] = json!(t);
         }
-        bin.extend_from_slice(data);
-        views.push(v);
-        views.len() - 1
-    };
-    let f32s = |it: &mut dyn Iterator<Item = f32>| it.flat_map(f32::to_le_bytes).collect::<Vec<u8>>();
-    let (mut nodes, mut meshes, mut materials, mut textures, mut images, mut accessors) =
-        (vec![], vec![], vec![], vec![], vec![], vec![]);
-    for (k, &(l, m, png, wraps)) in layers.iter().enumerate() {
+        self.bin.extend_from_slice(data);
+        self.views.push(v);
+        self.views.len() - 1
+    }
+
+    /// Layer `k`: its node, mesh, unlit material, texture and image, accessors and views.
+    fn add_layer(&mut self, k: usize, l: &SceneLayer, m: &ExportMesh, png: &[u8], wraps: bool) {
         let (mut mn, mut mx) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         for p in &m.positions {
             for c in 0..3 {
@@ -63,22 +103,21 @@ pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8], bool)]) -> Result<Vec<
                 mx[c] = mx[c].max(p[c]);
             }
         }
-        let pos = view(&mut bin, &f32s(&mut m.positions.iter().flatten().copied()), Some(34962));
-        let uv = view(&mut bin, &f32s(&mut m.uvs.iter().flatten().copied()), Some(34962));
-        let canvas = (!m.canvas_uvs.is_empty())
-            .then(|| view(&mut bin, &f32s(&mut m.canvas_uvs.iter().flatten().copied()), Some(34962)));
+        let pos = self.view(&f32s(&m.positions), Some(34962));
+        let uv = self.view(&f32s(&m.uvs), Some(34962));
+        let canvas = (!m.canvas_uvs.is_empty()).then(|| self.view(&f32s(&m.canvas_uvs), Some(34962)));
         let idx: Vec<u8> = m.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
-        let idx = view(&mut bin, &idx, Some(34963));
-        let img = view(&mut bin, png, None);
-        let a = accessors.len();
-        accessors.extend([
+        let idx = self.view(&idx, Some(34963));
+        let img = self.view(png, None);
+        let a = self.accessors.len();
+        self.accessors.extend([
             json!({"bufferView": pos, "componentType": 5126, "count": m.positions.len(), "type": "VEC3", "min": mn, "max": mx}),
             json!({"bufferView": uv, "componentType": 5126, "count": m.uvs.len(), "type": "VEC2"}),
             json!({"bufferView": idx, "componentType": 5125, "count": m.triangles.len() * 3, "type": "SCALAR"}),
         ]);
-        images.push(json!({"bufferView": img, "mimeType": "image/png"}));
-        textures.push(json!({"sampler": if wraps { 0 } else { 1 }, "source": k}));
-        materials.push(json!({
+        self.images.push(json!({"bufferView": img, "mimeType": "image/png"}));
+        self.textures.push(json!({"sampler": if wraps { 0 } else { 1 }, "source": k}));
+        self.materials.push(json!({
             "name": l.name,
             "pbrMetallicRoughness": {"baseColorTexture": {"index": k}, "metallicFactor": 0.0, "roughnessFactor": 1.0},
             "doubleSided": l.sky_radius.is_none(),
@@ -86,39 +125,27 @@ pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8], bool)]) -> Result<Vec<
         }));
         let mut attributes = json!({"POSITION": a, "TEXCOORD_0": a + 1});
         if let Some(canvas) = canvas {
-            attributes["TEXCOORD_1"] = json!(accessors.len());
-            accessors.push(json!({"bufferView": canvas, "componentType": 5126, "count": m.canvas_uvs.len(), "type": "VEC2"}));
+            attributes["TEXCOORD_1"] = json!(self.accessors.len());
+            self.accessors.push(json!({"bufferView": canvas, "componentType": 5126, "count": m.canvas_uvs.len(), "type": "VEC2"}));
         }
-        meshes.push(json!({"name": l.name, "primitives": [{
+        self.meshes.push(json!({"name": l.name, "primitives": [{
             "attributes": attributes, "indices": a + 2, "material": k, "mode": 4
         }]}));
         let mut extras = json!({"layer": l.index});
         if let Some(r) = l.sky_radius {
             extras["sky_radius"] = json!(r);
         }
-        nodes.push(json!({"mesh": k, "name": l.name, "extras": extras}));
+        self.nodes.push(json!({"mesh": k, "name": l.name, "extras": extras}));
     }
-    pad4(&mut bin, 0);
-    let doc = json!({
-        "asset": {"version": "2.0", "generator": "pomc mesh"},
-        "extensionsUsed": ["KHR_materials_unlit"],
-        "scene": 0,
-        "scenes": [{"nodes": (0..layers.len()).collect::<Vec<_>>()}],
-        "nodes": nodes,
-        "meshes": meshes,
-        "materials": materials,
-        "textures": textures,
-        "samplers": [
-            {"magFilter": 9729, "minFilter": 9729, "wrapS": 10497, "wrapT": 33071},
-            {"magFilter": 9729, "minFilter": 9729, "wrapS": 33071, "wrapT": 33071}
-        ],
-        "images": images,
-        "accessors": accessors,
-        "bufferViews": views,
-        "buffers": [{"byteLength": bin.len()}]
-    });
-    let mut js = serde_json::to_vec(&doc).map_err(|e| MeshError::Export(e.to_string()))?;
-    pad4(&mut js, b' ');
+}
+
+/// Little-endian bytes of float vectors.
+fn f32s<const N: usize>(v: &[[f32; N]]) -> Vec<u8> {
+    v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// The `.glb` container of a JSON chunk `js` (padded) and a binary chunk `bin`.
+fn container(js: &[u8], bin: &[u8]) -> Result<Vec<u8>, MeshError> {
     let total = 12 + 8 + js.len() + 8 + bin.len();
     let total = u32::try_from(total).map_err(|_| MeshError::Export("mesh too large for a .glb".into()))?;
     let mut out = Vec::with_capacity(total as usize);
@@ -127,9 +154,9 @@ pub fn to_glb(layers: &[(&SceneLayer, &ExportMesh, &[u8], bool)]) -> Result<Vec<
     out.extend_from_slice(&total.to_le_bytes());
     out.extend_from_slice(&(js.len() as u32).to_le_bytes());
     out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&js);
+    out.extend_from_slice(js);
     out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
     out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
+    out.extend_from_slice(bin);
     Ok(out)
 }

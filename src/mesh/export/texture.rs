@@ -235,6 +235,19 @@ mod tests {
         }
     }
 
+    /// The crop of a `w × h` image under [`mesh`]`(w, h, px)`, and the mesh with its new coordinates.
+    fn cropped(w: usize, h: usize, px: &[[f32; 2]]) -> (Texture, ExportMesh) {
+        let mut m = mesh(w, h, px);
+        (crop(&image(w, h), &mut m), m)
+    }
+
+    /// Each vertex `k` shows texel `want` of the original image in the crop.
+    fn texels_are(t: &Texture, m: &ExportMesh, want: &[(usize, (u8, u8))]) {
+        for &(k, want) in want {
+            assert_eq!(texel(t, m.uvs[k]), want, "vertex {k}");
+        }
+    }
+
     /// The texel the cropped texture shows at a vertex: the same (column, row) codes as before.
     fn texel(t: &Texture, uv: [f32; 2]) -> (u8, u8) {
         let (x, y) = ((uv[0] * t.width as f32) as usize, (uv[1] * t.height as f32) as usize);
@@ -244,43 +257,33 @@ mod tests {
 
     #[test]
     fn a_small_object_keeps_only_its_pixels() {
-        let img = image(64, 32);
-        let mut m = mesh(64, 32, &[[10.5, 5.5], [14.5, 5.5], [10.5, 9.5]]);
-        let t = crop(&img, &mut m);
+        let (t, m) = cropped(64, 32, &[[10.5, 5.5], [14.5, 5.5], [10.5, 9.5]]);
         assert_eq!((t.width, t.height, t.wraps), (7, 7, false));
-        assert_eq!(texel(&t, m.uvs[1]), (14, 5));
-        assert_eq!(texel(&t, m.uvs[2]), (10, 9));
+        texels_are(&t, &m, &[(1, (14, 5)), (2, (10, 9))]);
     }
 
     #[test]
     fn an_object_on_the_seam_is_one_crop_across_it() {
-        let img = image(64, 32);
         // One triangle across the seam (u past 1, as `prepare` writes it), one just left of it.
-        let mut m =
-            mesh(64, 32, &[[62.5, 3.5], [65.5, 3.5], [62.5, 6.5], [58.5, 3.5], [61.5, 3.5], [58.5, 5.5]]);
-        let t = crop(&img, &mut m);
+        let (t, m) =
+            cropped(64, 32, &[[62.5, 3.5], [65.5, 3.5], [62.5, 6.5], [58.5, 3.5], [61.5, 3.5], [58.5, 5.5]]);
         assert!(!t.wraps && t.width == 10, "{}x{}", t.width, t.height);
-        assert_eq!(texel(&t, m.uvs[1]), (1, 3), "u past 1 lands on column 1");
-        assert_eq!(texel(&t, m.uvs[3]), (58, 3));
+        texels_are(&t, &m, &[(1, (1, 3)), (3, (58, 3))]);
         assert!(m.uvs.iter().all(|uv| (0.0..=1.0).contains(&uv[0])));
     }
 
     #[test]
     fn separate_objects_are_separate_boxes() {
-        let img = image(256, 128);
         // Two objects half the canvas apart: packed, they take their own pixels, not the span between.
-        let mut m = mesh(
+        let (t, m) = cropped(
             256,
             128,
             &[[10.5, 60.5], [20.5, 60.5], [10.5, 70.5], [140.5, 90.5], [150.5, 90.5], [140.5, 95.5]],
         );
-        let t = crop(&img, &mut m);
         assert!(!t.wraps && t.width * t.height <= 2 * 13 * 13, "{}x{}", t.width, t.height);
-        for (k, want) in
-            [(0, (10, 60)), (1, (20, 60)), (2, (10, 70)), (3, (140, 90)), (4, (150, 90)), (5, (140, 95))]
-        {
-            assert_eq!(texel(&t, m.uvs[k]), want, "vertex {k}");
-        }
+        let want =
+            [(0, (10, 60)), (1, (20, 60)), (2, (10, 70)), (3, (140, 90)), (4, (150, 90)), (5, (140, 95))];
+        texels_are(&t, &m, &want);
     }
 
     #[test]
@@ -302,26 +305,20 @@ mod tests {
         assert_eq!(t.height, 7 + 5, "rows 19..=25 and 2..=6 only");
         assert!(m.uvs[..24].iter().zip(&before).all(|(a, b)| a[0] == b[0]), "the round region keeps its u");
         assert!(m.uvs[22][0] > 1.0, "the seam copy keeps u past 1");
-        assert_eq!(texel(&t, m.uvs[2]), (0, 24));
-        assert_eq!(texel(&t, m.uvs[25]), (33, 3));
+        texels_are(&t, &m, &[(2, (0, 24)), (25, (33, 3))]);
     }
 
     #[test]
     fn a_cube_map_is_cropped_face_by_face() {
-        let img = image(96, 64);
         // One triangle on face 4 (column 1, row 1), one on face 0 (column 0, row 0).
-        let mut m =
-            mesh(96, 64, &[[40.5, 40.5], [44.5, 40.5], [40.5, 50.5], [3.5, 3.5], [6.5, 3.5], [3.5, 5.5]]);
-        let t = crop(&img, &mut m);
+        let (t, m) =
+            cropped(96, 64, &[[40.5, 40.5], [44.5, 40.5], [40.5, 50.5], [3.5, 3.5], [6.5, 3.5], [3.5, 5.5]]);
         // Face 0 keeps columns 2..=7 and rows 2..=6 (6 × 5), face 4 columns 39..=45 and rows
         // 39..=51 (7 × 13), packed on two shelves.
         assert_eq!((t.width, t.height, t.wraps), (7, 13 + 5, false));
-        for (k, want) in [(0, (40, 40)), (2, (40, 50)), (3, (3, 3)), (4, (6, 3)), (5, (3, 5))] {
-            assert_eq!(texel(&t, m.uvs[k]), want, "vertex {k}");
-        }
+        texels_are(&t, &m, &[(0, (40, 40)), (2, (40, 50)), (3, (3, 3)), (4, (6, 3)), (5, (3, 5))]);
         // A vertex next to a face edge: the margin stays inside the face.
-        let mut m = mesh(96, 64, &[[32.5, 0.5], [35.5, 0.5], [32.5, 3.5]]);
-        let t = crop(&img, &mut m);
+        let (t, m) = cropped(96, 64, &[[32.5, 0.5], [35.5, 0.5], [32.5, 3.5]]);
         assert_eq!((t.width, t.height), (5, 5));
         assert_eq!(texel(&t, m.uvs[0]), (32, 0));
     }

@@ -494,14 +494,16 @@ mod tests {
         assert_covers_lattice(&g, &f);
     }
 
+    /// Distance along `d` to a sphere of radius 3 centred off the origin: curved everywhere, seen
+    /// from inside.
+    fn sphere(d: DVec3) -> f64 {
+        let c = DVec3::new(0.4, -0.3, 0.2);
+        let b = d.dot(c);
+        b + (b * b - c.length_squared() + 9.0).sqrt()
+    }
+
     #[test]
     fn the_bound_holds_on_every_pixel_of_a_curved_surface() {
-        // A sphere of radius 3 centred off the origin: curved everywhere, seen from inside.
-        let c = DVec3::new(0.4, -0.3, 0.2);
-        let sphere = |d: DVec3| {
-            let b = d.dot(c);
-            b + (b * b - c.length_squared() + 9.0).sqrt()
-        };
         for face in [CubeFace::PosX, CubeFace::NegY] {
             let g = face_grid(face, 96, sphere);
             assert!(is_clean(&g));
@@ -554,11 +556,6 @@ mod tests {
     fn tiny_and_huge_depths_mesh_alike() {
         // The same curved surface at 1e-6 m and at 1e9 m: relative errors are scale-free, so the
         // meshes are the same and within the bound (no overflow, no NaN in the plane or the scan).
-        let c = DVec3::new(0.4, -0.3, 0.2);
-        let sphere = |d: DVec3| {
-            let b = d.dot(c);
-            b + (b * b - c.length_squared() + 9.0).sqrt()
-        };
         let mut counts = Vec::new();
         for scale in [1e-6, 1.0, 1e9] {
             let g = face_grid(CubeFace::PosY, 64, |d| scale * sphere(d));
