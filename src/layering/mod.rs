@@ -338,16 +338,9 @@ impl<'a> Stages<'a> {
 
 /// Build layers from an RGB-D panorama. `progress` is told each stage's name as it starts.
 pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Result<Built, BuildError> {
+    check(input, o)?;
     let m = input.mapping;
     let n = m.width() * m.height();
-    for c in &input.rgb {
-        if c.len() != n || input.depth.len() != n {
-            return Err(BuildError::SizeMismatch { colour: c.len(), depth: input.depth.len() });
-        }
-    }
-    if !(o.freedom_radius > 0.0 && o.freedom_radius.is_finite()) {
-        return Err(BuildError::BadRadius(o.freedom_radius));
-    }
     let mut stages = Stages::new(progress);
     let nb = Neighbours::new(m);
     let dirs = pixel_dirs(&m);
@@ -387,16 +380,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         plane_tol: o.segment.edges.extrapolation,
         rgb: &input.rgb,
     };
-    let mut fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(&cx, k)).collect();
-    stages.start("borders");
-    fill::add_borders(&cx, &mut fills);
-    if o.fill_colour != FillColour::Nearest {
-        stages.start("fill colour");
-        fills.par_iter_mut().enumerate().for_each(|(k, f)| match o.fill_colour {
-            FillColour::Exemplar => texture::synthesise(&cx, k as u32, f),
-            _ => texture::smooth(&cx, k as u32, f),
-        });
-    }
+    let fills = fill_all(&cx, count, o.fill_colour, &mut stages);
 
     // (7) Images, names, roles, order.
     stages.start("images");
@@ -420,6 +404,36 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         margin_px: o.margin_px,
     };
     Ok(Built { layers, layer_of, report })
+}
+
+/// The input's planes all of one size, and the freedom radius usable.
+fn check(input: &RgbdInput, o: &BuildOptions) -> Result<(), BuildError> {
+    let n = input.mapping.width() * input.mapping.height();
+    for c in &input.rgb {
+        if c.len() != n || input.depth.len() != n {
+            return Err(BuildError::SizeMismatch { colour: c.len(), depth: input.depth.len() });
+        }
+    }
+    if !(o.freedom_radius > 0.0 && o.freedom_radius.is_finite()) {
+        return Err(BuildError::BadRadius(o.freedom_radius));
+    }
+    Ok(())
+}
+
+/// Step 6: the fill of each of `count` layers, its borders, and its colour (stages `fill`,
+/// `borders`, `fill colour`).
+fn fill_all(cx: &FillContext, count: usize, colour: FillColour, stages: &mut Stages) -> Vec<fill::Fill> {
+    let mut fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(cx, k)).collect();
+    stages.start("borders");
+    fill::add_borders(cx, &mut fills);
+    if colour != FillColour::Nearest {
+        stages.start("fill colour");
+        fills.par_iter_mut().enumerate().for_each(|(k, f)| match colour {
+            FillColour::Exemplar => texture::synthesise(cx, k as u32, f),
+            _ => texture::smooth(cx, k as u32, f),
+        });
+    }
+    fills
 }
 
 /// Step 1: depths as layering reads them, the links between neighbours, and the mixed pixels moved.

@@ -129,63 +129,8 @@ fn check_layer(
     let loc = format!("{} {label}", file.display());
 
     // Header checks first: cheap, and they refuse hostile sizes before any decode.
-    if let LayerSource::Native { file: f } = &decl.source {
-        let path = match pano.resolve(f) {
-            Ok(p) => p,
-            Err(e) => {
-                issues.push(issue(e.code(), e.to_string(), loc));
-                return None;
-            }
-        };
-        match layer_io::read_header(&path, &options.limits) {
-            Ok(h) => {
-                if h.channels.iter().any(|(n, _)| n == "Z") && !h.compression.is_lossless() {
-                    issues.push(issue(
-                        codes::LAYER_DEPTH_LOSSY,
-                        format!("the layer is stored with lossy {} compression, which alters depth; re-export it with ZIP, PIZ, RLE or none", h.compression.name()),
-                        loc.clone(),
-                    ));
-                }
-                if let Some((_, t)) = h.channels.iter().find(|(n, _)| n == "Z") {
-                    if *t != SampleType::F32 {
-                        issues.push(issue(
-                            codes::LAYER_DEPTH_NOT_FLOAT32,
-                            format!("depth channel Z is stored as {t:?}; POMC requires float32, re-export the depth as 32-bit float"),
-                            loc.clone(),
-                        ));
-                    }
-                }
-            }
-            Err(e) => {
-                issues.push(issue(e.code(), e.to_string(), loc));
-                return None;
-            }
-        }
-    }
-    if let Some(p) = &decl.packing {
-        if let Some((cw, ch)) = decl.size() {
-            let problems = pack::check_table(cw, ch, p.atlas_width, p.atlas_height, &p.patches);
-            // A table of 300,000 overlapping patches made 146 MB of JSON: the first ones tell.
-            if problems.len() > MAX_PATCH_FINDINGS {
-                let msg =
-                    format!("{} patch problems; the first {MAX_PATCH_FINDINGS} are listed", problems.len());
-                issues.push(issue(manifest::codes::DIAGNOSTICS_TRUNCATED, msg, loc.clone()));
-            }
-            for prob in problems.into_iter().take(MAX_PATCH_FINDINGS) {
-                let ploc = decl
-                    .origin
-                    .patches
-                    .get(prob.patch)
-                    .map(|o| {
-                        format!("{}:{}:{} {}", pano.manifest_path.display(), o.pos.line, o.pos.col, o.path)
-                    })
-                    .unwrap_or_else(|| format!("{loc} patch {}", prob.patch));
-                issues.push(issue(prob.code(), prob.to_string(), ploc));
-            }
-            if issues.iter().any(|i| i.code.starts_with("PATCH_") && i.severity == Severity::Error) {
-                return None;
-            }
-        }
+    if !check_header(pano, decl, options, &loc, issues) || !check_packing(pano, decl, &loc, issues) {
+        return None;
     }
 
     let image = match pano.read_layer(k, &options.limits) {
@@ -210,6 +155,81 @@ fn check_layer(
     check_mesh(pano, k, decl, &image, &mapping, &loc, issues);
     let domain = image.domain();
     Some((mapping, domain))
+}
+
+/// A native layer's file header: found, readable, its depth stored losslessly as float32. `false`
+/// when the layer cannot be read.
+fn check_header(
+    pano: &Panorama,
+    decl: &LayerDecl,
+    options: &ValidateSettings,
+    loc: &str,
+    issues: &mut Vec<Issue>,
+) -> bool {
+    if let LayerSource::Native { file: f } = &decl.source {
+        let path = match pano.resolve(f) {
+            Ok(p) => p,
+            Err(e) => {
+                issues.push(issue(e.code(), e.to_string(), loc.to_string()));
+                return false;
+            }
+        };
+        match layer_io::read_header(&path, &options.limits) {
+            Ok(h) => {
+                if h.channels.iter().any(|(n, _)| n == "Z") && !h.compression.is_lossless() {
+                    issues.push(issue(
+                        codes::LAYER_DEPTH_LOSSY,
+                        format!("the layer is stored with lossy {} compression, which alters depth; re-export it with ZIP, PIZ, RLE or none", h.compression.name()),
+                        loc.to_string(),
+                    ));
+                }
+                if let Some((_, t)) = h.channels.iter().find(|(n, _)| n == "Z") {
+                    if *t != SampleType::F32 {
+                        issues.push(issue(
+                            codes::LAYER_DEPTH_NOT_FLOAT32,
+                            format!("depth channel Z is stored as {t:?}; POMC requires float32, re-export the depth as 32-bit float"),
+                            loc.to_string(),
+                        ));
+                    }
+                }
+            }
+            Err(e) => {
+                issues.push(issue(e.code(), e.to_string(), loc.to_string()));
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// A packed layer's patch table; `false` when it has errors (the layer cannot be unpacked).
+fn check_packing(pano: &Panorama, decl: &LayerDecl, loc: &str, issues: &mut Vec<Issue>) -> bool {
+    if let Some(p) = &decl.packing {
+        if let Some((cw, ch)) = decl.size() {
+            let problems = pack::check_table(cw, ch, p.atlas_width, p.atlas_height, &p.patches);
+            // A table of 300,000 overlapping patches made 146 MB of JSON: the first ones tell.
+            if problems.len() > MAX_PATCH_FINDINGS {
+                let msg =
+                    format!("{} patch problems; the first {MAX_PATCH_FINDINGS} are listed", problems.len());
+                issues.push(issue(manifest::codes::DIAGNOSTICS_TRUNCATED, msg, loc.to_string()));
+            }
+            for prob in problems.into_iter().take(MAX_PATCH_FINDINGS) {
+                let ploc = decl
+                    .origin
+                    .patches
+                    .get(prob.patch)
+                    .map(|o| {
+                        format!("{}:{}:{} {}", pano.manifest_path.display(), o.pos.line, o.pos.col, o.path)
+                    })
+                    .unwrap_or_else(|| format!("{loc} patch {}", prob.patch));
+                issues.push(issue(prob.code(), prob.to_string(), ploc));
+            }
+            if issues.iter().any(|i| i.code.starts_with("PATCH_") && i.severity == Severity::Error) {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// The layer's stored mesh, read as the renderer reads it ([`crate::mesh::stored`]).

@@ -360,6 +360,15 @@ fn levels(
     occludes: &[(u32, u32, u32)],
     folds: &HashMap<(u32, u32), u32>,
 ) -> Vec<u32> {
+    let behind = acyclic_behind(count, mean, size, occludes);
+    let mut level = longest_chains(&behind);
+    attach_free(&mut level, &behind, size, folds);
+    level
+}
+
+/// What each segment occludes, specks left out and cycles broken inside strongly connected
+/// components (far to near by mean depth, ties by id).
+fn acyclic_behind(count: usize, mean: &[f64], size: &[u32], occludes: &[(u32, u32, u32)]) -> Vec<Vec<u32>> {
     let mut behind: Vec<Vec<u32>> = vec![Vec::new(); count];
     for &(near, far, _) in occludes {
         // A speck behind a surface (a few mixed or noisy pixels) does not lift the surface a level.
@@ -377,7 +386,13 @@ fn levels(
     for (s, list) in behind.iter_mut().enumerate() {
         list.retain(|&f| comp[f as usize] != comp[s] || farther(f, s as u32));
     }
-    // What is left is acyclic: longest path by memoised depth-first search (iterative).
+    behind
+}
+
+/// The longest occlusion chain from each node of an acyclic graph, by memoised depth-first search
+/// (iterative).
+fn longest_chains(behind: &[Vec<u32>]) -> Vec<u32> {
+    let count = behind.len();
     let mut level = vec![u32::MAX; count];
     let mut stack: Vec<(u32, usize)> = Vec::new();
     for root in 0..count as u32 {
@@ -398,6 +413,13 @@ fn levels(
             stack.pop();
         }
     }
+    level
+}
+
+/// Segments that occlude nothing take the level of the larger segment they share the longest
+/// fold with, unless that puts them level with (or above) one in front of them.
+fn attach_free(level: &mut [u32], behind: &[Vec<u32>], size: &[u32], folds: &HashMap<(u32, u32), u32>) {
+    let count = behind.len();
     let occluder: Vec<bool> = behind.iter().map(|l| !l.is_empty()).collect();
     // What occludes each segment: a free segment never joins the level of one in front of it
     // (the layer would hold both sides of their jump).
@@ -438,7 +460,6 @@ fn levels(
             break;
         }
     }
-    level
 }
 
 /// Strongly connected component of every node of a directed graph (Tarjan, iterative: segment

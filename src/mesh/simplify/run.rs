@@ -194,7 +194,6 @@ impl<'a, 'b> Run<'a, 'b> {
     /// All checks of the collapse `v → u`; when acceptable, the error bounds of the triangles it
     /// changes (in the order of `v`'s star, removed triangles skipped).
     pub(super) fn check(&mut self, v: u32, u: u32) -> Option<Vec<f64>> {
-        let s = self.s;
         let sv = self.star(v)?;
         if self.singular[u as usize] {
             return None;
@@ -203,25 +202,7 @@ impl<'a, 'b> Run<'a, 'b> {
         if !sv.nbrs.contains(&u) {
             return None;
         }
-        // Boundary vertices move only along a straight boundary.
-        if let Some([p, q]) = sv.border {
-            let w = if p == u {
-                q
-            } else if q == u {
-                p
-            } else {
-                return None;
-            };
-            let (lv, lu, lw) = (s.lattice(v)?, s.lattice(u)?, s.lattice(w)?);
-            if lv.0 != lu.0 || lv.0 != lw.0 {
-                return None;
-            }
-            let (du, dw) = ((lu.1 - lv.1, lu.2 - lv.2), (lw.1 - lv.1, lw.2 - lv.2));
-            let straight = if s.cube { du.0 * dw.1 - du.1 * dw.0 == 0 } else { du.0 == 0 && dw.0 == 0 };
-            if !straight || du.0 * dw.0 + du.1 * dw.1 >= 0 {
-                return None;
-            }
-        }
+        self.border_move(&sv, v, u)?;
         // Link condition.
         let star = &self.vtris[v as usize];
         let opposite = star.iter().filter(|&&t| self.tris[t as usize].contains(&u)).count();
@@ -229,19 +210,51 @@ impl<'a, 'b> Run<'a, 'b> {
         if common != opposite || opposite == 0 {
             return None;
         }
-        // Geometry of the new triangles.
         let new: Vec<[u32; 3]> = star
             .iter()
             .map(|&t| self.tris[t as usize])
             .filter(|t| !t.contains(&u))
             .map(|t| t.map(|w| if w == v { u } else { w }))
             .collect();
+        let plane = self.new_shapes(u, &new)?;
+        if let Some(bound) = self.planar_bound(v, &sv, plane) {
+            self.stats.planar += 1;
+            return Some(vec![bound; new.len()]);
+        }
+        self.stats.tested += 1;
+        self.check_pixels(v, &new)
+    }
+
+    /// Boundary vertices move only along a straight boundary: `None` when `v → u` would not.
+    fn border_move(&self, sv: &Star, v: u32, u: u32) -> Option<()> {
+        let s = self.s;
+        let Some([p, q]) = sv.border else { return Some(()) };
+        let w = if p == u {
+            q
+        } else if q == u {
+            p
+        } else {
+            return None;
+        };
+        let (lv, lu, lw) = (s.lattice(v)?, s.lattice(u)?, s.lattice(w)?);
+        if lv.0 != lu.0 || lv.0 != lw.0 {
+            return None;
+        }
+        let (du, dw) = ((lu.1 - lv.1, lu.2 - lv.2), (lw.1 - lv.1, lw.2 - lv.2));
+        let straight = if s.cube { du.0 * dw.1 - du.1 * dw.0 == 0 } else { du.0 == 0 && dw.0 == 0 };
+        (straight && du.0 * dw.0 + du.1 * dw.1 < 0).then_some(())
+    }
+
+    /// The geometry of the new triangles around `u`: each counter-clockwise from the centre, not
+    /// edge-on (three rays nearly in one plane through the centre: the hit distance would be
+    /// ill-conditioned), without a depth jump and within the angle cap. Their largest triangle's
+    /// plane `(n, n·p)`; `None` when one fails.
+    fn new_shapes(&self, u: u32, new: &[[u32; 3]]) -> Option<(DVec3, f64)> {
+        let s = self.s;
         let du = s.dist[u as usize];
         let mut plane = (DVec3::ZERO, 0.0);
-        for t in &new {
+        for t in new {
             let p = t.map(|w| s.pos[w as usize]);
-            // Counter-clockwise from the centre, and not edge-on (three rays nearly in one plane
-            // through the centre: the hit distance would be ill-conditioned).
             let d = t.map(|w| s.pos[w as usize] / s.dist[w as usize]);
             if !(d[0].dot(d[1].cross(d[2])) < -MIN_DET) {
                 return None;
@@ -259,29 +272,31 @@ impl<'a, 'b> Run<'a, 'b> {
                 plane = (n, n.dot(p[0]));
             }
         }
-        // Planar shortcut: when the whole star lies within relative δ of one plane `n·x = k` (along
-        // the rays), the old and the new triangles are both within δ of it over the same region (the
-        // inverse hit distance is a positive combination of the vertices'), so every pixel's error
-        // grows by at most the factor (1+δ)/(1−δ) over the star's known bound.
-        let (n, k) = plane;
-        if k.is_finite() && k != 0.0 {
-            let delta = sv
-                .nbrs
-                .iter()
-                .chain([&v])
-                .map(|&w| (n.dot(s.pos[w as usize]) / k - 1.0).abs())
-                .fold(0.0, f64::max);
-            if delta <= 1e-3 * s.e {
-                let m = star.iter().map(|&t| self.terr[t as usize]).fold(0.0, f64::max);
-                let bound = (1.0 + m) * (1.0 + delta) / (1.0 - delta) - 1.0;
-                if bound <= s.e {
-                    self.stats.planar += 1;
-                    return Some(vec![bound; new.len()]);
-                }
-            }
+        Some(plane)
+    }
+
+    /// Planar shortcut: when the whole star of `v` lies within relative δ of one plane `n·x = k`
+    /// (along the rays), the old and the new triangles are both within δ of it over the same
+    /// region (the inverse hit distance is a positive combination of the vertices'), so every
+    /// pixel's error grows by at most the factor (1+δ)/(1−δ) over the star's known bound: that
+    /// bound, when within the tolerance.
+    fn planar_bound(&self, v: u32, sv: &Star, (n, k): (DVec3, f64)) -> Option<f64> {
+        let s = self.s;
+        if !k.is_finite() || k == 0.0 {
+            return None;
         }
-        self.stats.tested += 1;
-        self.check_pixels(v, &new)
+        let delta = sv
+            .nbrs
+            .iter()
+            .chain([&v])
+            .map(|&w| (n.dot(s.pos[w as usize]) / k - 1.0).abs())
+            .fold(0.0, f64::max);
+        if delta > 1e-3 * s.e {
+            return None;
+        }
+        let m = self.vtris[v as usize].iter().map(|&t| self.terr[t as usize]).fold(0.0, f64::max);
+        let bound = (1.0 + m) * (1.0 + delta) / (1.0 - delta) - 1.0;
+        (bound <= s.e).then_some(bound)
     }
 
     /// The pixel test of the triangles `new` that replace the star of `v`.

@@ -128,50 +128,11 @@ impl Shared<'_> {
         }
         let PlaneDot::Affine { a: da, bx, by } = t.dot else { return f64::INFINITY };
         let k = t.k;
-        // Each edge as A·x + B(y) ≥ 0 with B(y) = B0 + C·y; row intervals by a float estimate
-        // corrected with exact integer arithmetic.
-        let mut edges: Vec<(i64, i64, i64, f64)> = Vec::with_capacity(3 + 3 * clip.len());
-        for p in std::iter::once(&t.p).chain(clip.iter().map(|c| &c.p)) {
-            for i in 0..3 {
-                let (a, b) = (p[i], p[(i + 1) % 3]);
-                // (b − a) × (q − a) = (b.0 − a.0)(y − a.1) − (b.1 − a.1)(x − a.0).
-                let aa = a.1 - b.1;
-                let c = b.0 - a.0;
-                let b0 = -c * a.1 + (b.1 - a.1) * a.0;
-                edges.push((aa, b0, c, if aa != 0 { 1.0 / aa as f64 } else { 0.0 }));
-            }
-        }
+        let edges = edge_equations(t, clip);
         let mut worst = 0.0f64;
         let mut y = y0;
         while y <= y1 {
-            let (mut lo, mut hi) = (x0, x1);
-            for &(aa, b0, c, inv) in &edges {
-                let bb = b0 + c * y;
-                if aa > 0 {
-                    let mut x = (-(bb as f64) * inv).ceil() as i64;
-                    while aa * x + bb < 0 {
-                        x += 1;
-                    }
-                    while aa * (x - 1) + bb >= 0 {
-                        x -= 1;
-                    }
-                    lo = lo.max(x);
-                } else if aa < 0 {
-                    let mut x = (-(bb as f64) * inv).floor() as i64;
-                    while aa * x + bb < 0 {
-                        x -= 1;
-                    }
-                    while aa * (x + 1) + bb >= 0 {
-                        x += 1;
-                    }
-                    hi = hi.min(x);
-                } else if bb < 0 {
-                    lo = hi + 1;
-                }
-                if lo > hi {
-                    break;
-                }
-            }
+            let (mut lo, hi) = row_span(&edges, y, x0, x1);
             if stride > 1 {
                 lo += (stride - lo.rem_euclid(stride)) % stride;
             }
@@ -266,4 +227,56 @@ impl Shared<'_> {
         }
         worst
     }
+}
+
+/// Each edge of `t` and of the triangles of `clip` as `A·x + B(y) ≥ 0` with `B(y) = B0 + C·y`:
+/// `(A, B0, C, 1/A)`.
+fn edge_equations(t: &LatticeTri, clip: &[&LatticeTri]) -> Vec<(i64, i64, i64, f64)> {
+    let mut edges = Vec::with_capacity(3 + 3 * clip.len());
+    for p in std::iter::once(&t.p).chain(clip.iter().map(|c| &c.p)) {
+        for i in 0..3 {
+            let (a, b) = (p[i], p[(i + 1) % 3]);
+            // (b − a) × (q − a) = (b.0 − a.0)(y − a.1) − (b.1 − a.1)(x − a.0).
+            let aa = a.1 - b.1;
+            let c = b.0 - a.0;
+            let b0 = -c * a.1 + (b.1 - a.1) * a.0;
+            edges.push((aa, b0, c, if aa != 0 { 1.0 / aa as f64 } else { 0.0 }));
+        }
+    }
+    edges
+}
+
+/// The columns `lo..=hi` of row `y` (within `x0..=x1`) inside every edge: a float estimate
+/// corrected with exact integer arithmetic. Empty when `lo > hi`.
+#[inline]
+fn row_span(edges: &[(i64, i64, i64, f64)], y: i64, x0: i64, x1: i64) -> (i64, i64) {
+    let (mut lo, mut hi) = (x0, x1);
+    for &(aa, b0, c, inv) in edges {
+        let bb = b0 + c * y;
+        if aa > 0 {
+            let mut x = (-(bb as f64) * inv).ceil() as i64;
+            while aa * x + bb < 0 {
+                x += 1;
+            }
+            while aa * (x - 1) + bb >= 0 {
+                x -= 1;
+            }
+            lo = lo.max(x);
+        } else if aa < 0 {
+            let mut x = (-(bb as f64) * inv).floor() as i64;
+            while aa * x + bb < 0 {
+                x -= 1;
+            }
+            while aa * (x + 1) + bb >= 0 {
+                x += 1;
+            }
+            hi = hi.min(x);
+        } else if bb < 0 {
+            lo = hi + 1;
+        }
+        if lo > hi {
+            break;
+        }
+    }
+    (lo, hi)
 }
