@@ -201,10 +201,37 @@ struct Chunks {
 
 /// Parse and check the header; returns it with its chunk layout (for truncation checks).
 fn parse_header(
-    mut reader: impl Read,
+    reader: impl Read,
     path: &Path,
     limits: &ReadLimits,
 ) -> Result<(ExrHeader, Chunks), LayerIoError> {
+    let meta = read_meta(reader, path)?;
+    let h = &meta.headers[0];
+    check_layout(h, path, limits)?;
+    let (tiled, mip_levels) = match &h.blocks {
+        BlockDescription::ScanLines => (false, false),
+        BlockDescription::Tiles(t) => (true, t.level_mode != LevelMode::Singular),
+    };
+    let header = ExrHeader {
+        width: h.layer_size.0,
+        height: h.layer_size.1,
+        origin: (h.own_attributes.layer_position.0, h.own_attributes.layer_position.1),
+        channels: h
+            .channels
+            .list
+            .iter()
+            .map(|c| (c.name.to_string(), from_exr_type(c.sample_type)))
+            .collect(),
+        compression: from_exr_compression(h.compression),
+        tiled,
+        mip_levels,
+    };
+    let scanlines = (!tiled).then(|| (header.origin.1, h.compression.scan_lines_per_block()));
+    Ok((header, Chunks { count: h.chunk_count, scanlines }))
+}
+
+/// The metadata of a single-part, flat (not deep) EXR file.
+fn read_meta(mut reader: impl Read, path: &Path) -> Result<MetaData, LayerIoError> {
     let mut prefix = [0u8; 8];
     if let Err(e) = reader.read_exact(&mut prefix) {
         return Err(if e.kind() == std::io::ErrorKind::UnexpectedEof {
@@ -225,10 +252,14 @@ fn parse_header(
     if meta.headers.len() != 1 {
         return Err(LayerIoError::MultiPart { path: path.to_path_buf(), parts: meta.headers.len() });
     }
-    let h = &meta.headers[0];
-    if h.deep {
+    if meta.headers[0].deep {
         return Err(LayerIoError::Deep { path: path.to_path_buf() });
     }
+    Ok(meta)
+}
+
+/// A layer's size within `limits`, not empty, its channels full-resolution and uniquely named.
+fn check_layout(h: &exr::meta::header::Header, path: &Path, limits: &ReadLimits) -> Result<(), LayerIoError> {
     let (w, hgt) = (h.layer_size.0, h.layer_size.1);
     limits.check(w as u64, hgt as u64, h.channels.list.len()).map_err(|limit| LayerIoError::TooLarge {
         path: path.to_path_buf(),
@@ -256,26 +287,7 @@ fn parse_header(
             format!("channel {} appears twice; each channel name must be unique", pair[0].name),
         ));
     }
-    let (tiled, mip_levels) = match &h.blocks {
-        BlockDescription::ScanLines => (false, false),
-        BlockDescription::Tiles(t) => (true, t.level_mode != LevelMode::Singular),
-    };
-    let header = ExrHeader {
-        width: w,
-        height: hgt,
-        origin: (h.own_attributes.layer_position.0, h.own_attributes.layer_position.1),
-        channels: h
-            .channels
-            .list
-            .iter()
-            .map(|c| (c.name.to_string(), from_exr_type(c.sample_type)))
-            .collect(),
-        compression: from_exr_compression(h.compression),
-        tiled,
-        mip_levels,
-    };
-    let scanlines = (!tiled).then(|| (header.origin.1, h.compression.scan_lines_per_block()));
-    Ok((header, Chunks { count: h.chunk_count, scanlines }))
+    Ok(())
 }
 
 /// Largest file size a header can account for: all levels of raw pixels (RIP maps at most

@@ -386,16 +386,7 @@ pub fn mesh_layer(
     // Clean cube faces go to greedy insertion when the simplified mesh is asked for.
     let greedy_params = params.simplify.as_ref().filter(|s| s.greedy && params.uniform.is_none());
     let t = Instant::now();
-    let greedy: Vec<Option<greedy::FaceMesh>> = grids
-        .par_iter()
-        .map(|g| {
-            let sp = greedy_params?;
-            // A face left with triangles over the angle cap takes the quadtree, which keeps it.
-            greedy::is_clean(g)
-                .then(|| greedy::mesh_face(g, sp.max_error, sp.max_angle_deg))
-                .filter(|f| f.stats.over_cap == 0)
-        })
-        .collect();
+    let greedy = greedy_faces(&grids, greedy_params);
     let greedy_ms = if greedy_params.is_some() { ms(t) } else { 0.0 };
     let t = Instant::now();
     let skip: Vec<bool> = greedy.iter().map(Option::is_some).collect();
@@ -404,23 +395,7 @@ pub fn mesh_layer(
     let t = Instant::now();
     // Greedy faces hand over their triangles and used flags (moved, not copied); their exact errors
     // go to the collapses and their counters to the report.
-    let mut done: Vec<Option<Vec<f64>>> = Vec::with_capacity(grids.len());
-    let mut greedy_stats = Vec::with_capacity(grids.len());
-    let mut face_parts = Vec::with_capacity(grids.len());
-    for f in greedy {
-        match f {
-            Some(f) => {
-                done.push(Some(f.errors));
-                greedy_stats.push(Some(f.stats));
-                face_parts.push(Some((f.triangles, f.used)));
-            }
-            None => {
-                done.push(None);
-                greedy_stats.push(None);
-                face_parts.push(None);
-            }
-        }
-    }
+    let (done, greedy_stats, face_parts) = hand_over(greedy);
     let parts: Vec<(Vec<[u32; 3]>, Vec<bool>)> = grids
         .par_iter()
         .zip(trees.par_iter())
@@ -447,6 +422,41 @@ pub fn mesh_layer(
         greedy: greedy_stats,
         times: StageTimes { sample_ms, quadtree_ms, triangulate_ms, assemble_ms, simplify_ms, greedy_ms },
     })
+}
+
+/// Each clean face meshed by greedy insertion under `params` (`None`: not asked for, not clean,
+/// or left with triangles over the angle cap, which the quadtree keeps).
+fn greedy_faces(grids: &[Grid], params: Option<&simplify::SimplifyOptions>) -> Vec<Option<greedy::FaceMesh>> {
+    grids
+        .par_iter()
+        .map(|g| {
+            let sp = params?;
+            greedy::is_clean(g)
+                .then(|| greedy::mesh_face(g, sp.max_error, sp.max_angle_deg))
+                .filter(|f| f.stats.over_cap == 0)
+        })
+        .collect()
+}
+
+/// Greedy faces split into their exact errors, their counters and their triangles with used
+/// flags (moved, not copied).
+#[allow(clippy::type_complexity)]
+fn hand_over(
+    greedy: Vec<Option<greedy::FaceMesh>>,
+) -> (Vec<Option<Vec<f64>>>, Vec<Option<greedy::GreedyStats>>, Vec<Option<(Vec<[u32; 3]>, Vec<bool>)>>) {
+    let mut done = Vec::with_capacity(greedy.len());
+    let mut stats = Vec::with_capacity(greedy.len());
+    let mut parts = Vec::with_capacity(greedy.len());
+    for f in greedy {
+        let (d, s, p) = match f {
+            Some(f) => (Some(f.errors), Some(f.stats), Some((f.triangles, f.used))),
+            None => (None, None, None),
+        };
+        done.push(d);
+        stats.push(s);
+        parts.push(p);
+    }
+    (done, stats, parts)
 }
 
 /// The balanced quadtree of every lattice not flagged in `skip` (`None`: no cells, or skipped).

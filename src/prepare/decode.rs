@@ -449,10 +449,41 @@ fn floor_fit(
     h: f64,
     line: Line,
 ) -> Result<MetricFit, PrepareError> {
-    let inverse = line == Line::Inverse;
+    let pts = floor_candidates(values, mapping, h, line == Line::Inverse);
+    let none = || PrepareError::NoFloor { path: path.into() };
+    if pts.len() < 16 {
+        return Err(none());
+    }
+    let (best, best_n) = ransac(&pts, line);
+    if best_n < pts.len() / 10 || best_n < 16 {
+        return Err(none());
+    }
+    // Least squares on the inliers, weighted by 1/t² (relative error).
+    let (a0, b0) = best;
+    let (mut sw, mut sv, mut st, mut svv, mut svt) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(v, t) in pts.iter().filter(|&&(v, t)| ((a0 * v + b0) - t).abs() <= FLOOR_TOL * t) {
+        let wgt = 1.0 / (t * t);
+        (sw, sv, st, svv, svt) = (sw + wgt, sv + wgt * v, st + wgt * t, svv + wgt * v * v, svt + wgt * v * t);
+    }
+    let det = sw * svv - sv * sv;
+    let (a, b) = if line == Line::Scale {
+        (svt / svv, 0.0)
+    } else if det.abs() > 1e-12 * sw * svv {
+        ((sw * svt - sv * st) / det, (st * svv - sv * svt) / det)
+    } else {
+        best
+    };
+    Ok(MetricFit { a, b, from: "camera-height", floor_share: Some(best_n as f64 / pts.len() as f64) })
+}
+
+/// Relative tolerance of a floor fit's inliers.
+const FLOOR_TOL: f64 = 0.03;
+
+/// `(value, target)` of the pixels 20° or more below the horizon, subsampled to at most ~20 000:
+/// the target is the distance to a floor `h` below the camera (its inverse for inverse depth).
+fn floor_candidates(values: &[f64], mapping: &AnyMapping, h: f64, inverse: bool) -> Vec<(f64, f64)> {
     let (w, ht) = (mapping.width(), mapping.height());
     let sin_min = 20f64.to_radians().sin();
-    // (value, target) of candidate floor pixels, subsampled to at most ~20 000.
     let step = ((w * ht) as f64 / 80_000.0).sqrt().max(1.0) as usize;
     let mut pts = Vec::new();
     for y in (0..ht).step_by(step) {
@@ -466,12 +497,14 @@ fn floor_fit(
             pts.push((v, if inverse { 1.0 / d } else { d }));
         }
     }
-    let none = || PrepareError::NoFloor { path: path.into() };
-    if pts.len() < 16 {
-        return Err(none());
-    }
-    let tol = 0.03;
-    let inliers = |a: f64, b: f64| pts.iter().filter(|&&(v, t)| ((a * v + b) - t).abs() <= tol * t).count();
+    pts
+}
+
+/// The line `t = a·v + b` of `line`'s kind through two random points (600 draws, a fixed seed)
+/// with the most inliers, and their count.
+fn ransac(pts: &[(f64, f64)], line: Line) -> ((f64, f64), usize) {
+    let inliers =
+        |a: f64, b: f64| pts.iter().filter(|&&(v, t)| ((a * v + b) - t).abs() <= FLOOR_TOL * t).count();
     let (mut best, mut best_n) = ((0.0, 0.0), 0);
     let mut rng = 0x9E37_79B9_7F4A_7C15u64;
     let mut next = || {
@@ -499,23 +532,5 @@ fn floor_fit(
             (best, best_n) = ((a, b), n);
         }
     }
-    if best_n < pts.len() / 10 || best_n < 16 {
-        return Err(none());
-    }
-    // Least squares on the inliers, weighted by 1/t² (relative error).
-    let (a0, b0) = best;
-    let (mut sw, mut sv, mut st, mut svv, mut svt) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for &(v, t) in pts.iter().filter(|&&(v, t)| ((a0 * v + b0) - t).abs() <= tol * t) {
-        let wgt = 1.0 / (t * t);
-        (sw, sv, st, svv, svt) = (sw + wgt, sv + wgt * v, st + wgt * t, svv + wgt * v * v, svt + wgt * v * t);
-    }
-    let det = sw * svv - sv * sv;
-    let (a, b) = if line == Line::Scale {
-        (svt / svv, 0.0)
-    } else if det.abs() > 1e-12 * sw * svv {
-        ((sw * svt - sv * st) / det, (st * svv - sv * svt) / det)
-    } else {
-        best
-    };
-    Ok(MetricFit { a, b, from: "camera-height", floor_share: Some(best_n as f64 / pts.len() as f64) })
+    (best, best_n)
 }

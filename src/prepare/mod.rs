@@ -495,73 +495,91 @@ fn refine_depth<'a>(
     s: &PrepareOptions,
     report: &mut PrepareReport,
 ) {
-    let (w, h) = (nb.width(), nb.height());
-    let jump_log = (1.0 + JUMP).ln() as f32;
     let to_log = |d: f32| if d.is_infinite() { complete::SKY_LOG } else { d.ln().min(complete::SKY_LOG) };
     let original: Vec<f32> =
         depth.par_iter().map(|&d| if d.is_nan() { f32::NAN } else { to_log(d) }).collect();
     let mut log = original.clone();
-    let completed = unknown.iter().any(|&u| u);
-    if completed {
-        complete::push_pull(&mut log, w, h);
-        complete::relax(nb, &mut log, unknown, RELAX_SWEEPS);
-        // Completion interpolates: it never goes nearer or farther than the finite depth known.
-        let (lo, hi) = original
-            .iter()
-            .filter(|l| l.is_finite() && **l < complete::SKY_LOG)
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &l| (lo.min(l), hi.max(l)));
-        if lo <= hi {
-            log.par_iter_mut().zip(unknown).filter(|(_, &u)| u).for_each(|(l, _)| *l = l.clamp(lo, hi));
-        }
+    if unknown.iter().any(|&u| u) {
+        complete_unknown(nb, &mut log, &original, unknown);
         report.completed_pixels = unknown.iter().filter(|&&u| u).count();
     }
     if s.refine != Refine::Off {
-        let known: Vec<bool> = unknown.iter().map(|u| !u).collect();
-        let (blocks, median) = refine::noise(&log, &known, w, h, jump_log);
-        report.noise = f64::from(median);
-        if f64::from(median) > NOISY {
-            refine::smooth(&mut log, w, h, &blocks, median, jump_log);
-            report.smoothed = true;
-        }
-        report.edges = refine::scan_edges(&original, w, jump_log);
-        if report.edges.is_soft() && s.refine == Refine::Auto {
-            report.warnings.push(Warning::new(
-                crate::codes::INPUT_DEPTH_SOFT,
-                format!(
-                    "the depth's edges are spread over up to {} pixels (the steepest step takes {:.0} % of an \
-                     edge): objects will stay joined to what is behind them as stretched surfaces; depth at \
-                     the colour's resolution with sharp edges layers better (docs/build.md, \"Depth preparation\")",
-                    report.edges.width,
-                    100.0 * report.edges.sharpness
-                ),
-            ));
-        }
-        // Measured on the path-traced corpus and the analytic room (docs/build.md, "Depth
-        // preparation"): snapping loses there (objects stay joined to the floor at softened
-        // contacts, and their sharpened outlines split off as shells), so only `on` snaps.
-        let soft = s.refine == Refine::On;
-        if soft {
-            let radius = MAX_RADIUS;
-            let guide = guide();
-            // A second pass takes what the first left of ramps it made shorter.
-            for _ in 0..SNAP_PASSES {
-                report.snapped_pixels += refine::snap(nb, &mut log, guide, radius, jump_log);
-            }
-            (report.snapped, report.snap_radius) = (true, radius);
-        }
-        // Resampled depth only: the guided upsampling leaves pieces of neither side along
-        // silhouettes. In blurred depth at full resolution such pieces break ramps that would
-        // otherwise join into wider stretched surfaces (measured: docs/build.md).
-        if report.resized {
-            let max = (w * h / SPECK_SHARE).max(MIN_SPECK);
-            report.speck_pixels = specks::remove(nb, &mut log, guide(), max);
-        }
+        refine_known(nb, guide, &mut log, &original, unknown, s.refine, report);
     }
     depth.par_iter_mut().zip(log.par_iter().zip(&original)).for_each(|(d, (&l, &o))| {
         if l.to_bits() != o.to_bits() {
             *d = if l >= complete::SKY_LOG - 1e-3 { f32::INFINITY } else { l.exp() };
         }
     });
+}
+
+/// Complete the `unknown` pixels of `log` (push-pull, then relaxation), never nearer or farther
+/// than the finite depth known (`original`): completion interpolates.
+fn complete_unknown(nb: &Neighbours, log: &mut [f32], original: &[f32], unknown: &[bool]) {
+    complete::push_pull(log, nb.width(), nb.height());
+    complete::relax(nb, log, unknown, RELAX_SWEEPS);
+    let (lo, hi) = original
+        .iter()
+        .filter(|l| l.is_finite() && **l < complete::SKY_LOG)
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &l| (lo.min(l), hi.max(l)));
+    if lo <= hi {
+        log.par_iter_mut().zip(unknown).filter(|(_, &u)| u).for_each(|(l, _)| *l = l.clamp(lo, hi));
+    }
+}
+
+/// Refine `log` (measured noise smoothed; soft edges reported, snapped with `on`; specks of
+/// resized depth removed), `original` being the log depth as decoded.
+fn refine_known<'a>(
+    nb: &Neighbours,
+    guide: &dyn Fn() -> &'a [[f32; 3]],
+    log: &mut [f32],
+    original: &[f32],
+    unknown: &[bool],
+    refine: Refine,
+    report: &mut PrepareReport,
+) {
+    let (w, h) = (nb.width(), nb.height());
+    let jump_log = (1.0 + JUMP).ln() as f32;
+    let known: Vec<bool> = unknown.iter().map(|u| !u).collect();
+    let (blocks, median) = refine::noise(log, &known, w, h, jump_log);
+    report.noise = f64::from(median);
+    if f64::from(median) > NOISY {
+        refine::smooth(log, w, h, &blocks, median, jump_log);
+        report.smoothed = true;
+    }
+    report.edges = refine::scan_edges(original, w, jump_log);
+    if report.edges.is_soft() && refine == Refine::Auto {
+        report.warnings.push(Warning::new(
+            crate::codes::INPUT_DEPTH_SOFT,
+            format!(
+                "the depth's edges are spread over up to {} pixels (the steepest step takes {:.0} % of an \
+                 edge): objects will stay joined to what is behind them as stretched surfaces; depth at \
+                 the colour's resolution with sharp edges layers better (docs/build.md, \"Depth preparation\")",
+                report.edges.width,
+                100.0 * report.edges.sharpness
+            ),
+        ));
+    }
+    // Measured on the path-traced corpus and the analytic room (docs/build.md, "Depth
+    // preparation"): snapping loses there (objects stay joined to the floor at softened
+    // contacts, and their sharpened outlines split off as shells), so only `on` snaps.
+    let soft = refine == Refine::On;
+    if soft {
+        let radius = MAX_RADIUS;
+        let guide = guide();
+        // A second pass takes what the first left of ramps it made shorter.
+        for _ in 0..SNAP_PASSES {
+            report.snapped_pixels += refine::snap(nb, log, guide, radius, jump_log);
+        }
+        (report.snapped, report.snap_radius) = (true, radius);
+    }
+    // Resampled depth only: the guided upsampling leaves pieces of neither side along
+    // silhouettes. In blurred depth at full resolution such pieces break ramps that would
+    // otherwise join into wider stretched surfaces (measured: docs/build.md).
+    if report.resized {
+        let max = (w * h / SPECK_SHARE).max(MIN_SPECK);
+        report.speck_pixels = specks::remove(nb, log, guide(), max);
+    }
 }
 
 /// Relaxation sweeps after the push-pull.

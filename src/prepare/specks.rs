@@ -15,6 +15,15 @@ use crate::prepare::complete::SKY_LOG;
 /// Replace the specks of `log` (log depth; the sky's, [`SKY_LOG`], is infinitely far) smaller than
 /// `max` pixels. Returns the pixels changed.
 pub(crate) fn remove(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]], max: usize) -> usize {
+    let mut speck = find(nb, log, max);
+    let changed = speck.iter().filter(|&&s| s).count();
+    fill(nb, log, guide, &mut speck);
+    changed
+}
+
+/// The pixels of specks: pieces of surface (flood-filled by the continuity rule) smaller than
+/// `max` pixels with a nearer neighbour across their border.
+fn find(nb: &Neighbours, log: &[f32], max: usize) -> Vec<bool> {
     let sky_log = SKY_LOG - 1e-3;
     let n = log.len();
     let depth: Vec<f64> =
@@ -29,7 +38,6 @@ pub(crate) fn remove(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]], max: 
             continuity::PLANAR,
         ) && !log[q].is_nan()
     };
-    // Pieces by flood fill; a small one with a nearer neighbour across its border is a speck.
     let mut piece = vec![u32::MAX; n];
     let mut speck = vec![false; n];
     let mut queue = VecDeque::new();
@@ -66,9 +74,12 @@ pub(crate) fn remove(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]], max: 
             }
         }
     }
-    // Fill the specks from their borders inwards, each pixel from the neighbour nearest in colour.
-    let mut left: Vec<usize> = (0..n).filter(|&p| speck[p]).collect();
-    let changed = left.len();
+    speck
+}
+
+/// Fill the specks from their borders inwards, each pixel from the neighbour nearest in colour.
+fn fill(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]], speck: &mut [bool]) {
+    let mut left: Vec<usize> = (0..log.len()).filter(|&p| speck[p]).collect();
     while !left.is_empty() {
         let settled: Vec<(usize, f32)> = left
             .iter()
@@ -90,7 +101,6 @@ pub(crate) fn remove(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]], max: 
         }
         left.retain(|&p| speck[p]);
     }
-    changed
 }
 
 fn colour_distance(a: [f32; 3], b: [f32; 3]) -> f32 {

@@ -146,24 +146,9 @@ pub fn render_mesh(
     let cam = Cam::new(camera);
     let (w, h) = cam.size();
     let to_cam = camera.to_camera() * local_to_world;
-    let frustum = match &cam {
-        Cam::Persp { f, cx, cy, .. } => Some([
-            DVec3::new(*f, 0.0, *cx),
-            DVec3::new(-*f, 0.0, *cx),
-            DVec3::new(0.0, *f, *cy),
-            DVec3::new(0.0, -*f, *cy),
-        ]),
-        Cam::Equi { .. } => None,
-    };
-    let setup = Setup { cam: &cam, o: *o, frustum };
+    let setup = Setup { cam: &cam, o: *o, frustum: frustum(&cam) };
     let (preps, mut counts) = prepare_triangles(meshes, &setup, to_cam);
-    let bands = h.div_ceil(BAND);
-    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); bands];
-    for (i, p) in preps.iter().enumerate() {
-        for bin in &mut bins[p.y0 as usize / BAND..=p.y1 as usize / BAND] {
-            bin.push(i as u32);
-        }
-    }
+    let bins = bin_by_band(&preps, h);
     let mut zbuf = vec![NO_FRAG; w * h];
     let work: Vec<(u64, u64)> = zbuf
         .par_chunks_mut(BAND * w)
@@ -199,6 +184,30 @@ pub fn render_mesh(
         ],
     };
     Ok(MeshRendered { frame, stats })
+}
+
+/// The planes through the camera centre bounding a perspective view (normals pointing in).
+fn frustum(cam: &Cam) -> Option<[DVec3; 4]> {
+    match cam {
+        Cam::Persp { f, cx, cy, .. } => Some([
+            DVec3::new(*f, 0.0, *cx),
+            DVec3::new(-*f, 0.0, *cx),
+            DVec3::new(0.0, *f, *cy),
+            DVec3::new(0.0, -*f, *cy),
+        ]),
+        Cam::Equi { .. } => None,
+    }
+}
+
+/// The triangles of each band of [`BAND`] rows of an image `h` rows high.
+fn bin_by_band(preps: &[Prep], h: usize) -> Vec<Vec<u32>> {
+    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); h.div_ceil(BAND)];
+    for (i, p) in preps.iter().enumerate() {
+        for bin in &mut bins[p.y0 as usize / BAND..=p.y1 as usize / BAND] {
+            bin.push(i as u32);
+        }
+    }
+    bins
 }
 
 /// Every mesh is a mesh of its layer: same canvas, sources for every vertex, triangles on them.
