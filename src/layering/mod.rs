@@ -521,6 +521,45 @@ fn assign_layers(
     depth: &mut [f32],
 ) -> (Vec<LayerKey>, Vec<u32>, u32) {
     let n = depth.len();
+    let has_infinity = depth.iter().any(|d| d.is_infinite());
+    let mut pixel_keys = pixel_keys(o, seg, normals, dirs, depth);
+    let (piece, piece_size) = pieces(nb, depth, &seg.id, &seg.size);
+    let part = parts(nb, depth, &piece, &piece_size, &pixel_keys);
+    if part.iter().any(|&c| c != 0) {
+        pixel_keys.par_iter_mut().zip(&piece).for_each(|(k, &s)| {
+            if let Some(k) = k {
+                k.part = part[s as usize];
+            }
+        });
+    }
+    let mut keys = distinct(&pixel_keys);
+    if keys.is_empty() && !has_infinity {
+        // All unknown: one background layer.
+        keys.push(LayerKey { level: 0, band_rev: 0, class: SurfaceClass::Any, part: 0 });
+    }
+    let first = has_infinity as u32;
+    let mut layer_of: Vec<u32> = (0..n)
+        .into_par_iter()
+        .map(|p| match pixel_keys[p] {
+            Some(k) => first + keys.binary_search(&k).expect("key collected") as u32,
+            None if depth[p].is_infinite() => 0,
+            None => u32::MAX,
+        })
+        .collect();
+    assign_unknown(nb, depth, &mut layer_of, first);
+    repair_breaks(nb, depth, &mut layer_of);
+    (keys, layer_of, first)
+}
+
+/// Each pixel's layer key before parts: its segment's level, depth band (far to near) and, with
+/// `classify = geometry`, the background's surface class; `None` outside every segment.
+fn pixel_keys(
+    o: &BuildOptions,
+    seg: &segment::Segments,
+    normals: &[Vec3],
+    dirs: &[Vec3],
+    depth: &[f32],
+) -> Vec<Option<LayerKey>> {
     let band_of = |d: f32| o.depth_bands.iter().filter(|&&b| (d as f64) >= b).count() as u32;
     let nbands = o.depth_bands.len() as u32 + 1;
     let class = match o.classify {
@@ -540,18 +579,12 @@ fn assign_layers(
             part: 0,
         })
     };
-    let has_infinity = depth.iter().any(|d| d.is_infinite());
-    let mut pixel_keys: Vec<Option<LayerKey>> = (0..n).into_par_iter().map(key_of).collect();
-    let (piece, piece_size) = pieces(nb, depth, &seg.id, &seg.size);
-    let part = parts(nb, depth, &piece, &piece_size, &pixel_keys);
-    if part.iter().any(|&c| c != 0) {
-        pixel_keys.par_iter_mut().zip(&piece).for_each(|(k, &s)| {
-            if let Some(k) = k {
-                k.part = part[s as usize];
-            }
-        });
-    }
-    let mut keys: Vec<LayerKey> = pixel_keys
+    (0..depth.len()).into_par_iter().map(key_of).collect()
+}
+
+/// The distinct keys, in order.
+fn distinct(pixel_keys: &[Option<LayerKey>]) -> Vec<LayerKey> {
+    pixel_keys
         .par_iter()
         .fold(std::collections::BTreeSet::new, |mut set, k| {
             if let Some(k) = k {
@@ -564,23 +597,7 @@ fn assign_layers(
             a
         })
         .into_iter()
-        .collect();
-    if keys.is_empty() && !has_infinity {
-        // All unknown: one background layer.
-        keys.push(LayerKey { level: 0, band_rev: 0, class: SurfaceClass::Any, part: 0 });
-    }
-    let first = has_infinity as u32;
-    let mut layer_of: Vec<u32> = (0..n)
-        .into_par_iter()
-        .map(|p| match pixel_keys[p] {
-            Some(k) => first + keys.binary_search(&k).expect("key collected") as u32,
-            None if depth[p].is_infinite() => 0,
-            None => u32::MAX,
-        })
-        .collect();
-    assign_unknown(nb, depth, &mut layer_of, first);
-    repair_breaks(nb, depth, &mut layer_of);
-    (keys, layer_of, first)
+        .collect()
 }
 
 /// Step 7: each layer's image, name and role, farthest first; layers with no pixel left out.

@@ -4,7 +4,7 @@
 //! colour's edges. Exact depth passes through unchanged (bit for bit).
 //!
 //! Steps: decode (kinds, units, range or floor fit; refuse what cannot be depth), resize onto the
-//! colour grid, complete unknown depth, smooth noise, snap soft edges ([`docs/build.md`]).
+//! colour grid, complete unknown depth, smooth noise, snap soft edges (`docs/build.md`).
 
 pub(crate) mod complete;
 pub mod decode;

@@ -355,35 +355,7 @@ impl LayerCtx<'_> {
         if !c.vis {
             return 0;
         }
-        let mut linked: [Option<&Pt>; 8] = [None; 8];
-        // Where a neighbour is not linked, the pixel still covers its own footprint: up to the
-        // neighbour's ray at the pixel's own depth.
-        let mut own: [Option<DVec3>; 8] = [None; 8];
-        let (mut sx, mut sy) = (0.0f64, 0.0f64);
-        for k in 0..8 {
-            let nb = nbrs[k];
-            let (dx, dy) = OFFSETS[k];
-            let opposite = nbrs[offset_index(-dx as i64, -dy as i64)];
-            let reach = if nb.ok && self.continuous(c.z, nb.z, opposite) {
-                linked[k] = Some(nb);
-                nb.vis.then_some(nb.q)
-            } else if nb.ray != DVec3::ZERO {
-                let p = if c.dist.is_infinite() { nb.ray } else { self.centre + nb.ray * c.z as f64 };
-                own[k] = Some(p);
-                self.camera.project(p)
-            } else {
-                None
-            };
-            if let Some(q) = reach {
-                let g = self.gap(c.q, q);
-                if OFFSETS[k].0 != 0 {
-                    sx = sx.max(g);
-                }
-                if OFFSETS[k].1 != 0 {
-                    sy = sy.max(g);
-                }
-            }
-        }
+        let Reach { linked, own, sx, sy } = self.reach(c, nbrs);
         let cap = self.o.max_subsamples.max(1);
         if sx.max(sy) > self.o.spacing * cap as f64 {
             // Past the uniform grid's reach: the footprint is very large on screen (the surface is
@@ -419,6 +391,41 @@ impl LayerCtx<'_> {
             }
         }
         done
+    }
+
+    /// The neighbours `c` is linked to (one surface), where its footprint ends towards the others
+    /// (their rays at `c`'s depth), and its extent on the output along x and y.
+    fn reach<'p>(&self, c: &Pt, nbrs: &[&'p Pt; 8]) -> Reach<'p> {
+        let mut linked: [Option<&'p Pt>; 8] = [None; 8];
+        // Where a neighbour is not linked, the pixel still covers its own footprint: up to the
+        // neighbour's ray at the pixel's own depth.
+        let mut own: [Option<DVec3>; 8] = [None; 8];
+        let (mut sx, mut sy) = (0.0f64, 0.0f64);
+        for k in 0..8 {
+            let nb = nbrs[k];
+            let (dx, dy) = OFFSETS[k];
+            let opposite = nbrs[offset_index(-dx as i64, -dy as i64)];
+            let reach = if nb.ok && self.continuous(c.z, nb.z, opposite) {
+                linked[k] = Some(nb);
+                nb.vis.then_some(nb.q)
+            } else if nb.ray != DVec3::ZERO {
+                let p = if c.dist.is_infinite() { nb.ray } else { self.centre + nb.ray * c.z as f64 };
+                own[k] = Some(p);
+                self.camera.project(p)
+            } else {
+                None
+            };
+            if let Some(q) = reach {
+                let g = self.gap(c.q, q);
+                if OFFSETS[k].0 != 0 {
+                    sx = sx.max(g);
+                }
+                if OFFSETS[k].1 != 0 {
+                    sy = sy.max(g);
+                }
+            }
+        }
+        Reach { linked, own, sx, sy }
     }
 
     /// Output-space vector from `a` to `b`, with the equirect metric (as [`Self::gap`]).
@@ -705,6 +712,14 @@ pub fn splat_layers(
         counts = counts.add(c);
     }
     (acc, counts)
+}
+
+/// What [`LayerCtx::reach`] finds of a pixel's footprint.
+struct Reach<'p> {
+    linked: [Option<&'p Pt>; 8],
+    own: [Option<DVec3>; 8],
+    sx: f64,
+    sy: f64,
 }
 
 #[cfg(test)]

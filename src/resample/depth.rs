@@ -89,6 +89,42 @@ pub(super) fn resolve<T: Texel>(src: &[T], ch: usize, taps: &Taps, opts: &Sample
     resolve_with(src, ch, taps, opts, || false, out)
 }
 
+/// The taps' weighted sum of every channel into `out`.
+#[inline(always)]
+fn blend_taps<T: Texel>(src: &[T], ch: usize, taps: &Taps, out: &mut [T]) {
+    if ch <= 4 {
+        let mut acc = [0.0f32; 4];
+        for k in 0..taps.n {
+            let w = taps.w[k];
+            let p = &src[taps.idx[k] * ch..taps.idx[k] * ch + ch];
+            for (a, v) in acc.iter_mut().zip(p) {
+                *a += w * v.to_f32();
+            }
+        }
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o = T::from_f32(a);
+        }
+    } else {
+        for (c, o) in out.iter_mut().enumerate() {
+            let mut acc = 0.0f32;
+            for k in 0..taps.n {
+                acc += taps.w[k] * src[taps.idx[k] * ch + c].to_f32();
+            }
+            *o = T::from_f32(acc);
+        }
+    }
+}
+
+/// `1 / Σ w/d` over the taps of non-zero weight: depth `z` interpolated as inverse depth.
+#[inline(always)]
+fn harmonic_depth<T: Texel>(src: &[T], ch: usize, taps: &Taps, z: usize) -> f32 {
+    let s: f32 = (0..taps.n)
+        .filter(|&k| taps.w[k] != 0.0)
+        .map(|k| taps.w[k] / src[taps.idx[k] * ch + z].to_f32())
+        .sum();
+    1.0 / s
+}
+
 /// [`resolve`], where `on_plane` says whether taps stepping by more than the relative jump lie on
 /// one plane (asked only then).
 #[inline(always)]
@@ -127,37 +163,10 @@ pub(super) fn resolve_with<T: Texel>(
             }
         }
     }
-    if ch <= 4 {
-        let mut acc = [0.0f32; 4];
-        for k in 0..taps.n {
-            let w = taps.w[k];
-            let p = &src[taps.idx[k] * ch..taps.idx[k] * ch + ch];
-            for (a, v) in acc.iter_mut().zip(p) {
-                *a += w * v.to_f32();
-            }
-        }
-        for (o, a) in out.iter_mut().zip(acc) {
-            *o = T::from_f32(a);
-        }
-    } else {
-        for (c, o) in out.iter_mut().enumerate() {
-            let mut acc = 0.0f32;
-            for k in 0..taps.n {
-                acc += taps.w[k] * src[taps.idx[k] * ch + c].to_f32();
-            }
-            *o = T::from_f32(acc);
-        }
-    }
+    blend_taps(src, ch, taps, out);
     if let Some((z, (lo, hi))) = range {
-        let d = if inverse {
-            let s: f32 = (0..taps.n)
-                .filter(|&k| taps.w[k] != 0.0)
-                .map(|k| taps.w[k] / src[taps.idx[k] * ch + z].to_f32())
-                .sum();
-            1.0 / s
-        } else {
-            out[z].to_f32()
-        };
+        // Across a steep plane, the weighted mean of inverse depths (the plane's own interpolation).
+        let d = if inverse { harmonic_depth(src, ch, taps, z) } else { out[z].to_f32() };
         // Equal taps keep their depth exactly: infinitely far ones (a sky) would sum to NaN
         // (0 · inf for a tap of weight 0, inf − inf for bicubic's negative lobes).
         out[z] = T::from_f32(if lo == hi { lo } else { d.clamp(lo, hi) });

@@ -1,5 +1,7 @@
 //! Layer images (planar channels) between canvases, in bands, with normals renormalised.
 
+use std::ops::Range;
+
 use rayon::prelude::*;
 
 use super::*;
@@ -67,17 +69,8 @@ pub(super) fn convert_layer_in_bands(
             source.rows(&nearest_opts, Rows { to, size, y0, out: band_ids, progress: &none })?;
         }
         let at = y0 * w;
-        for (c, channel) in src.channels.iter().enumerate() {
-            let from_band: &[f32] =
-                if nearest && channel.sample_type == SampleType::U32 { band_ids } else { band };
-            let plane = &mut planes[c][at..at + rows * w];
-            for (v, px) in plane.iter_mut().zip(from_band.chunks_exact(ch)) {
-                *v = px[c];
-            }
-            if channel.sample_type == SampleType::F16 {
-                plane.iter_mut().for_each(|v| *v = half::f16::from_f32(*v).to_f32());
-            }
-        }
+        let ids = nearest.then_some(&*band_ids);
+        scatter(src, band, ids, &mut planes, at..at + rows * w);
         if let Some([x, y, z]) = normals {
             renormalise(&mut planes, [x, y, z], at..at + rows * w);
         }
@@ -97,6 +90,31 @@ pub(super) fn convert_layer_in_bands(
         dst.set_channel(&channel.name, channel.sample_type, data);
     }
     Ok(dst)
+}
+
+/// A band of interleaved samples into the planar channels' pixels `range`, ID channels taken from
+/// `ids` (their nearest-neighbour band) when given; half channels rounded to half.
+fn scatter(
+    src: &LayerImage,
+    band: &[f32],
+    ids: Option<&[f32]>,
+    planes: &mut [Vec<f32>],
+    range: Range<usize>,
+) {
+    let ch = src.channels.len();
+    for (c, channel) in src.channels.iter().enumerate() {
+        let from_band = match ids {
+            Some(ids) if channel.sample_type == SampleType::U32 => ids,
+            _ => band,
+        };
+        let plane = &mut planes[c][range.clone()];
+        for (v, px) in plane.iter_mut().zip(from_band.chunks_exact(ch)) {
+            *v = px[c];
+        }
+        if channel.sample_type == SampleType::F16 {
+            plane.iter_mut().for_each(|v| *v = half::f16::from_f32(*v).to_f32());
+        }
+    }
 }
 
 /// The layer's channels interleaved into one raster (every channel checked to fill the canvas).

@@ -220,23 +220,10 @@ fn band(
             {
                 continue;
             }
-            let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
             let first = src[q] == NONE;
-            // Strictly nearer (beyond rounding) or no switch: every switch lowers a pixel's angle,
-            // so the propagation ends.
-            if (!first && angle >= angle_of[q] - 1e-9)
-                || angle
-                    > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64)
-                        + cx.margin
-                // The reach is looked up only past its floor (most pixels stay within it).
-                || (angle > 2.0 * cx.margin && angle > reach[&s])
-                // A seed claims only where its surface continues: one whose plane misses
-                // (the in-between depths of a resized edge, whose plane runs along the
-                // ray) leaves the pixel to seeds that can fill it.
-                || continue_surface(cx, surfaces, s, q).is_none()
-            {
+            let Some(angle) = claim(cx, surfaces, reach, s, q, (!first).then(|| angle_of[q])) else {
                 continue;
-            }
+            };
             src[q] = s as u32;
             angle_of[q] = angle;
             if first {
@@ -246,6 +233,30 @@ fn band(
         }
     }
     (src, angle_of, order)
+}
+
+/// The angle from seed `s` to pixel `q` when `s` claims `q` (held at angle `held` by another seed,
+/// if any): within the parallax band and `s`'s reach, where `s`'s surface continues.
+fn claim(
+    cx: &FillContext,
+    surfaces: &Surfaces,
+    reach: &HashMap<usize, f64>,
+    s: usize,
+    q: usize,
+    held: Option<f64>,
+) -> Option<f64> {
+    let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
+    // Strictly nearer (beyond rounding) or no switch: every switch lowers a pixel's angle, so the
+    // propagation ends.
+    let refused = held.is_some_and(|h| angle >= h - 1e-9)
+        || angle > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64) + cx.margin
+        // The reach is looked up only past its floor (most pixels stay within it).
+        || (angle > 2.0 * cx.margin && angle > reach[&s])
+        // A seed claims only where its surface continues: one whose plane misses (the in-between
+        // depths of a resized edge, whose plane runs along the ray) leaves the pixel to seeds
+        // that can fill it.
+        || continue_surface(cx, surfaces, s, q).is_none();
+    (!refused).then_some(angle)
 }
 
 type Rivals = Vec<[u32; RIVALS]>;

@@ -118,15 +118,7 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
     let n = tx.nb.len();
     let slot = slots(tx, fill);
     let clean = clean_pixels(tx, k);
-    // Parts, split by the surface they continue (a hole behind a box shows floor and wall).
-    let mut groups: Vec<Vec<u32>> = Vec::new();
-    for part in components(tx.nb, fill, &slot) {
-        let mut by_surface: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
-        for i in part {
-            by_surface.entry(tx.surface[fill.pixels[i as usize].surface]).or_default().push(i);
-        }
-        groups.extend(by_surface.into_values().flat_map(|g| by_scale(fill, g)));
-    }
+    let groups = groups(tx, fill, &slot);
     let alpha = (4.0 * std::f32::consts::PI / n as f32).sqrt();
     let copies: Vec<Transfer> =
         groups.par_iter().map(|g| copy_group(tx, k, fill, &clean, g, alpha)).collect();
@@ -139,27 +131,7 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
         }
         shading.extend(c.shading.iter().copied());
     }
-    shading.sort_unstable_by_key(|e| e.0);
-    shading.dedup_by_key(|e| e.0);
-    // The copy brings its source's lighting: the ratio between the ring and its copy (a shadow,
-    // a lamp's glow) is carried smoothly across the hole.
-    let mut log_ratio =
-        diffuse(tx, fill, &slot, vec![Vec3::ZERO; fill.pixels.len()], &copied, Sources::SameSurface, |r| {
-            shading.binary_search_by_key(&r, |e| e.0).ok().map(|i| shading[i].1)
-        });
-    // Behind the occluder, the shadow fitted to the ring's penumbra.
-    for c in &copies {
-        if let Some(s) = &c.shadow {
-            for &(i, p) in &c.sources {
-                let i = i as usize;
-                log_ratio[i] = s.relight(tx, log_ratio[i], fill.pixels[i].pixel, p);
-            }
-        }
-    }
-    for ((f, g), _) in fill.pixels.iter_mut().zip(log_ratio).zip(&copied).filter(|(_, &c)| c) {
-        let g = g.clamp(Vec3::splat(-MAX_LOG_RATIO), Vec3::splat(MAX_LOG_RATIO));
-        f.rgb = (Vec3::from(f.rgb) * g.exp()).to_array();
-    }
+    relight(tx, fill, &slot, &copies, &copied, shading);
     // Infinitely far content, copied or not, is interpolated along its circles of elevation.
     let sky: Vec<Option<Vec3>> = fill.pixels.par_iter().map(|f| along_elevation(tx, &clean, f)).collect();
     let fixed: Vec<bool> = copied.iter().zip(&sky).map(|(&c, s)| c || s.is_some()).collect();
@@ -177,6 +149,51 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
         for ((f, c), _) in fill.pixels.iter_mut().zip(rgb).zip(&blend).filter(|(_, &b)| b) {
             f.rgb = c.to_array();
         }
+    }
+}
+
+/// The fill's parts, split by the surface they continue (a hole behind a box shows floor and
+/// wall) and by scale.
+fn groups(tx: &FillContext, fill: &Fill, slot: &[u32]) -> Vec<Vec<u32>> {
+    let mut groups: Vec<Vec<u32>> = Vec::new();
+    for part in components(tx.nb, fill, slot) {
+        let mut by_surface: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
+        for i in part {
+            by_surface.entry(tx.surface[fill.pixels[i as usize].surface]).or_default().push(i);
+        }
+        groups.extend(by_surface.into_values().flat_map(|g| by_scale(fill, g)));
+    }
+    groups
+}
+
+/// The copy brings its source's lighting: the ratio between the ring and its copy (`shading`: a
+/// shadow, a lamp's glow) is carried smoothly across the hole, and behind the occluder the shadow
+/// fitted to the ring's penumbra; the `copied` pixels take it.
+fn relight(
+    tx: &FillContext,
+    fill: &mut Fill,
+    slot: &[u32],
+    copies: &[Transfer],
+    copied: &[bool],
+    mut shading: Vec<(usize, Vec3)>,
+) {
+    shading.sort_unstable_by_key(|e| e.0);
+    shading.dedup_by_key(|e| e.0);
+    let mut log_ratio =
+        diffuse(tx, fill, slot, vec![Vec3::ZERO; fill.pixels.len()], copied, Sources::SameSurface, |r| {
+            shading.binary_search_by_key(&r, |e| e.0).ok().map(|i| shading[i].1)
+        });
+    for c in copies {
+        if let Some(s) = &c.shadow {
+            for &(i, p) in &c.sources {
+                let i = i as usize;
+                log_ratio[i] = s.relight(tx, log_ratio[i], fill.pixels[i].pixel, p);
+            }
+        }
+    }
+    for ((f, g), _) in fill.pixels.iter_mut().zip(log_ratio).zip(copied).filter(|(_, &c)| c) {
+        let g = g.clamp(Vec3::splat(-MAX_LOG_RATIO), Vec3::splat(MAX_LOG_RATIO));
+        f.rgb = (Vec3::from(f.rgb) * g.exp()).to_array();
     }
 }
 
