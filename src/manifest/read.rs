@@ -244,17 +244,7 @@ fn xml_error(text: &str, e: &roxmltree::Error, sink: &mut Sink) {
 const PANORAMA_CHILDREN: &[&str] = &["TransformGroup", "Mapping", "Freedom", "Layer"];
 
 fn panorama(ctx: &mut Ctx, doc: &Document) -> Option<Manifest> {
-    let root = doc.root_element();
-    let el = El { node: root, path: format!("/{}", root.tag_name().name()) };
-    if el.name() != "Panorama" || root.tag_name().namespace().is_some() {
-        let msg = format!(
-            "the root element is <{}>{}; a POMC manifest starts with <Panorama version=\"1\">",
-            el.name(),
-            root.tag_name().namespace().map(|n| format!(" in namespace {n}")).unwrap_or_default()
-        );
-        ctx.report(codes::ROOT_NOT_PANORAMA, el.start(), &el.path, msg);
-        return None;
-    }
+    let el = root(ctx, doc)?;
     ctx.check_attributes(&el, &["version"]);
     // A POMC 2 file is not judged by POMC 1 rules: stop at the version.
     let version = version(ctx, &el)?;
@@ -286,19 +276,7 @@ fn panorama(ctx: &mut Ctx, doc: &Document) -> Option<Manifest> {
             _ => ctx.unknown_element(&child, "Panorama", PANORAMA_CHILDREN),
         }
     }
-    let end_msg = |what: &str| format!("<Panorama> has no {what}");
-    if mapping.is_none() {
-        let msg = end_msg("<Mapping>") + "; add <Mapping type=\"LatLongMapping\"/> (or CubeMapping)";
-        ctx.report(codes::MAPPING_MISSING, el.start(), &el.path, msg);
-    }
-    if freedom.is_none() {
-        let msg = end_msg("<Freedom>") + "; the radius is taken as 0: add <Freedom radius=\"0.5\"/> (metres)";
-        ctx.report(codes::FREEDOM_MISSING, el.start(), &el.path, msg);
-    }
-    if !saw_layer {
-        let msg = end_msg("<Layer>") + "; add at least one <Layer> with an <Image file=\"…\"/>";
-        ctx.report(codes::NO_LAYERS, el.start(), &el.path, msg);
-    }
+    missing(ctx, &el, [mapping.is_none(), freedom.is_none(), !saw_layer]);
     super::read_layer::check_orders(ctx, &layers);
     Some(Manifest {
         version,
@@ -307,6 +285,39 @@ fn panorama(ctx: &mut Ctx, doc: &Document) -> Option<Manifest> {
         freedom_radius: freedom.unwrap_or(0.0),
         layers,
     })
+}
+
+/// The root element, when it is a `<Panorama>` in no namespace.
+fn root<'a, 'i>(ctx: &mut Ctx, doc: &'a Document<'i>) -> Option<El<'a, 'i>> {
+    let root = doc.root_element();
+    let el = El { node: root, path: format!("/{}", root.tag_name().name()) };
+    if el.name() != "Panorama" || root.tag_name().namespace().is_some() {
+        let msg = format!(
+            "the root element is <{}>{}; a POMC manifest starts with <Panorama version=\"1\">",
+            el.name(),
+            root.tag_name().namespace().map(|n| format!(" in namespace {n}")).unwrap_or_default()
+        );
+        ctx.report(codes::ROOT_NOT_PANORAMA, el.start(), &el.path, msg);
+        return None;
+    }
+    Some(el)
+}
+
+/// Report the required children of `<Panorama>` that are missing: `[mapping, freedom, layer]`.
+fn missing(ctx: &mut Ctx, el: &El, [mapping, freedom, layer]: [bool; 3]) {
+    let end_msg = |what: &str| format!("<Panorama> has no {what}");
+    if mapping {
+        let msg = end_msg("<Mapping>") + "; add <Mapping type=\"LatLongMapping\"/> (or CubeMapping)";
+        ctx.report(codes::MAPPING_MISSING, el.start(), &el.path, msg);
+    }
+    if freedom {
+        let msg = end_msg("<Freedom>") + "; the radius is taken as 0: add <Freedom radius=\"0.5\"/> (metres)";
+        ctx.report(codes::FREEDOM_MISSING, el.start(), &el.path, msg);
+    }
+    if layer {
+        let msg = end_msg("<Layer>") + "; add at least one <Layer> with an <Image file=\"…\"/>";
+        ctx.report(codes::NO_LAYERS, el.start(), &el.path, msg);
+    }
 }
 
 /// `version`: absent means "1" (the thesis form); any `1` or `1.x` is read as POMC 1.
