@@ -53,7 +53,7 @@ pub(crate) use declare_codes;
 macro_rules! error_codes {
     ($ty:ident: $($v:ident $code:ident),* $(; from $($dv:ident . $f:tt),*)?) => {
         impl $ty {
-            /// Stable machine-readable code, one of [`crate::codes`]'s.
+            /// Stable machine-readable code (declared in [`crate::codes`]).
             pub fn code(&self) -> &'static str {
                 match self {
                     $( $ty::$v { .. } => $crate::codes::$code, )*

@@ -32,16 +32,16 @@ pub fn srgb8(l: f32) -> u8 {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ColourSpace {
-    /// sRGB for 8/16-bit images, linear for float ones
+    /// sRGB for 8/16-bit images, linear for float ones.
     ///
-    /// sRGB for 8/16-bit images (PNG, JPEG), linear for float ones (OpenEXR, Radiance HDR).
+    /// 8/16-bit: PNG, JPEG; float: OpenEXR, Radiance HDR.
     #[default]
     Auto,
-    /// sRGB-encoded values
+    /// sRGB-encoded values.
     ///
-    /// sRGB-encoded, whatever the format.
+    /// Whatever the format.
     Srgb,
-    /// Linear values
+    /// Linear values.
     ///
     /// Already linear (e.g. a PNG written from linear values without encoding).
     Linear,

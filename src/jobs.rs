@@ -248,15 +248,11 @@ fn prepare_and_build(
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum RenderMethod {
-    /// Adaptive 8-neighbourhood point splatting (thesis Alg. 10)
-    ///
-    /// Adaptive point splatting (thesis Alg. 9-10).
+    /// Adaptive 8-neighbourhood point splatting (thesis Alg. 10).
     #[default]
     Splat,
     /// Z-buffered rasterisation of each layer's adaptive quadtree mesh (thesis 7.4); a mesh stored
-    /// with `pomc mesh --store` is decoded instead of rebuilt
-    ///
-    /// Z-buffered rasterisation of each layer's quadtree mesh (stored meshes decoded).
+    /// with `pomc mesh --store` is decoded instead of rebuilt.
     Mesh,
 }
 

@@ -21,19 +21,16 @@ pub use crate::prepare::{DepthEncoding, DepthKind, Preset};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Convention {
-    /// POMC / thesis: azimuth 2πu from +X towards +Y, +Z up
-    ///
-    /// The thesis and POMC: azimuth `φ = 2πu` from +X towards +Y, `+Z` up.
+    /// POMC / thesis: azimuth 2πu from +X towards +Y, +Z up.
     #[default]
     Thesis,
-    /// Blender equirect camera: azimuth π(1−2u), centre column along +X
+    /// Blender equirect camera: azimuth π(1−2u), centre column along +X.
     ///
-    /// Blender's equirect camera: azimuth `π(1 − 2u)`, centre column along +X, `+Z` up:
-    /// `world = Scale(−1, 1, 1) · local`.
+    /// `+Z` up: `world = Scale(−1, 1, 1) · local`.
     Blender,
-    /// OpenEXR lat-long: longitude decreasing, +Y up
+    /// OpenEXR lat-long: longitude decreasing, +Y up.
     ///
-    /// OpenEXR lat-long: longitude `π − 2πu`, latitude `π/2 − πv`, `+Y` up, direction
+    /// Longitude `π − 2πu`, latitude `π/2 − πv`, `+Y` up, direction
     /// `(sin lon cos lat, sin lat, cos lon cos lat)`: `world = Rotate((1,1,1), −120°) ·
     /// Scale(−1, 1, 1) · local`.
     #[cfg_attr(feature = "clap", value(name = "openexr"))]

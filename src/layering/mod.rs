@@ -92,13 +92,12 @@ impl Default for BuildOptions {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Classify {
-    /// Occlusion levels (and depth bands) only
+    /// Occlusion levels (and depth bands) only.
     #[default]
     Depth,
-    /// Also split the background into floor, ceiling and walls
+    /// Also split the background into floor, ceiling and walls.
     ///
-    /// Also split the background into floor, ceiling and walls by the segments' mean normals
-    /// (thesis 6.2.4.2; `+Z` is up in the panorama frame).
+    /// By the segments' mean normals (thesis 6.2.4.2; `+Z` is up in the panorama frame).
     Geometry,
 }
 
@@ -338,7 +337,7 @@ impl<'a> Stages<'a> {
 
 /// Build layers from an RGB-D panorama. `progress` is told each stage's name as it starts.
 pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Result<Built, BuildError> {
-    check(input, o)?;
+    check_input(input, o)?;
     let m = input.mapping;
     let n = m.width() * m.height();
     let mut stages = Stages::new(progress);
@@ -407,7 +406,7 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
 }
 
 /// The input's planes all of one size, and the freedom radius usable.
-fn check(input: &RgbdInput, o: &BuildOptions) -> Result<(), BuildError> {
+fn check_input(input: &RgbdInput, o: &BuildOptions) -> Result<(), BuildError> {
     let n = input.mapping.width() * input.mapping.height();
     for c in &input.rgb {
         if c.len() != n || input.depth.len() != n {
@@ -420,8 +419,8 @@ fn check(input: &RgbdInput, o: &BuildOptions) -> Result<(), BuildError> {
     Ok(())
 }
 
-/// Step 6: the fill of each of `count` layers, its borders, and its colour (stages `fill`,
-/// `borders`, `fill colour`).
+/// Step 6: the fill of each of `count` layers (stage `fill`, started by the caller), its borders
+/// and its colour (stages `borders`, `fill colour`).
 fn fill_all(cx: &FillContext, count: usize, colour: FillColour, stages: &mut Stages) -> Vec<fill::Fill> {
     let mut fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(cx, k)).collect();
     stages.start("borders");
@@ -522,7 +521,7 @@ fn assign_layers(
 ) -> (Vec<LayerKey>, Vec<u32>, u32) {
     let n = depth.len();
     let has_infinity = depth.iter().any(|d| d.is_infinite());
-    let mut pixel_keys = pixel_keys(o, seg, normals, dirs, depth);
+    let mut pixel_keys = keys_of_pixels(o, seg, normals, dirs, depth);
     let (piece, piece_size) = pieces(nb, depth, &seg.id, &seg.size);
     let part = parts(nb, depth, &piece, &piece_size, &pixel_keys);
     if part.iter().any(|&c| c != 0) {
@@ -553,7 +552,7 @@ fn assign_layers(
 
 /// Each pixel's layer key before parts: its segment's level, depth band (far to near) and, with
 /// `classify = geometry`, the background's surface class; `None` outside every segment.
-fn pixel_keys(
+fn keys_of_pixels(
     o: &BuildOptions,
     seg: &segment::Segments,
     normals: &[Vec3],

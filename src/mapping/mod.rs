@@ -55,13 +55,13 @@ pub trait Mapping: Send + Sync {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum MappingKind {
-    /// Equirect (lat-long) 2:1 canvas
+    /// Equirect (lat-long) 2:1 canvas.
     ///
-    /// Equirect (lat-long) 2:1 canvas, [`Equirect`].
+    /// See [`Equirect`].
     Equirect,
-    /// 3×2 cube map
+    /// 3×2 cube map.
     ///
-    /// The thesis's 3×2 cube map, [`Cube3x2`].
+    /// The thesis's; see [`Cube3x2`].
     #[cfg_attr(feature = "clap", value(name = "cube"))]
     Cube3x2,
 }

@@ -395,7 +395,7 @@ pub fn mesh_layer(
     let t = Instant::now();
     // Greedy faces hand over their triangles and used flags (moved, not copied); their exact errors
     // go to the collapses and their counters to the report.
-    let (done, greedy_stats, face_parts) = hand_over(greedy);
+    let (done, greedy_stats, face_parts) = unzip_greedy(greedy);
     let parts: Vec<(Vec<[u32; 3]>, Vec<bool>)> = grids
         .par_iter()
         .zip(trees.par_iter())
@@ -441,7 +441,7 @@ fn greedy_faces(grids: &[Grid], params: Option<&simplify::SimplifyOptions>) -> V
 /// Greedy faces split into their exact errors, their counters and their triangles with used
 /// flags (moved, not copied).
 #[allow(clippy::type_complexity)]
-fn hand_over(
+fn unzip_greedy(
     greedy: Vec<Option<greedy::FaceMesh>>,
 ) -> (Vec<Option<Vec<f64>>>, Vec<Option<greedy::GreedyStats>>, Vec<Option<(Vec<[u32; 3]>, Vec<bool>)>>) {
     let mut done = Vec::with_capacity(greedy.len());

@@ -348,6 +348,9 @@ fn copy_mesh(from: &Path, to: &Path, file: &str) -> Result<bool, Error> {
 mod tests {
     use super::*;
 
+    use crate::layer::SampleType;
+    use crate::manifest::{LayerDecl, MappingDecl, MappingKind};
+
     /// A temporary root and the output directory `out` in it (not created).
     fn root_out() -> (tempfile::TempDir, PathBuf) {
         let root = tempfile::tempdir().unwrap();
@@ -355,11 +358,10 @@ mod tests {
         (root, out)
     }
 
+    /// Write a panorama with the default options.
     fn save_default(out: &Path, m: &Manifest, l: &[LayerImage]) {
         write_panorama(out, m, l, &SaveOptions::default()).unwrap();
     }
-    use crate::layer::SampleType;
-    use crate::manifest::{LayerDecl, MappingDecl, MappingKind};
 
     /// A one-layer panorama whose layer file is `file`, at depth `z` everywhere.
     fn pano(file: &str, z: f32) -> (Manifest, Vec<LayerImage>) {

@@ -60,21 +60,21 @@ pub struct KnownDistance {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum DepthKind {
-    /// Distance along the ray (metres, or units × --depth-scale)
+    /// Distance along the ray (metres, or units × --depth-scale).
     ///
-    /// Euclidean distance from the centre along the pixel's ray (the default).
+    /// The Euclidean distance from the centre along the pixel's ray.
     #[default]
     Ray,
-    /// Planar depth along each cube face's axis (cube maps only)
+    /// Planar depth along each cube face's axis (cube maps only).
     ///
-    /// Planar depth along a cube face's axis; converted to ray distance (cube maps only).
+    /// Converted to ray distance.
     Z,
-    /// Inverse depth / disparity, larger = nearer, unknown scale and shift (MiDaS, Depth Anything)
+    /// Inverse depth / disparity, larger = nearer, unknown scale and shift (MiDaS, Depth Anything).
     ///
     /// Inverse depth / disparity with unknown scale and shift, as monocular estimators give it
     /// (MiDaS, Depth Anything): `1/depth = a·value + b`, larger = nearer.
     Inverse,
-    /// 8/16-bit nearness map: brighter = nearer, 0 = far, linear in distance (three.js, krpano)
+    /// 8/16-bit nearness map: brighter = nearer, 0 = far, linear in distance (three.js, krpano).
     ///
     /// "Nearness" as in web viewers (three.js, krpano): brighter = nearer, 0 = far, linear in
     /// distance between the range's ends; 8/16-bit values are taken as 0–1.
@@ -102,21 +102,21 @@ impl DepthKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Preset {
-    /// uint16 PNG, metres = value / 4000, 0 invalid
+    /// uint16 PNG, metres = value / 4000, 0 invalid.
     ///
-    /// Matterport3D: uint16 PNG, metres = value / 4000, 0 invalid.
+    /// Matterport3D.
     Matterport3d,
-    /// uint16 PNG, value / 512, 65535 invalid, Euclidean
+    /// uint16 PNG, value / 512, 65535 invalid, Euclidean.
     ///
-    /// Stanford 2D-3D-S equirect panoramas: uint16 PNG, value / 512, 65535 invalid, Euclidean.
+    /// Stanford 2D-3D-S equirect panoramas.
     Stanford2d3ds,
-    /// uint16 PNG in millimetres, 0 invalid
+    /// uint16 PNG in millimetres, 0 invalid.
     ///
-    /// Structured3D: uint16 PNG in millimetres, 0 invalid.
+    /// Structured3D.
     Structured3d,
-    /// float EXR in metres
+    /// float EXR in metres.
     ///
-    /// Pano3D / 3D60: float EXR in metres.
+    /// Pano3D / 3D60.
     Pano3d,
 }
 
@@ -461,7 +461,7 @@ fn floor_fit(
     // Least squares on the inliers, weighted by 1/t² (relative error).
     let (a0, b0) = best;
     let (mut sw, mut sv, mut st, mut svv, mut svt) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for &(v, t) in pts.iter().filter(|&&(v, t)| ((a0 * v + b0) - t).abs() <= FLOOR_TOL * t) {
+    for &(v, t) in pts.iter().filter(|&&(v, t)| on_line(a0, b0, v, t)) {
         let wgt = 1.0 / (t * t);
         (sw, sv, st, svv, svt) = (sw + wgt, sv + wgt * v, st + wgt * t, svv + wgt * v * v, svt + wgt * v * t);
     }
@@ -476,8 +476,10 @@ fn floor_fit(
     Ok(MetricFit { a, b, from: "camera-height", floor_share: Some(best_n as f64 / pts.len() as f64) })
 }
 
-/// Relative tolerance of a floor fit's inliers.
-const FLOOR_TOL: f64 = 0.03;
+/// Whether `(v, t)` is an inlier of the line `t = a·v + b` (within 3 % of `t`).
+fn on_line(a: f64, b: f64, v: f64, t: f64) -> bool {
+    ((a * v + b) - t).abs() <= 0.03 * t
+}
 
 /// `(value, target)` of the pixels 20° or more below the horizon, subsampled to at most ~20 000:
 /// the target is the distance to a floor `h` below the camera (its inverse for inverse depth).
@@ -503,8 +505,7 @@ fn floor_candidates(values: &[f64], mapping: &AnyMapping, h: f64, inverse: bool)
 /// The line `t = a·v + b` of `line`'s kind through two random points (600 draws, a fixed seed)
 /// with the most inliers, and their count.
 fn ransac(pts: &[(f64, f64)], line: Line) -> ((f64, f64), usize) {
-    let inliers =
-        |a: f64, b: f64| pts.iter().filter(|&&(v, t)| ((a * v + b) - t).abs() <= FLOOR_TOL * t).count();
+    let inliers = |a: f64, b: f64| pts.iter().filter(|&&(v, t)| on_line(a, b, v, t)).count();
     let (mut best, mut best_n) = ((0.0, 0.0), 0);
     let mut rng = 0x9E37_79B9_7F4A_7C15u64;
     let mut next = || {

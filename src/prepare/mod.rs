@@ -74,16 +74,16 @@ impl SampleFormat {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Refine {
-    /// Smooth measured noise; do not snap edges
+    /// Smooth measured noise; do not snap edges.
     ///
-    /// Smooth noise where it is measured; no snapping (measured to lose, docs/build.md).
+    /// Snapping is measured to lose (docs/build.md).
     #[default]
     Auto,
-    /// Also snap soft edges onto colour edges (experimental)
+    /// Also snap soft edges onto colour edges (experimental).
     ///
-    /// Also snap soft edges onto colour edges (experimental: sharper depth, not yet better layers).
+    /// Sharper depth, not yet better layers.
     On,
-    /// Neither smooth nor snap
+    /// Neither smooth nor snap.
     ///
     /// Neither: the depth as decoded and resized (holes still completed).
     Off,
@@ -94,13 +94,12 @@ pub enum Refine {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum UnknownDepth {
-    /// A surface not measured: completed from the depth around it
+    /// A surface not measured: completed from the depth around it.
     #[default]
     Complete,
-    /// Unknown regions open to the zenith are the sky (a scan outdoors); the rest is completed
+    /// Unknown regions open to the zenith are the sky (a scan outdoors); the rest is completed.
     ///
-    /// Regions open to the zenith are the sky (nothing there: infinitely far, as a scanner sees
-    /// the sky); the rest is completed.
+    /// The sky is infinitely far, as a scanner sees it: nothing there.
     Sky,
 }
 

@@ -12,7 +12,7 @@ use crate::continuity;
 use crate::mapping::{opposite, Neighbours};
 use crate::prepare::complete::SKY_LOG;
 
-/// Replace the specks of `log` (log depth; the sky's, [`SKY_LOG`], is infinitely far) smaller than
+/// Replace the specks of `log` (log depth; within 1e-3 of the sky's, [`SKY_LOG`], is infinitely far) smaller than
 /// `max` pixels. Returns the pixels changed.
 pub(crate) fn remove(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]], max: usize) -> usize {
     let mut speck = find(nb, log, max);

@@ -14,7 +14,6 @@
 //! - [`image`]: the frame and its files (EXR, tone-mapped PNG, mask);
 //! - [`metrics`]: PSNR, WS-PSNR, depth error.
 
-pub(crate) mod accum;
 /// `add` of a struct of counters: the sum, field by field.
 macro_rules! add_counts {
     ($ty:ident: $($f:ident),*) => {
@@ -26,6 +25,7 @@ macro_rules! add_counts {
     };
 }
 
+pub(crate) mod accum;
 pub mod camera;
 pub mod frame;
 pub mod metrics;

@@ -355,7 +355,7 @@ impl LayerCtx<'_> {
         if !c.vis {
             return 0;
         }
-        let Reach { linked, own, sx, sy } = self.reach(c, nbrs);
+        let Footprint { linked, own, sx, sy } = self.footprint(c, nbrs);
         let cap = self.o.max_subsamples.max(1);
         if sx.max(sy) > self.o.spacing * cap as f64 {
             // Past the uniform grid's reach: the footprint is very large on screen (the surface is
@@ -395,7 +395,8 @@ impl LayerCtx<'_> {
 
     /// The neighbours `c` is linked to (one surface), where its footprint ends towards the others
     /// (their rays at `c`'s depth), and its extent on the output along x and y.
-    fn reach<'p>(&self, c: &Pt, nbrs: &[&'p Pt; 8]) -> Reach<'p> {
+    #[inline]
+    fn footprint<'p>(&self, c: &Pt, nbrs: &[&'p Pt; 8]) -> Footprint<'p> {
         let mut linked: [Option<&'p Pt>; 8] = [None; 8];
         // Where a neighbour is not linked, the pixel still covers its own footprint: up to the
         // neighbour's ray at the pixel's own depth.
@@ -425,7 +426,7 @@ impl LayerCtx<'_> {
                 }
             }
         }
-        Reach { linked, own, sx, sy }
+        Footprint { linked, own, sx, sy }
     }
 
     /// Output-space vector from `a` to `b`, with the equirect metric (as [`Self::gap`]).
@@ -714,8 +715,8 @@ pub fn splat_layers(
     (acc, counts)
 }
 
-/// What [`LayerCtx::reach`] finds of a pixel's footprint.
-struct Reach<'p> {
+/// What [`LayerCtx::footprint`] finds of a pixel's footprint.
+struct Footprint<'p> {
     linked: [Option<&'p Pt>; 8],
     own: [Option<DVec3>; 8],
     sx: f64,

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use super::*;
 use crate::continuity;
-use crate::layer::{LayerImage, SampleType};
+use crate::layer::{Channel, LayerImage, SampleType};
 use crate::mapping::layout::CubeLayout;
 use crate::mapping::{AnyMapping, Mapping};
 use crate::raster::Raster;
@@ -70,7 +70,7 @@ pub(super) fn convert_layer_in_bands(
         }
         let at = y0 * w;
         let ids = nearest.then_some(&*band_ids);
-        scatter(src, band, ids, &mut planes, at..at + rows * w);
+        scatter(&src.channels, band, ids, &mut planes, at..at + rows * w);
         if let Some([x, y, z]) = normals {
             renormalise(&mut planes, [x, y, z], at..at + rows * w);
         }
@@ -95,14 +95,14 @@ pub(super) fn convert_layer_in_bands(
 /// A band of interleaved samples into the planar channels' pixels `range`, ID channels taken from
 /// `ids` (their nearest-neighbour band) when given; half channels rounded to half.
 fn scatter(
-    src: &LayerImage,
+    channels: &[Channel],
     band: &[f32],
     ids: Option<&[f32]>,
     planes: &mut [Vec<f32>],
     range: Range<usize>,
 ) {
-    let ch = src.channels.len();
-    for (c, channel) in src.channels.iter().enumerate() {
+    let ch = channels.len();
+    for (c, channel) in channels.iter().enumerate() {
         let from_band = match ids {
             Some(ids) if channel.sample_type == SampleType::U32 => ids,
             _ => band,

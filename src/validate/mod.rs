@@ -445,7 +445,7 @@ fn check_continuity(
     };
     let h = image.height;
     // Per row: the count and the first pair's pixel (a hostile layer can break at every pixel).
-    let found = count_rows(w, h, |y| {
+    let found = scan_rows(w, h, |y| {
         let (mut count, mut first) = (0, usize::MAX);
         continuity::row_breaks(&nb, depth, options.jump_threshold, y, |p, _| {
             count += 1;
@@ -476,7 +476,7 @@ fn check_coverage(name: &str, domains: &[(AnyMapping, Vec<bool>)], issues: &mut 
         .unwrap_or(0);
     let (fm, _) = &domains[finest];
     let (w, h) = (fm.width(), fm.height());
-    let found = count_rows(w, h, |y| {
+    let found = scan_rows(w, h, |y| {
         let mut count = 0;
         let mut first = usize::MAX;
         for x in 0..w {
@@ -514,7 +514,7 @@ fn check_coverage(name: &str, domains: &[(AnyMapping, Vec<bool>)], issues: &mut 
 
 /// Per row `y` of a `w × h` canvas (in parallel), `row(y)` counts what it finds and its first
 /// pixel index: the total and the first pixel `(x, y)`, `None` when nothing is found.
-fn count_rows(
+fn scan_rows(
     w: usize,
     h: usize,
     row: impl Fn(usize) -> (usize, usize) + Send + Sync,

@@ -221,7 +221,7 @@ fn band(
                 continue;
             }
             let first = src[q] == NONE;
-            let Some(angle) = claim(cx, surfaces, reach, s, q, (!first).then(|| angle_of[q])) else {
+            let Some(angle) = claim_angle(cx, surfaces, reach, s, q, (!first).then(|| angle_of[q])) else {
                 continue;
             };
             src[q] = s as u32;
@@ -237,7 +237,7 @@ fn band(
 
 /// The angle from seed `s` to pixel `q` when `s` claims `q` (held at angle `held` by another seed,
 /// if any): within the parallax band and `s`'s reach, where `s`'s surface continues.
-fn claim(
+fn claim_angle(
     cx: &FillContext,
     surfaces: &Surfaces,
     reach: &HashMap<usize, f64>,

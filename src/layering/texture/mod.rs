@@ -20,18 +20,17 @@ mod search;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum FillColour {
-    /// Continue the hidden surface's texture: patches matched in its plane
+    /// Continue the hidden surface's texture: patches matched in its plane.
     ///
     /// Exemplar: the hidden surface copied from elsewhere on it by the offsets in its plane that
     /// best continue the texture around the hole.
     #[default]
     Exemplar,
-    /// Copy the nearest visible pixel (fast; textures come out as streaks)
+    /// Copy the nearest visible pixel (fast; textures come out as streaks).
     ///
-    /// Each filled pixel takes the colour of the visible pixel nearest its seed: fast, but
-    /// textured surfaces come out as streaks.
+    /// The visible pixel nearest the filled pixel's seed.
     Nearest,
-    /// Blend the border's colours smoothly across the hole
+    /// Blend the border's colours smoothly across the hole.
     ///
     /// Inwards from the border, each filled pixel takes the distance-weighted mean of the known
     /// pixels around it, then relaxation sweeps smooth it: the border's colours blend
@@ -118,7 +117,7 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
     let n = tx.nb.len();
     let slot = slots(tx, fill);
     let clean = clean_pixels(tx, k);
-    let groups = groups(tx, fill, &slot);
+    let groups = surface_groups(tx, fill, &slot);
     let alpha = (4.0 * std::f32::consts::PI / n as f32).sqrt();
     let copies: Vec<Transfer> =
         groups.par_iter().map(|g| copy_group(tx, k, fill, &clean, g, alpha)).collect();
@@ -131,7 +130,7 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
         }
         shading.extend(c.shading.iter().copied());
     }
-    relight(tx, fill, &slot, &copies, &copied, shading);
+    carry_lighting(tx, fill, &slot, &copies, &copied, shading);
     // Infinitely far content, copied or not, is interpolated along its circles of elevation.
     let sky: Vec<Option<Vec3>> = fill.pixels.par_iter().map(|f| along_elevation(tx, &clean, f)).collect();
     let fixed: Vec<bool> = copied.iter().zip(&sky).map(|(&c, s)| c || s.is_some()).collect();
@@ -154,7 +153,7 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
 
 /// The fill's parts, split by the surface they continue (a hole behind a box shows floor and
 /// wall) and by scale.
-fn groups(tx: &FillContext, fill: &Fill, slot: &[u32]) -> Vec<Vec<u32>> {
+fn surface_groups(tx: &FillContext, fill: &Fill, slot: &[u32]) -> Vec<Vec<u32>> {
     let mut groups: Vec<Vec<u32>> = Vec::new();
     for part in components(tx.nb, fill, slot) {
         let mut by_surface: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
@@ -169,7 +168,7 @@ fn groups(tx: &FillContext, fill: &Fill, slot: &[u32]) -> Vec<Vec<u32>> {
 /// The copy brings its source's lighting: the ratio between the ring and its copy (`shading`: a
 /// shadow, a lamp's glow) is carried smoothly across the hole, and behind the occluder the shadow
 /// fitted to the ring's penumbra; the `copied` pixels take it.
-fn relight(
+fn carry_lighting(
     tx: &FillContext,
     fill: &mut Fill,
     slot: &[u32],
@@ -525,15 +524,14 @@ fn diffuse(
 ) -> Vec<Vec3> {
     let d = Diffusion { tx, fill, slot, solve, sources, w: tx.nb.width() };
     d.inwards(&mut value, &known);
-    let around = d.around();
+    let around = d.neighbour_sources();
     for _ in 0..SMOOTH_SWEEPS {
         value = d.sweep(&value, &around, &known);
     }
     value
 }
 
-/// Where filled pixel `i` of a [`Diffusion`] takes a neighbour's value from: a filled pixel (its
-/// index), a pixel around the fill (`KNOWN`: what is known there) or nowhere (`NONE`).
+/// [`Diffusion::source`] of a pixel around the fill: its value is what is known there.
 const KNOWN: u32 = NONE - 1;
 
 /// What [`diffuse`] spreads values over.
@@ -567,8 +565,8 @@ impl Diffusion<'_> {
     /// have a value by then (a filled pixel's once solved or fixed, else what is known there).
     fn inwards(&self, value: &mut [Vec3], known: &impl Fn(usize) -> Option<Vec3>) {
         let (tx, w) = (self.tx, self.w);
-        let mut done = vec![false; value.len()];
-        for i in (0..value.len()).filter(|&i| self.solve[i]) {
+        let mut done = vec![false; self.fill.pixels.len()];
+        for i in (0..self.fill.pixels.len()).filter(|&i| self.solve[i]) {
             let q = self.fill.pixels[i].pixel;
             let (x, y) = (q % w, q / w);
             let (mut sum, mut weight) = (Vec3::ZERO, 0.0);
@@ -593,8 +591,8 @@ impl Diffusion<'_> {
         }
     }
 
-    /// The sweeps' sources, found once: per pixel to solve, its 8 neighbours' in order.
-    fn around(&self) -> Vec<[u32; 8]> {
+    /// The sweeps' sources, found once: per pixel to solve, its 8 neighbours' sources, in order.
+    fn neighbour_sources(&self) -> Vec<[u32; 8]> {
         (0..self.fill.pixels.len())
             .into_par_iter()
             .map(|i| {
@@ -619,7 +617,7 @@ impl Diffusion<'_> {
         around: &[[u32; 8]],
         known: &(impl Fn(usize) -> Option<Vec3> + Sync),
     ) -> Vec<Vec3> {
-        (0..value.len())
+        (0..self.fill.pixels.len())
             .into_par_iter()
             .map(|i| {
                 if !self.solve[i] {
