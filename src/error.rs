@@ -56,7 +56,8 @@ pub enum Error {
 crate::codes::error_codes! {
     Error:
         Io IO_ERROR;
-        from Manifest.0, LayerIo.0, Pack.0, Resample.0, Convert.0, Panorama.0, Build.0, Input.0, Prepare.0, Mesh.0, Render.0, Image.0
+        from Manifest.0, LayerIo.0, Pack.0, Resample.0, Convert.0, Panorama.0, Build.0, Input.0,
+            Prepare.0, Mesh.0, Render.0, Image.0
 }
 
 impl From<crate::fsutil::IoError> for Error {
