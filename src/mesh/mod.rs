@@ -393,8 +393,7 @@ pub fn mesh_layer(
     let trees = build_trees(&grids, image, params, &skip);
     let quadtree_ms = ms(t);
     let t = Instant::now();
-    // Greedy faces hand over their triangles and used flags (moved, not copied); their exact errors
-    // go to the collapses and their counters to the report.
+    // Greedy faces' exact errors go to the collapses, their counters to the report.
     let (done, greedy_stats, face_parts) = unzip_greedy(greedy);
     let parts: Vec<(Vec<[u32; 3]>, Vec<bool>)> = grids
         .par_iter()

@@ -85,7 +85,7 @@ pub enum Refine {
     On,
     /// Neither smooth nor snap.
     ///
-    /// Neither: the depth as decoded and resized (holes still completed).
+    /// The depth as decoded and resized (holes still completed).
     Off,
 }
 
