@@ -356,21 +356,22 @@ pub fn add_borders(cx: &FillContext, fills: &mut [Fill]) {
 /// a hole in the layer where the nearest seed's surface continues.
 fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill, mut own_plane: HashMap<usize, FillPixel>) {
     let mut c = Continuity::new(cx, k, fill);
-    let at_start = fill.pixels.len();
     let mut dropped = c.drop_breaks(fill, &mut own_plane);
-    if fill.pixels.len() == at_start {
+    if c.removed.is_empty() {
         return;
     }
     c.drop_unanchored(fill, &mut own_plane, &mut dropped);
     c.take_back(fill, dropped);
+    c.close_cracks(fill);
 }
 
 /// The layer's depth as [`keep_continuous`] edits it: its own pixels and its fill (NaN
-/// elsewhere), and which pixels are filled.
+/// elsewhere), which pixels are filled, and the fill pixels removed so far.
 struct Continuity<'a, 'b> {
     cx: &'a FillContext<'b>,
     d: Vec<f32>,
     filled: Vec<bool>,
+    removed: Vec<FillPixel>,
 }
 
 impl Continuity<'_, '_> {
@@ -385,7 +386,14 @@ impl Continuity<'_, '_> {
             d[f.pixel] = f.depth;
             filled[f.pixel] = true;
         }
-        Continuity { cx, d, filled }
+        Continuity { cx, d, filled, removed: Vec::new() }
+    }
+
+    /// Move the pixels no longer filled out of `fill` (into `removed`).
+    fn prune(&mut self, fill: &mut Fill) {
+        let filled = &self.filled;
+        self.removed.extend(fill.pixels.iter().filter(|f| !filled[f.pixel]));
+        fill.pixels.retain(|f| filled[f.pixel]);
     }
 
     fn at(&self, i: Option<usize>) -> Option<f64> {
@@ -443,7 +451,7 @@ impl Continuity<'_, '_> {
                 self.filled[p] = false;
                 dropped.extend(own_plane.remove(&p));
             }
-            fill.pixels.retain(|f| self.filled[f.pixel]);
+            self.prune(fill);
         }
         dropped
     }
@@ -484,7 +492,40 @@ impl Continuity<'_, '_> {
             self.filled[f.pixel] = false;
             dropped.extend(own_plane.remove(&f.pixel));
         }
-        fill.pixels.retain(|f| self.filled[f.pixel]);
+        self.prune(fill);
+    }
+
+    /// Close the cracks left where fronts from two seeds met with a step: a dropped pixel between
+    /// kept ones takes a depth within the step of every neighbour (the geometric middle of what
+    /// they allow), when there is one; passes, as each closed pixel bounds the next.
+    fn close_cracks(&mut self, fill: &mut Fill) {
+        let (w, nb, jump) = (self.cx.nb.width(), self.cx.nb, 1.0 + self.cx.jump);
+        let mut open: Vec<FillPixel> = std::mem::take(&mut self.removed);
+        // Taken back (`take_back` sets the depth only) or closed already: not open.
+        open.retain(|f| self.d[f.pixel].is_nan() && f.depth.is_finite());
+        loop {
+            let before = open.len();
+            open.retain(|f| {
+                let (x, y) = (f.pixel % w, f.pixel / w);
+                let (mut lo, mut hi, mut count) = (0f64, f64::INFINITY, 0);
+                for j in 0..4 {
+                    if let Some(d) = self.at(nb.get_at(x, y, j)) {
+                        (lo, hi, count) = (lo.max(d / jump), hi.min(d * jump), count + 1);
+                    }
+                }
+                if count < 2 || lo > hi || !hi.is_finite() {
+                    return true;
+                }
+                let depth = (lo * hi).sqrt() as f32;
+                self.d[f.pixel] = depth;
+                self.filled[f.pixel] = true;
+                fill.pixels.push(FillPixel { depth, ..*f });
+                false
+            });
+            if open.len() == before {
+                break;
+            }
+        }
     }
 
     /// Take back the pixels of their own plane continuous with all their neighbours so far; one

@@ -227,3 +227,38 @@ fn band_is_the_parallax_difference() {
     assert!((parallax_band(0.5, 1.0, f64::INFINITY) - 0.5f64.asin()).abs() < 1e-12);
     assert_eq!(parallax_band(0.5, 3.0, 3.0), 0.0);
 }
+
+/// A wall behind a box whose two halves were continued from seeds on two planes 15 % apart
+/// (3 m and 3.45 m): the fronts meet with a step over the continuity rule's 8 %, which drops the
+/// nearer column. The crack is closed by depths within the step of both sides: no hole, and the
+/// layer stays continuous.
+#[test]
+fn a_crack_where_two_fronts_meet_is_closed() {
+    let (m, w, n, nb) = equirect(64);
+    let hidden = |p: usize| (20..44).contains(&(p % w)) && (8..24).contains(&(p / w));
+    let wall = |p: usize| if p % w < 32 { 3.0 } else { 3.45 };
+    let depth: Vec<f32> = (0..n).map(|p| if hidden(p) { 1.0 } else { wall(p) }).collect();
+    let layer_of: Vec<u32> = (0..n).map(|p| hidden(p) as u32).collect();
+    let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+    let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+    let (normals, surface) = (vec![Vec3::ZERO; n], vec![0u32; n]);
+    let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
+    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let mut fill = Fill::default();
+    for p in (0..n).filter(|&p| hidden(p)) {
+        fill.pixels.push(FillPixel { pixel: p, depth: wall(p), rgb: [0.5; 3], surface: 0 });
+    }
+    keep_continuous(&cx, 0, &mut fill, HashMap::new());
+    let got: HashMap<usize, f32> = fill.pixels.iter().map(|f| (f.pixel, f.depth)).collect();
+    assert_eq!(got.len(), fill.pixels.len(), "each pixel filled once");
+    let holes = (0..n).filter(|&p| hidden(p) && !got.contains_key(&p)).count();
+    assert_eq!(holes, 0, "no crack is left");
+    let at = |p: usize| if hidden(p) { got[&p] } else { wall(p) };
+    for &q in got.keys() {
+        for j in 0..4 {
+            let r = nb.get(q, j).unwrap();
+            let (a, b) = (f64::from(at(q)), f64::from(at(r)));
+            assert!(!crate::continuity::steps_apart(a, b, crate::continuity::JUMP), "{a} beside {b}");
+        }
+    }
+}

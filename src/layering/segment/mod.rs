@@ -192,7 +192,7 @@ fn cut_steps(
                 recut[id[p] as usize] = true;
             }
         }
-        *dsu = cut_fronts(nb, masks, id, dsu, &front, &recut);
+        *dsu = cut_fronts(nb, masks, id, dsu, &front, &|p| recut[id[p] as usize]);
     }
 }
 

@@ -84,11 +84,11 @@ pub(super) fn split_self_occluding(
     let mut side: Vec<u8> = label;
     let (members, angles) = link_angles(nb, normals, masks, id, &split);
     join_flattest_first(nb, &mut dsu, &mut side, &members, &angles);
-    let through_flat = cuts_through_flat(nb, id, count, &mut dsu, &seeded, &members, &angles);
+    let through_flat = sides_cut_through_flat(nb, id.len(), &mut dsu, &seeded, &members, &angles);
     if !through_flat.iter().any(|&f| f) {
         return Some(dsu);
     }
-    Some(cut_fronts(nb, masks, id, &mut dsu, &front, &through_flat))
+    Some(cut_fronts(nb, masks, id, &mut dsu, &front, &|p| through_flat[p]))
 }
 
 /// Side labels of [`split_self_occluding`]: seeds nearer across a jump, and seeds behind one.
@@ -270,24 +270,26 @@ fn join_flattest_first(nb: &Neighbours, dsu: &mut Dsu, side: &mut [u8], members:
     }
 }
 
-/// Per segment, whether its cut runs mostly through flat surface away from every seed: not a
-/// crease but the order ties were joined in (near and far seeds on one flat surface: the blurred
-/// limb of an object the centre almost touches, merged with the ground). Such a segment keeps the
-/// old cut: its front pixels.
-fn cuts_through_flat(
+/// Per pixel of a split segment, whether the side it was put on is bounded mostly by cuts through
+/// flat surface away from every seed: not a crease but the order ties were joined in (near and far
+/// seeds on one flat surface: the blurred limb of an object the centre almost touches merged with
+/// the ground, ground cut into strips between spurious seeds). Such sides keep the old cut, their
+/// front pixels; the other sides of the segment (an object standing on that ground, cut at its
+/// foot) keep theirs.
+fn sides_cut_through_flat(
     nb: &Neighbours,
-    id: &[u32],
-    count: usize,
+    n: usize,
     dsu: &mut Dsu,
     seeded: &[bool],
     members: &[u32],
     angles: &[[u8; 4]],
 ) -> Vec<bool> {
-    let mut side_of = vec![NO_SEGMENT; id.len()];
+    let mut side_of = vec![NO_SEGMENT; n];
     for &p in members {
         side_of[p as usize] = dsu.find(p);
     }
-    let (mut cut, mut flat_cut) = (vec![0u32; count], vec![0u32; count]);
+    // Per side (its root): cut links, and those through flat unseeded surface.
+    let (mut cut, mut flat_cut) = (vec![0u32; n], vec![0u32; n]);
     for (&p, a) in members.iter().zip(angles) {
         let p = p as usize;
         for (i, &angle) in a.iter().enumerate() {
@@ -296,42 +298,102 @@ fn cuts_through_flat(
             }
             let q = nb.get(p, HALF[i]).expect("link implies a neighbour");
             if side_of[p] != side_of[q] {
-                cut[id[p] as usize] += 1;
-                flat_cut[id[p] as usize] += (angle == 0 && !seeded[p] && !seeded[q]) as u32;
+                let flat = (angle == 0 && !seeded[p] && !seeded[q]) as u32;
+                for r in [side_of[p], side_of[q]] {
+                    cut[r as usize] += 1;
+                    flat_cut[r as usize] += flat;
+                }
             }
         }
     }
-    (0..count).map(|s| 4 * flat_cut[s] > cut[s]).collect()
+    side_of.iter().map(|&r| r != NO_SEGMENT && 4 * flat_cut[r as usize] > cut[r as usize]).collect()
 }
 
-/// The partition of `dsu` over segments `id`, except that each segment marked in `recut` is joined
-/// again along its smooth links with its `front` pixels apart from the rest.
+/// The partition of `dsu` over segments `id`, except that the pixels marked `recut` are joined
+/// again along the smooth links between them (inside a segment), `front` pixels apart from the rest.
 pub(super) fn cut_fronts(
     nb: &Neighbours,
     masks: &[(u8, u8, u8)],
     id: &[u32],
     dsu: &mut Dsu,
     front: &[bool],
-    recut: &[bool],
+    recut: &dyn Fn(usize) -> bool,
 ) -> Dsu {
     let mut next = Dsu::new(id.len());
     for (p, &s) in id.iter().enumerate() {
-        if s != NO_SEGMENT && !recut[s as usize] {
+        if s != NO_SEGMENT && !recut(p) {
             next.parent[p] = dsu.find(p as u32);
         }
     }
     for (p, &(smooth, _, _)) in masks.iter().enumerate() {
-        if smooth == 0 || id[p] == NO_SEGMENT || !recut[id[p] as usize] {
+        if smooth == 0 || id[p] == NO_SEGMENT || !recut(p) {
             continue;
         }
         for (i, &k) in HALF.iter().enumerate() {
             if smooth >> i & 1 == 1 {
                 let q = nb.get(p, k).expect("link implies a neighbour");
-                if id[p] == id[q] && front[p] == front[q] {
+                if id[p] == id[q] && recut(q) && front[p] == front[q] {
                     next.union(p as u32, q as u32);
                 }
             }
         }
     }
     next
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mapping::{AnyMapping, MappingKind};
+
+    /// One segment cut by the watershed into three sides: a floor (left half), a strip of the same
+    /// flat floor (upper right) cut from it across flat, unseeded links — the order ties were
+    /// joined in —, and a box (lower right) cut from both at creases (links turning 30°). Most of
+    /// the segment's cut is flat, but only the sides bounded by flat cuts lose their cut: the box
+    /// keeps its own.
+    #[test]
+    fn only_the_sides_cut_through_flat_are_cut_again() {
+        let (w, h) = (32usize, 16usize);
+        let nb = Neighbours::new(AnyMapping::new(MappingKind::Equirect, w, h).unwrap());
+        let n = w * h;
+        let side = |p: usize| match (p % w < w / 2, p / w < 12) {
+            (true, _) => 0u8,
+            (false, true) => 1,
+            (false, false) => 2,
+        };
+        let mut dsu = Dsu::new(n);
+        for p in 0..n {
+            for &k in &HALF {
+                if let Some(q) = nb.get(p, k).filter(|&q| side(q) == side(p)) {
+                    dsu.union(p as u32, q as u32);
+                }
+            }
+        }
+        let members: Vec<u32> = (0..n as u32).collect();
+        let angles: Vec<[u8; 4]> = (0..n)
+            .map(|p| {
+                HALF.map(|k| match nb.get(p, k) {
+                    None => SKIP,
+                    Some(q) if side(p) == 2 || side(q) == 2 => 30,
+                    Some(_) => 0,
+                })
+            })
+            .collect();
+        // Most of the segment's cut is flat: a rule per segment would cut the box again too.
+        let (mut cut, mut flat_cut) = (0, 0);
+        for p in 0..n {
+            for (i, &k) in HALF.iter().enumerate() {
+                if nb.get(p, k).is_some_and(|q| side(q) != side(p)) {
+                    (cut, flat_cut) = (cut + 1, flat_cut + (angles[p][i] == 0) as u32);
+                }
+            }
+        }
+        assert!(4 * flat_cut > cut, "{flat_cut} of {cut}");
+        let seeded = vec![false; n];
+        let flat = sides_cut_through_flat(&nb, n, &mut dsu, &seeded, &members, &angles);
+        let flagged = |s: u8| (0..n).filter(|&p| side(p) == s).all(|p| flat[p]);
+        let kept = |s: u8| (0..n).filter(|&p| side(p) == s).all(|p| !flat[p]);
+        assert!(flagged(1), "the strip cut through flat is cut again");
+        assert!(kept(2), "the box keeps its cut");
+    }
 }
