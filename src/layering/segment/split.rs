@@ -381,10 +381,10 @@ mod tests {
             .collect();
         // Most of the segment's cut is flat: a rule per segment would cut the box again too.
         let (mut cut, mut flat_cut) = (0, 0);
-        for p in 0..n {
+        for (p, a) in angles.iter().enumerate() {
             for (i, &k) in HALF.iter().enumerate() {
                 if nb.get(p, k).is_some_and(|q| side(q) != side(p)) {
-                    (cut, flat_cut) = (cut + 1, flat_cut + (angles[p][i] == 0) as u32);
+                    (cut, flat_cut) = (cut + 1, flat_cut + (a[i] == 0) as u32);
                 }
             }
         }
