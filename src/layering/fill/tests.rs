@@ -96,20 +96,53 @@ fn a_curved_surface_is_continued_only_as_far_as_its_plane_fits() {
     }
 }
 
+/// A wall (depth per pixel `wall`) on a 64 × 32 equirect canvas, a block of it (x 20–43, y 8–23)
+/// hidden by a nearer layer 1 m away: the planes of a fill context.
+struct Blocked {
+    nb: Neighbours,
+    dirs: Vec<Vec3>,
+    depth: Vec<f32>,
+    layer_of: Vec<u32>,
+    links: Links,
+    normals: Vec<Vec3>,
+    surface: Vec<u32>,
+    rgb: [Vec<f32>; 3],
+}
+
+/// Whether pixel `p` of the [`Blocked`] canvas is in the hidden block.
+fn in_block(p: usize) -> bool {
+    (20..44).contains(&(p % 64)) && (8..24).contains(&(p / 64))
+}
+
+impl Blocked {
+    fn new(wall: impl Fn(usize) -> f32) -> Blocked {
+        let (m, w, n, nb) = equirect(64);
+        let depth: Vec<f32> = (0..n).map(|p| if in_block(p) { 1.0 } else { wall(p) }).collect();
+        Blocked {
+            dirs: (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect(),
+            layer_of: (0..n).map(|p| in_block(p) as u32).collect(),
+            links: Links::compute(&nb, &depth, &EdgeOptions::default()),
+            normals: vec![Vec3::ZERO; n],
+            surface: vec![0u32; n],
+            rgb: [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]],
+            depth,
+            nb,
+        }
+    }
+
+    fn cx(&self) -> FillContext<'_> {
+        let b = self;
+        context(&b.nb, &b.dirs, &b.depth, &b.normals, &b.layer_of, &b.links, &b.surface, &b.rgb)
+    }
+}
+
 /// A wall at 3 m with a nearer layer (1 m) in front of a block of it. Its fill continues the
 /// wall, except for a rival plane at 2 m claimed in two places: a band touching the wall's
 /// fill, and an island cut off from everything (the fill pixels around it went).
 #[test]
 fn a_rival_plane_dropped_gives_back_the_nearest_seeds_plane_and_leaves_no_remnant() {
-    let (m, w, n, nb) = equirect(64);
-    let hidden = |p: usize| (20..44).contains(&(p % w)) && (8..24).contains(&(p / w));
-    let depth: Vec<f32> = (0..n).map(|p| if hidden(p) { 1.0 } else { 3.0 }).collect();
-    let layer_of: Vec<u32> = (0..n).map(|p| hidden(p) as u32).collect();
-    let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
-    let links = Links::compute(&nb, &depth, &EdgeOptions::default());
-    let (normals, surface) = (vec![Vec3::ZERO; n], vec![0u32; n]);
-    let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
-    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let b = Blocked::new(|_| 3.0);
+    let (cx, w, n, hidden) = (b.cx(), 64, b.depth.len(), in_block);
     let band = |p: usize| (24..32).contains(&(p % w)) && (10..12).contains(&(p / w));
     let island = |p: usize| (36..40).contains(&(p % w)) && (18..20).contains(&(p / w));
     let moat = |p: usize| (35..41).contains(&(p % w)) && (17..21).contains(&(p / w)) && !island(p);
@@ -234,16 +267,9 @@ fn band_is_the_parallax_difference() {
 /// layer stays continuous.
 #[test]
 fn a_crack_where_two_fronts_meet_is_closed() {
-    let (m, w, n, nb) = equirect(64);
-    let hidden = |p: usize| (20..44).contains(&(p % w)) && (8..24).contains(&(p / w));
-    let wall = |p: usize| if p % w < 32 { 3.0 } else { 3.45 };
-    let depth: Vec<f32> = (0..n).map(|p| if hidden(p) { 1.0 } else { wall(p) }).collect();
-    let layer_of: Vec<u32> = (0..n).map(|p| hidden(p) as u32).collect();
-    let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
-    let links = Links::compute(&nb, &depth, &EdgeOptions::default());
-    let (normals, surface) = (vec![Vec3::ZERO; n], vec![0u32; n]);
-    let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
-    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let wall = |p: usize| if p % 64 < 32 { 3.0 } else { 3.45 };
+    let b = Blocked::new(wall);
+    let (cx, n, hidden, nb) = (b.cx(), b.depth.len(), in_block, &b.nb);
     let mut fill = Fill::default();
     for p in (0..n).filter(|&p| hidden(p)) {
         fill.pixels.push(FillPixel { pixel: p, depth: wall(p), rgb: [0.5; 3], surface: 0 });
