@@ -2,6 +2,8 @@
 //! softened below the fold angle, a pole standing on the ground with no fold at its foot, a surface
 //! curving behind itself, split into their near and far sides.
 
+use std::collections::HashMap;
+
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -288,8 +290,8 @@ fn sides_cut_through_flat(
     for &p in members {
         side_of[p as usize] = dsu.find(p);
     }
-    // Per side (its root): cut links, and those through flat unseeded surface.
-    let (mut cut, mut flat_cut) = (vec![0u32; n], vec![0u32; n]);
+    // Per side (its root; few sides): cut links, and those through flat unseeded surface.
+    let mut cuts: HashMap<u32, (u32, u32)> = HashMap::new();
     for (&p, a) in members.iter().zip(angles) {
         let p = p as usize;
         for (i, &angle) in a.iter().enumerate() {
@@ -300,13 +302,13 @@ fn sides_cut_through_flat(
             if side_of[p] != side_of[q] {
                 let flat = (angle == 0 && !seeded[p] && !seeded[q]) as u32;
                 for r in [side_of[p], side_of[q]] {
-                    cut[r as usize] += 1;
-                    flat_cut[r as usize] += flat;
+                    let c = cuts.entry(r).or_default();
+                    (c.0, c.1) = (c.0 + 1, c.1 + flat);
                 }
             }
         }
     }
-    side_of.iter().map(|&r| r != NO_SEGMENT && 4 * flat_cut[r as usize] > cut[r as usize]).collect()
+    side_of.iter().map(|r| cuts.get(r).is_some_and(|&(cut, flat)| 4 * flat > cut)).collect()
 }
 
 /// The partition of `dsu` over segments `id`, except that the pixels marked `recut` are joined
