@@ -495,36 +495,38 @@ impl Continuity<'_, '_> {
         self.prune(fill);
     }
 
-    /// Close the cracks left where fronts from two seeds met with a step: a dropped pixel between
-    /// kept ones takes a depth within the step of every neighbour (the geometric middle of what
-    /// they allow), when there is one; passes, as each closed pixel bounds the next.
+    /// Close the cracks left where fronts from two seeds met with a step: a dropped pixel with two
+    /// or more neighbours in the layer takes a depth within the step of every one (the geometric
+    /// middle of what they allow), when there is one. Each pixel closed puts its open neighbours
+    /// back in the queue, since it bounds them too.
     fn close_cracks(&mut self, fill: &mut Fill) {
         let (w, nb, jump) = (self.cx.nb.width(), self.cx.nb, 1.0 + self.cx.jump);
-        let mut open: Vec<FillPixel> = std::mem::take(&mut self.removed);
-        // Taken back (`take_back` sets the depth only) or closed already: not open.
-        open.retain(|f| self.d[f.pixel].is_nan() && f.depth.is_finite());
-        loop {
-            let before = open.len();
-            open.retain(|f| {
-                let (x, y) = (f.pixel % w, f.pixel / w);
-                let (mut lo, mut hi, mut count) = (0f64, f64::INFINITY, 0);
-                for j in 0..4 {
-                    if let Some(d) = self.at(nb.get_at(x, y, j)) {
-                        (lo, hi, count) = (lo.max(d / jump), hi.min(d * jump), count + 1);
-                    }
+        // Taken back (`take_back` sets the depth only) or infinitely far: not open.
+        let removed = std::mem::take(&mut self.removed);
+        let mut open: HashMap<usize, FillPixel> = HashMap::with_capacity(removed.len());
+        let mut queue: VecDeque<usize> = VecDeque::with_capacity(removed.len());
+        for f in removed.into_iter().filter(|f| self.d[f.pixel].is_nan() && f.depth.is_finite()) {
+            open.insert(f.pixel, f);
+            queue.push_back(f.pixel);
+        }
+        while let Some(q) = queue.pop_front() {
+            let Some(f) = open.get(&q).copied() else { continue };
+            let (x, y) = (q % w, q / w);
+            let (mut lo, mut hi, mut count) = (0f64, f64::INFINITY, 0);
+            for j in 0..4 {
+                if let Some(d) = self.at(nb.get_at(x, y, j)) {
+                    (lo, hi, count) = (lo.max(d / jump), hi.min(d * jump), count + 1);
                 }
-                if count < 2 || lo > hi || !hi.is_finite() {
-                    return true;
-                }
-                let depth = (lo * hi).sqrt() as f32;
-                self.d[f.pixel] = depth;
-                self.filled[f.pixel] = true;
-                fill.pixels.push(FillPixel { depth, ..*f });
-                false
-            });
-            if open.len() == before {
-                break;
             }
+            if count < 2 || lo > hi || !hi.is_finite() {
+                continue;
+            }
+            let depth = (lo * hi).sqrt() as f32;
+            self.d[q] = depth;
+            self.filled[q] = true;
+            fill.pixels.push(FillPixel { depth, ..f });
+            open.remove(&q);
+            queue.extend((0..4).filter_map(|j| nb.get_at(x, y, j)).filter(|r| open.contains_key(r)));
         }
     }
 
