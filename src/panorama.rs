@@ -189,6 +189,13 @@ impl Panorama {
         }
     }
 
+    /// Every layer's full canvas ([`Panorama::read_layer`]) in manifest order, the layers read in
+    /// parallel (and each file's chunks too).
+    pub fn read_layers(&self, limits: &ReadLimits) -> Result<Vec<LayerImage>, Error> {
+        use rayon::prelude::*;
+        (0..self.manifest.layers.len()).into_par_iter().map(|k| self.read_layer(k, limits)).collect()
+    }
+
     /// Path of the file holding a layer's pixels (the colour file for the thesis form).
     pub fn stored_file(&self, decl: &LayerDecl) -> PathBuf {
         let name = match &decl.source {

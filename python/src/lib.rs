@@ -316,9 +316,7 @@ fn open(py: Python<'_>, path: PathBuf) -> PyResult<PyPanorama> {
     let (manifest, layers, dir) = py
         .allow_threads(|| -> Result<_, pomc::Error> {
             let pano = Panorama::open(&path)?;
-            let layers = (0..pano.manifest.layers.len())
-                .map(|k| pano.read_layer(k, &ReadLimits::default()))
-                .collect::<Result<Vec<_>, _>>()?;
+            let layers = pano.read_layers(&ReadLimits::default())?;
             Ok((pano.manifest, layers, pano.dir))
         })
         .map_err(to_py)?;

@@ -13,7 +13,7 @@ use exr::meta::attribute::{LevelMode, SampleType as ExrSampleType};
 use exr::meta::{BlockDescription, MetaData};
 use exr::prelude::{self as xr, ReadChannels, ReadLayers, WritableImage};
 
-use super::halfbits::{f32_to_half, half_to_f32};
+use super::halfbits::{f32s_to_half, halves_to_f32};
 use super::{Compression, ExrHeader, LayerIoError, ReadLimits, WriteOptions};
 use crate::layer::{LayerImage, SampleType};
 
@@ -73,7 +73,6 @@ pub fn read_exr_bytes(bytes: &[u8], path: &Path, limits: &ReadLimits) -> Result<
             .all_channels()
             .first_valid_layer()
             .all_attributes()
-            .non_parallel()
             .from_buffered(Cursor::new(bytes))
     })?;
     let image = match decoded {
@@ -366,7 +365,7 @@ fn to_layer(
 
 fn from_samples(samples: xr::FlatSamples) -> (SampleType, Vec<f32>) {
     match samples {
-        xr::FlatSamples::F16(v) => (SampleType::F16, v.into_iter().map(half_to_f32).collect()),
+        xr::FlatSamples::F16(v) => (SampleType::F16, halves_to_f32(&v)),
         xr::FlatSamples::F32(v) => (SampleType::F32, v),
         xr::FlatSamples::U32(v) => (SampleType::U32, v.into_iter().map(|x| x as f32).collect()),
     }
@@ -385,7 +384,7 @@ fn into_samples(c: crate::layer::Channel) -> xr::FlatSamples {
 
 fn to_samples(c: &crate::layer::Channel) -> xr::FlatSamples {
     match c.sample_type {
-        SampleType::F16 => xr::FlatSamples::F16(c.data.iter().map(|&x| f32_to_half(x)).collect()),
+        SampleType::F16 => xr::FlatSamples::F16(f32s_to_half(&c.data)),
         SampleType::F32 => xr::FlatSamples::F32(c.data.clone()),
         SampleType::U32 => xr::FlatSamples::U32(c.data.iter().map(|&x| x.round() as u32).collect()),
     }

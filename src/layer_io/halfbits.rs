@@ -8,7 +8,10 @@
 //! value is representable as half, which is what [`SampleType::F16`](crate::layer::SampleType)
 //! promises).
 
+use std::sync::OnceLock;
+
 use half::f16;
+use rayon::prelude::*;
 
 /// Half → `f32`, exact for all 65 536 bit patterns (NaN payloads and sign kept).
 #[inline]
@@ -40,6 +43,19 @@ pub fn f32_to_half(x: f32) -> f16 {
     }
 }
 
+/// [`half_to_f32`] over a slice, in parallel, by a table of all 65 536 patterns (built once from
+/// [`half_to_f32`]): a layer's channels convert at memory speed.
+pub fn halves_to_f32(v: &[f16]) -> Vec<f32> {
+    static TABLE: OnceLock<Vec<f32>> = OnceLock::new();
+    let table = TABLE.get_or_init(|| (0..=u16::MAX).map(|b| half_to_f32(f16::from_bits(b))).collect());
+    v.par_iter().with_min_len(1 << 14).map(|h| table[usize::from(h.to_bits())]).collect()
+}
+
+/// [`f32_to_half`] over a slice, in parallel.
+pub fn f32s_to_half(v: &[f32]) -> Vec<f16> {
+    v.par_iter().with_min_len(1 << 14).map(|&x| f32_to_half(x)).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -50,6 +66,17 @@ mod tests {
             let h = f16::from_bits(bits);
             assert_eq!(f32_to_half(half_to_f32(h)).to_bits(), bits, "pattern {bits:#06x}");
         }
+    }
+
+    #[test]
+    fn slices_convert_as_single_values() {
+        let all: Vec<f16> = (0..=u16::MAX).map(f16::from_bits).collect();
+        let wide = halves_to_f32(&all);
+        for (h, x) in all.iter().zip(&wide) {
+            assert_eq!(x.to_bits(), half_to_f32(*h).to_bits(), "pattern {:#06x}", h.to_bits());
+        }
+        let back = f32s_to_half(&wide);
+        assert!(back.iter().zip(&all).all(|(a, b)| a.to_bits() == b.to_bits()));
     }
 
     #[test]

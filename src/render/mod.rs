@@ -36,7 +36,6 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::DMat4;
-use rayon::prelude::*;
 use serde::Serialize;
 
 pub use camera::{Camera, EquirectCamera, Perspective};
@@ -272,11 +271,11 @@ pub fn read_layers(pano: &Panorama, limits: &ReadLimits) -> crate::Result<Vec<(L
     if pano.manifest.layers.is_empty() {
         return Err(RenderError::NoLayers.into());
     }
-    // Layers decode in parallel (each EXR decode is sequential).
-    (0..pano.manifest.layers.len())
-        .into_par_iter()
-        .map(|index| {
-            let image = pano.read_layer(index, limits)?;
+    let layers = pano.read_layers(limits)?;
+    layers
+        .into_iter()
+        .enumerate()
+        .map(|(index, image)| {
             let mapping = layer_mapping(kind, index, &image)?;
             Ok((image, mapping))
         })

@@ -9,7 +9,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::fill::{Fill, FillContext, FillPixel, SAME_PLANE_COS};
+use super::fill::{Fill, FillContext, SAME_PLANE_COS};
 use super::shadow::{self, Shadow};
 use crate::mapping::{Mapping, Neighbours};
 use search::Search;
@@ -132,7 +132,7 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
     }
     carry_lighting(tx, fill, &slot, &copies, &copied, shading);
     // Infinitely far content, copied or not, is interpolated along its circles of elevation.
-    let sky: Vec<Option<Vec3>> = fill.pixels.par_iter().map(|f| along_elevation(tx, &clean, f)).collect();
+    let sky = along_elevation(tx, &clean, fill);
     let fixed: Vec<bool> = copied.iter().zip(&sky).map(|(&c, s)| c || s.is_some()).collect();
     for (f, c) in fill.pixels.iter_mut().zip(sky) {
         if let Some(c) = c {
@@ -196,34 +196,96 @@ fn carry_lighting(
     }
 }
 
-/// Colour of an infinitely far filled pixel interpolated, by angle, between the nearest visible
-/// pixels of its layer both ways along its circle of elevation (about the canvas's +Z): a sky
-/// changes with elevation far more than along it, and blended from its whole ring a wide hole
-/// takes the zenith's blue down to the horizon. `None` near the poles, for finite depth, or
-/// where either way finds nothing within [`SKY_REACH`].
-fn along_elevation(tx: &FillContext, clean: &[bool], f: &FillPixel) -> Option<Vec3> {
-    if f.depth.is_finite() {
-        return None;
+/// Colours of the infinitely far filled pixels (`None` for the others), each interpolated by angle
+/// between the nearest visible pixels of its layer both ways along its circle of elevation (about
+/// the canvas's +Z): a sky changes with elevation far more than along it, and blended from its
+/// whole ring a wide hole takes the zenith's blue down to the horizon. `None` near the poles or
+/// where either way finds nothing within [`SKY_REACH`]. The pixels of one circle share its
+/// samples ([`Circle`]): walked from each pixel, a wide hole cost its width squared.
+fn along_elevation(tx: &FillContext, clean: &[bool], fill: &Fill) -> Vec<Option<Vec3>> {
+    let alpha = (4.0 * std::f64::consts::PI / tx.nb.len() as f64).sqrt();
+    // Circles a quarter pixel apart in elevation: a pixel's circle runs within an eighth of a pixel
+    // of its centre, so within its row or face.
+    let quantum = 0.25 * alpha;
+    let mut circles: std::collections::BTreeMap<i64, Vec<usize>> = Default::default();
+    for (i, f) in fill.pixels.iter().enumerate().filter(|(_, f)| f.depth.is_infinite()) {
+        let z = f64::from(tx.dirs[f.pixel].z).clamp(-1.0, 1.0);
+        circles.entry((z.asin() / quantum).round() as i64).or_default().push(i);
     }
-    let d = tx.dirs[f.pixel].as_dvec3();
-    let rho = d.x.hypot(d.y);
-    if rho < 0.05 {
-        return None;
-    }
-    // Steps of about one pixel (the canvas's mean pixel angle over the circle's radius).
-    let step = (4.0 * std::f64::consts::PI / tx.nb.len() as f64).sqrt() / rho;
-    let count = (SKY_REACH / step) as usize;
-    let phi = d.y.atan2(d.x);
-    let way = |sign: f64| {
-        (1..=count).find_map(|s| {
-            let a = phi + sign * s as f64 * step;
-            let p = tx.pixel(glam::DVec3::new(rho * a.cos(), rho * a.sin(), d.z).as_vec3());
-            (clean[p] && tx.depth[p].is_infinite()).then(|| (s as f32, tx.colour(p)))
+    let circles: Vec<(i64, Vec<usize>)> = circles.into_iter().collect();
+    let coloured: Vec<(usize, Vec3)> = circles
+        .par_iter()
+        .flat_map_iter(|(key, members)| {
+            let mut circle = Circle::new(tx, clean, *key as f64 * quantum, alpha);
+            members
+                .iter()
+                .filter_map(|&i| {
+                    let d = tx.dirs[fill.pixels[i].pixel].as_dvec3();
+                    circle.as_mut()?.colour(d.y.atan2(d.x)).map(|c| (i, c))
+                })
+                .collect::<Vec<_>>()
         })
-    };
-    let (a, ca) = way(1.0)?;
-    let (b, cb) = way(-1.0)?;
-    Some((ca * b + cb * a) / (a + b))
+        .collect();
+    let mut sky = vec![None; fill.pixels.len()];
+    for (i, c) in coloured {
+        sky[i] = Some(c);
+    }
+    sky
+}
+
+/// One circle of elevation, sampled about one pixel apart, each sample's pixel looked up once:
+/// the clean infinitely far pixel it lands on, or none.
+struct Circle<'a> {
+    tx: &'a FillContext<'a>,
+    clean: &'a [bool],
+    rho: f64,
+    z: f64,
+    step: f64,
+    /// Samples each way within [`SKY_REACH`].
+    reach: usize,
+    /// Per sample: [`NONE`] not yet looked up, `NONE - 1` no clean sky there, else the pixel.
+    samples: Vec<u32>,
+}
+
+impl<'a> Circle<'a> {
+    /// The circle at `elevation` (radians), `None` near the poles.
+    fn new(tx: &'a FillContext<'a>, clean: &'a [bool], elevation: f64, alpha: f64) -> Option<Circle<'a>> {
+        let (z, rho) = elevation.sin_cos();
+        if rho < 0.05 {
+            return None;
+        }
+        // A whole number of steps of about one pixel (the mean pixel angle over the radius).
+        let count = ((std::f64::consts::TAU * rho / alpha).round() as usize).max(1);
+        let step = std::f64::consts::TAU / count as f64;
+        let reach = (SKY_REACH / step) as usize;
+        Some(Circle { tx, clean, rho, z, step, reach, samples: vec![NONE; count] })
+    }
+
+    /// The clean infinitely far pixel sample `k` (any integer, taken round the circle) lands on.
+    fn sample(&mut self, k: i64) -> Option<usize> {
+        let k = k.rem_euclid(self.samples.len() as i64) as usize;
+        if self.samples[k] == NONE {
+            let a = k as f64 * self.step;
+            let p = self.tx.pixel(glam::DVec3::new(self.rho * a.cos(), self.rho * a.sin(), self.z).as_vec3());
+            let sky = self.clean[p] && self.tx.depth[p].is_infinite();
+            self.samples[k] = if sky { p as u32 } else { NONE - 1 };
+        }
+        Some(self.samples[k] as usize).filter(|_| self.samples[k] != NONE - 1)
+    }
+
+    /// The colour at azimuth `phi`: the nearest samples with clean sky both ways, weighted by
+    /// their angles from it.
+    fn colour(&mut self, phi: f64) -> Option<Vec3> {
+        let u = phi / self.step;
+        let first = u.floor() as i64 + 1;
+        let (a, pa) =
+            (first..first + self.reach as i64).find_map(|k| Some((k as f64 - u, self.sample(k)?)))?;
+        let last = u.ceil() as i64 - 1;
+        let (b, pb) =
+            (0..self.reach as i64).find_map(|s| Some((u - (last - s) as f64, self.sample(last - s)?)))?;
+        let (a, b) = (a as f32, b as f32);
+        Some((self.tx.colour(pa) * b + self.tx.colour(pb) * a) / (a + b))
+    }
 }
 
 /// How far (radians of azimuth) [`along_elevation`] looks each way.

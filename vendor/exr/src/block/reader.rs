@@ -600,8 +600,12 @@ impl<R: ChunksReader> ParallelBlockDecompressor<R> {
                 self.currently_decompressing_count += 1;
 
                 self.pool.spawn(move || {
-                    let decompressed_or_err =
-                        UncompressedBlock::decompress_chunk(block, &meta, pedantic);
+                    // A panic in a pool thread would abort the process (and leave `recv` waiting):
+                    // malformed data becomes an error instead (patched for pomc, PATCHED.md).
+                    let decompressed_or_err = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        UncompressedBlock::decompress_chunk(block, &meta, pedantic)
+                    }))
+                    .unwrap_or_else(|_| Err(Error::invalid("the block decompressor failed on malformed data")));
 
                     // by now, decompressing could have failed in another thread.
                     // the error is then already handled, so we simply
