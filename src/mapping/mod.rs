@@ -14,12 +14,14 @@ use glam::{DVec2, DVec3};
 mod cube;
 mod dirs;
 mod equirect;
+mod fast;
 pub mod layout;
 mod neighbours;
 
 pub use cube::{Cube3x2, CubeFace, FacePoint};
 pub use dirs::DirTable;
 pub use equirect::Equirect;
+pub use fast::fast_atan2;
 pub use neighbours::{opposite, Neighbours, OFFSETS};
 
 /// A parametrisation of the sphere by a `width × height` canvas.

@@ -1,33 +1,7 @@
 //! Filter weights and taps: which texels a filtered pixel reads, with what weight.
 
-use std::f32::consts::PI;
-
 use super::*;
-
-/// `atan(x)` for `x ∈ [0, 1]`: odd minimax polynomial, |error| < 1e-5 rad.
-#[inline]
-pub(super) fn atan_unit(x: f32) -> f32 {
-    let x2 = x * x;
-    x * (0.999_977_26
-        + x2 * (-0.332_623_47
-            + x2 * (0.193_543_46 + x2 * (-0.116_432_87 + x2 * (0.052_653_32 + x2 * -0.011_721_2)))))
-}
-
-/// Fast `atan2(y, x)` in `(−π, π]`; `0` for `(0, 0)`.
-#[inline]
-pub fn fast_atan2(y: f32, x: f32) -> f32 {
-    // Selects rather than early returns, so batches vectorise.
-    let (ax, ay) = (x.abs(), y.abs());
-    let (mx, mn) = (ax.max(ay), ax.min(ay));
-    let r = atan_unit(mn / mx.max(f32::MIN_POSITIVE));
-    let r = if ay > ax { PI / 2.0 - r } else { r };
-    let r = if x < 0.0 { PI - r } else { r };
-    if y < 0.0 {
-        -r
-    } else {
-        r
-    }
-}
+pub use crate::mapping::fast_atan2;
 
 /// Catmull-Rom weights of taps `−1, 0, 1, 2` at fraction `t ∈ [0, 1)`.
 #[inline]

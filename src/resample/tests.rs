@@ -3,22 +3,6 @@ use super::*;
 use crate::layer::{LayerImage, SampleType};
 
 #[test]
-fn fast_atan2_is_accurate() {
-    let mut worst = 0.0f64;
-    for k in 0..100_000 {
-        let a = k as f64 / 100_000.0 * std::f64::consts::TAU;
-        for r in [1e-3, 1.0, 7.0] {
-            let (y, x) = (r * a.sin(), r * a.cos());
-            let e = (fast_atan2(y as f32, x as f32) as f64 - y.atan2(x)).abs();
-            let e = e.min((e - std::f64::consts::TAU).abs());
-            worst = worst.max(e);
-        }
-    }
-    assert!(worst < 1e-5, "worst {worst}");
-    assert_eq!(fast_atan2(0.0, 0.0), 0.0);
-}
-
-#[test]
 fn pole_and_seam_taps_wrap() {
     let s = EquirectSource { w: 8, h: 4 };
     assert_eq!(s.index(-1, 0), 7);

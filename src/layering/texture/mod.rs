@@ -11,7 +11,7 @@ use rayon::prelude::*;
 
 use super::fill::{Fill, FillContext, SAME_PLANE_COS};
 use super::shadow::{self, Shadow};
-use crate::mapping::{Mapping, Neighbours};
+use crate::mapping::Neighbours;
 use search::Search;
 
 mod search;
@@ -62,8 +62,7 @@ impl FillContext<'_> {
 
     #[inline]
     pub(super) fn pixel(&self, y: Vec3) -> usize {
-        let (i, j) = self.nb.mapping().pixel_of(y.as_dvec3());
-        j * self.nb.width() + i
+        self.nb.mapping().pixel_index_fast(y)
     }
 
     /// Input linear RGB of pixel `p`.
