@@ -502,7 +502,8 @@ fn shadow_samples(
     t: Vec3,
 ) -> Vec<(usize, usize, f32)> {
     let depth = ((hole.len() as f32 / std::f32::consts::PI).sqrt() * 0.5).clamp(4.0, 24.0) as usize;
-    let mut seen: std::collections::HashSet<usize> = hole.iter().copied().collect();
+    // The hole's own pixels are never `valid` (hidden, or beside the occluder): not seeded.
+    let mut seen: std::collections::HashSet<usize> = Default::default();
     let (mut frontier, mut around) = (hole.to_vec(), Vec::new());
     for _ in 0..depth {
         let mut next = Vec::new();
