@@ -105,25 +105,23 @@ const RIVALS: usize = 5;
 pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     // Seeds across a jump first; seeds along a fold only (the floor a box stands on) reach what
     // the former leave.
-    // (seed, across a jump), in pixel order.
-    let found: Vec<(usize, bool)> = (0..cx.nb.len())
-        .into_par_iter()
-        .filter_map(|p| {
-            // NaN (unknown) depth never seeds a fill.
-            if cx.layer_of[p] != k || cx.depth[p].is_nan() || cx.depth[p] <= 0.0 {
-                return None;
-            }
-            let mut borders = (0..8).filter(|&j| cx.nb.get(p, j).is_some_and(|q| hidden(cx, k, q)));
-            let first = borders.next()?;
-            if !trusted_plane(cx, p) {
-                return None;
-            }
-            Some((p, cx.links.is_jump(p, first) || borders.any(|j| cx.links.is_jump(p, j))))
-        })
-        .collect();
-    let (jumps, folds): (Vec<_>, Vec<_>) = found.into_iter().partition(|s| s.1);
-    let mut seeds: Vec<usize> = jumps.into_iter().map(|s| s.0).collect();
-    let mut fold_seeds: Vec<usize> = folds.into_iter().map(|s| s.0).collect();
+    let (mut seeds, mut fold_seeds) = (Vec::new(), Vec::new());
+    for p in 0..cx.nb.len() {
+        // NaN (unknown) depth never seeds a fill.
+        if cx.layer_of[p] != k || cx.depth[p].is_nan() || cx.depth[p] <= 0.0 {
+            continue;
+        }
+        let mut borders = (0..8).filter(|&j| cx.nb.get(p, j).is_some_and(|q| hidden(cx, k, q)));
+        let Some(first) = borders.next() else { continue };
+        if !trusted_plane(cx, p) {
+            continue;
+        }
+        if cx.links.is_jump(p, first) || borders.any(|j| cx.links.is_jump(p, j)) {
+            seeds.push(p);
+        } else {
+            fold_seeds.push(p);
+        }
+    }
     let surfaces = Surfaces::new(cx, k, seeds.iter().chain(&fold_seeds).copied());
     // A speck without a plane (a few in-between depths on a resized edge) is no surface to
     // continue: kept, its depth would stand as a wall behind the occluder.
