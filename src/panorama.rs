@@ -193,7 +193,10 @@ impl Panorama {
     /// parallel (and each file's chunks too).
     pub fn read_layers(&self, limits: &ReadLimits) -> Result<Vec<LayerImage>, Error> {
         use rayon::prelude::*;
-        (0..self.manifest.layers.len()).into_par_iter().map(|k| self.read_layer(k, limits)).collect()
+        let read: Vec<_> =
+            (0..self.manifest.layers.len()).into_par_iter().map(|k| self.read_layer(k, limits)).collect();
+        // The first bad layer's error, whichever thread met it first.
+        read.into_iter().collect()
     }
 
     /// Path of the file holding a layer's pixels (the colour file for the thesis form).

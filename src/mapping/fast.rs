@@ -104,8 +104,20 @@ mod tests {
             }
             // 284 of them on the equirect canvas.
             assert!(off < 500, "{off} of 200 000 lookups off by a pixel");
-            let (i0, j0) = m.pixel_of(glam::DVec3::ZERO);
-            assert_eq!(m.pixel_index_fast(Vec3::ZERO), j0 * w + i0);
+            // Degenerate input takes the exact path: no panic, inside the canvas, as `pixel_of`.
+            for d in [
+                Vec3::ZERO,
+                Vec3::NAN,
+                Vec3::new(f32::INFINITY, 0.0, 1.0),
+                Vec3::new(f32::MAX, f32::MAX, 0.0),
+                Vec3::new(1e-40, 0.0, -1e-40),
+            ] {
+                let (i0, j0) = m.pixel_of(d.as_dvec3());
+                assert_eq!(m.pixel_index_fast(d), j0 * w + i0, "{d:?}");
+            }
+            // The pole: any column of its row (signed zeros give the exact `atan2` −π).
+            let pole = Vec3::new(-0.0, -0.0, 1.0);
+            assert_eq!(m.pixel_index_fast(pole) / w, m.pixel_of(pole.as_dvec3()).1);
         }
     }
 }

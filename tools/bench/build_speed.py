@@ -62,7 +62,7 @@ def main():
             walls = [r[0] for r in rs]
             stages = {k: statistics.median(r[2][k] for r in rs) for k in rs[0][2]}
             print(f"{os.path.basename(b):16s} wall min {min(walls):.2f} s median {statistics.median(walls):.2f} s, "
-                  f"peak {max(r[1] for r in rs):.0f} MB | " + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
+                  f"peak {max(r[1] for r in rs):.0f} MiB | " + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
     print(f"\nload after {os.getloadavg()[0]:.2f}")
 
 

@@ -42,13 +42,16 @@ def main():
     runs = int(sys.argv[2]) if len(sys.argv) > 2 else 5
     OpenEXR.set_global_thread_count(os.cpu_count() or 1)
     files = sorted(os.path.join(pano_dir, f) for f in os.listdir(pano_dir) if f.endswith(".exr"))
+    if not files:
+        sys.exit(f"{pano_dir}: no EXR files")
     decoded = {f: OpenEXR.File(f) for f in files}
     sizes = sum(os.path.getsize(f) for f in files)
     print(f"{pano_dir}: {len(files)} EXR files, {sizes / 1e6:.1f} MB, OpenEXR threads {os.cpu_count()}, "
           f"load {os.getloadavg()[0]:.2f}")
     exr_io = os.environ.get("EXR_IO") or os.path.join(
         os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target")), "release", "examples", "exr_io")
-    out = tempfile.mkdtemp()
+    out_dir = tempfile.TemporaryDirectory()
+    out = out_dir.name
     pool = ThreadPoolExecutor(len(files))
 
     def pomc_io(mode):

@@ -200,7 +200,8 @@ fn carry_lighting(
 /// the canvas's +Z): a sky changes with elevation far more than along it, and blended from its
 /// whole ring a wide hole takes the zenith's blue down to the horizon. `None` near the poles or
 /// where either way finds nothing within [`SKY_REACH`]. The pixels of one circle share its
-/// samples ([`Circle`]): walked from each pixel, a wide hole cost its width squared.
+/// samples ([`Circle`]), each looked up once: with a lookup per pixel and step, a wide hole's walks
+/// cost its width squared in trigonometry.
 fn along_elevation(tx: &FillContext, clean: &[bool], fill: &Fill) -> Vec<Option<Vec3>> {
     let alpha = (4.0 * std::f64::consts::PI / tx.nb.len() as f64).sqrt();
     // Circles a quarter pixel apart in elevation: a pixel's circle runs within an eighth of a pixel
@@ -242,8 +243,8 @@ struct Circle<'a> {
     step: f64,
     /// Samples each way within [`SKY_REACH`].
     reach: usize,
-    /// Per sample: [`NONE`] not yet looked up, `NONE - 1` no clean sky there, else the pixel.
-    samples: Vec<u32>,
+    /// Per sample: [`UNSEEN`] not yet looked up, [`NO_SKY`] no clean sky there, else the pixel.
+    samples: Vec<usize>,
 }
 
 impl<'a> Circle<'a> {
@@ -257,19 +258,19 @@ impl<'a> Circle<'a> {
         let count = ((std::f64::consts::TAU * rho / alpha).round() as usize).max(1);
         let step = std::f64::consts::TAU / count as f64;
         let reach = (SKY_REACH / step) as usize;
-        Some(Circle { tx, clean, rho, z, step, reach, samples: vec![NONE; count] })
+        Some(Circle { tx, clean, rho, z, step, reach, samples: vec![UNSEEN; count] })
     }
 
     /// The clean infinitely far pixel sample `k` (any integer, taken round the circle) lands on.
     fn sample(&mut self, k: i64) -> Option<usize> {
         let k = k.rem_euclid(self.samples.len() as i64) as usize;
-        if self.samples[k] == NONE {
+        if self.samples[k] == UNSEEN {
             let a = k as f64 * self.step;
             let p = self.tx.pixel(glam::DVec3::new(self.rho * a.cos(), self.rho * a.sin(), self.z).as_vec3());
             let sky = self.clean[p] && self.tx.depth[p].is_infinite();
-            self.samples[k] = if sky { p as u32 } else { NONE - 1 };
+            self.samples[k] = if sky { p } else { NO_SKY };
         }
-        Some(self.samples[k] as usize).filter(|_| self.samples[k] != NONE - 1)
+        Some(self.samples[k]).filter(|&p| p != NO_SKY)
     }
 
     /// The colour at azimuth `phi`: the nearest samples with clean sky both ways, weighted by
@@ -286,6 +287,10 @@ impl<'a> Circle<'a> {
         Some((self.tx.colour(pa) * b + self.tx.colour(pb) * a) / (a + b))
     }
 }
+
+/// [`Circle::samples`] not yet looked up, and without clean sky.
+const UNSEEN: usize = usize::MAX;
+const NO_SKY: usize = usize::MAX - 1;
 
 /// How far (radians of azimuth) [`along_elevation`] looks each way.
 const SKY_REACH: f64 = std::f64::consts::FRAC_PI_4;

@@ -513,7 +513,7 @@ pub struct ParallelBlockDecompressor<R: ChunksReader> {
     shared_meta_data_ref: std::sync::Arc<MetaData>,
     pedantic: bool,
 
-    pool: rayon_core::ThreadPool,
+    pool: std::sync::Arc<rayon_core::ThreadPool>,
 }
 
 #[cfg(feature = "rayon")]
@@ -523,11 +523,24 @@ impl<R: ChunksReader> ParallelBlockDecompressor<R> {
     /// Returns the chunks if parallel decompression should not be used.
     /// Use `new_with_thread_pool` to customize the threadpool.
     pub fn new(chunks: R, pedantic: bool) -> std::result::Result<Self, R> {
-        Self::new_with_thread_pool(chunks, pedantic, || {
+        // One pool shared by every reader (patched for pomc, PATCHED.md): a pool per reader started
+        // a thread per CPU for each file, and pomc reads a panorama's files in parallel.
+        static POOL: std::sync::OnceLock<Option<std::sync::Arc<rayon_core::ThreadPool>>> =
+            std::sync::OnceLock::new();
+        if Self::entirely_uncompressed(&chunks) {
+            return Err(chunks);
+        }
+        let shared = POOL.get_or_init(|| {
             rayon_core::ThreadPoolBuilder::new()
                 .thread_name(|index| format!("OpenEXR Block Decompressor Thread #{index}"))
                 .build()
-        })
+                .ok()
+                .map(std::sync::Arc::new)
+        });
+        match shared.clone() {
+            Some(pool) => Self::with_pool(chunks, pedantic, pool),
+            None => Err(chunks),
+        }
     }
 
     /// Create a new decompressor. Does not immediately spawn any tasks.
@@ -543,28 +556,35 @@ impl<R: ChunksReader> ParallelBlockDecompressor<R> {
             FnOnce()
                 -> std::result::Result<rayon_core::ThreadPool, rayon_core::ThreadPoolBuildError>,
     {
-        use crate::compression::Compression;
-
-        let is_entirely_uncompressed = chunks
-            .meta_data()
-            .headers
-            .iter()
-            .all(|head| head.compression == Compression::Uncompressed);
-
         // if no compression is used in the file, don't use a threadpool
-        if is_entirely_uncompressed {
+        if Self::entirely_uncompressed(&chunks) {
             return Err(chunks);
         }
 
         // in case thread pool creation fails (for example on WASM currently),
         // we revert to sequential decompression
-        let pool = match try_create_thread_pool() {
-            Ok(pool) => pool,
+        match try_create_thread_pool() {
+            Ok(pool) => Self::with_pool(chunks, pedantic, std::sync::Arc::new(pool)),
 
             // TODO print warning?
-            Err(_) => return Err(chunks),
-        };
+            Err(_) => Err(chunks),
+        }
+    }
 
+    fn entirely_uncompressed(chunks: &R) -> bool {
+        use crate::compression::Compression;
+        chunks
+            .meta_data()
+            .headers
+            .iter()
+            .all(|head| head.compression == Compression::Uncompressed)
+    }
+
+    fn with_pool(
+        chunks: R,
+        pedantic: bool,
+        pool: std::sync::Arc<rayon_core::ThreadPool>,
+    ) -> std::result::Result<Self, R> {
         let max_threads = pool.current_num_threads().max(1).min(chunks.len()) + 2; // ca one block for each thread at all times
 
         let (send, recv) = std::sync::mpsc::channel(); // TODO bounded channel simplifies logic?
