@@ -229,11 +229,12 @@ mod taps;
 #[cfg(test)]
 mod tests;
 
+use crate::mapping::fast_atan2;
 use depth::*;
 pub use layer::convert_layer;
 use source::*;
+pub use taps::Taps;
 use taps::*;
-pub use taps::{fast_atan2, Taps};
 
 /// Width and height of a `target` canvas of `size`, checked so that `channels` interleaved samples
 /// of it can be allocated.

@@ -1,7 +1,6 @@
 //! Filter weights and taps: which texels a filtered pixel reads, with what weight.
 
 use super::*;
-pub use crate::mapping::fast_atan2;
 
 /// Catmull-Rom weights of taps `−1, 0, 1, 2` at fraction `t ∈ [0, 1)`.
 #[inline]
