@@ -110,13 +110,20 @@ pub fn build_panorama_with_progress(
     let files = input::read(colour, s.colour_space, depth, s.normals_in.as_deref(), &s.limits)?;
     let read_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let (built, prepare) = prepare_and_build(files, depth, s, progress)?;
+    progress(PREPARE_STAGE);
+    let (rgbd, prepare) = files.prepare(depth, &s.depth, &s.prepare)?;
+    let prepare_s = t.elapsed().as_secs_f64();
+    let layered = layering::layer(&rgbd, &s.options, progress)?;
     let build_s = t.elapsed().as_secs_f64();
     progress(WRITING_STAGE);
     let t = Instant::now();
-    let manifest = panorama::write_panorama(output, &built.manifest, &built.layers, &s.save)?;
+    // Each layer's image is made as it is written: one full canvas in memory at a time.
+    let manifest = layered.manifest(rgbd.mapping.kind(), s.options.freedom_radius, transforms(s));
+    let manifest = panorama::write_panorama_with(output, &manifest, &|k| Ok(layered.image(k)), &s.save)?;
     let write_s = t.elapsed().as_secs_f64();
-    Ok(BuildSummary { manifest, report: built.report, prepare, read_s, build_s, write_s })
+    let mut report = layered.report;
+    report.stages.insert(0, (PREPARE_STAGE, prepare_s));
+    Ok(BuildSummary { manifest, report, prepare, read_s, build_s, write_s })
 }
 
 /// Read `colour` and `depth` and prepare the depth as `pomc build` does before layering
@@ -166,14 +173,19 @@ pub fn build_rgbd(
     progress: &dyn Fn(&str),
 ) -> crate::Result<BuiltPanorama> {
     let built = layering::build(rgbd, &s.options, progress)?;
+    let manifest = layering::manifest(&built, rgbd.mapping.kind(), s.options.freedom_radius, transforms(s));
+    let layers = built.layers.into_iter().map(|l| l.image).collect();
+    Ok(BuiltPanorama { manifest, layers, report: built.report })
+}
+
+/// The manifest's transforms of a build: the centre (`--center`), then the input's convention.
+fn transforms(s: &BuildSettings) -> Vec<Transform> {
     let mut transforms = Vec::new();
     if let Some(c) = s.center {
         transforms.push(Transform::Translate(c.to_array()));
     }
     transforms.extend(s.convention.transforms());
-    let manifest = layering::manifest(&built, rgbd.mapping.kind(), s.options.freedom_radius, transforms);
-    let layers = built.layers.into_iter().map(|l| l.image).collect();
-    Ok(BuiltPanorama { manifest, layers, report: built.report })
+    transforms
 }
 
 /// Build from images in memory: `colour` interleaved RGB and `depth` (stored values, read with

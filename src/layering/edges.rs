@@ -5,7 +5,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::continuity::continuous_with;
-use crate::mapping::{opposite, Neighbours, OFFSETS};
+use crate::mapping::{opposite, Neighbours, PixelDirs, OFFSETS};
 
 /// Tuning of the discontinuity tests.
 #[derive(Clone, Copy, Debug)]
@@ -244,7 +244,14 @@ fn depth_link(nb: &Neighbours, depth: &[f32], x: usize, y: usize, k: usize, o: &
 /// taken on the side where the surface runs straighter (its next difference turns least), so a
 /// crease gives each side its own plane's normal instead of a blurred average that would hide
 /// the fold; differences never cross a depth jump. Zero where no estimate exists.
-pub fn estimate_normals(nb: &Neighbours, links: &Links, points: &[Vec3]) -> Vec<Vec3> {
+pub fn estimate_normals(nb: &Neighbours, links: &Links, dirs: &PixelDirs, depth: &[f32]) -> Vec<Vec3> {
+    // 3D points of the pixels (panorama frame); non-finite where the depth is not a finite
+    // distance. Stored for the stage: each is looked up from up to 17 pixels.
+    let points: Vec<Vec3> = (0..depth.len())
+        .into_par_iter()
+        .map(|p| if depth[p] > 0.0 && depth[p].is_finite() { dirs.at(p) * depth[p] } else { Vec3::NAN })
+        .collect();
+    let point = |p: usize| points[p];
     (0..nb.len())
         .into_par_iter()
         .map(|p| {
@@ -252,13 +259,15 @@ pub fn estimate_normals(nb: &Neighbours, links: &Links, points: &[Vec3]) -> Vec<
             // The neighbour `k` of `p`, and the one after it, when they lie on the same surface.
             let step = |k: usize| -> Option<(usize, Vec3)> {
                 let q = nb.get_at(x, y, k).filter(|_| links.continuous(p, k))?;
-                points[q].is_finite().then_some((q, points[q]))
+                let pq = point(q);
+                pq.is_finite().then_some((q, pq))
             };
             let step2 = |q: usize, k: usize| -> Option<Vec3> {
                 let r = nb.get2_at(x, y, k).filter(|_| links.continuous(q, k))?;
-                points[r].is_finite().then_some(points[r])
+                let pr = point(r);
+                pr.is_finite().then_some(pr)
             };
-            let c = points[p];
+            let c = point(p);
             if !c.is_finite() {
                 return Vec3::ZERO;
             }
@@ -300,14 +309,6 @@ pub fn estimate_normals(nb: &Neighbours, links: &Links, points: &[Vec3]) -> Vec<
                 _ => Vec3::ZERO,
             }
         })
-        .collect()
-}
-
-/// 3D points of the pixels (panorama frame); non-finite where the depth is not a finite distance.
-pub fn points(dirs: &[Vec3], depth: &[f32]) -> Vec<Vec3> {
-    dirs.par_iter()
-        .zip(depth)
-        .map(|(&d, &z)| if z > 0.0 && z.is_finite() { d * z } else { Vec3::NAN })
         .collect()
 }
 

@@ -8,6 +8,7 @@
 
 pub(crate) mod edges;
 pub(crate) mod fill;
+mod images;
 pub mod input;
 mod pieces;
 pub(crate) mod segment;
@@ -24,9 +25,11 @@ use crate::continuity;
 use crate::layer::{LayerImage, SampleType, OUTSIDE_DEPTH};
 use crate::manifest::{LayerDecl, Manifest, MappingDecl, Role, Transform};
 use crate::mapping::{opposite, Neighbours};
-use crate::mapping::{AnyMapping, Mapping, MappingKind};
+use crate::mapping::{AnyMapping, Mapping, MappingKind, PixelDirs};
 pub use edges::EdgeOptions;
 use fill::{fill_layer, FillContext};
+use images::layer_heads;
+pub use images::{manifest, Layered};
 use pieces::*;
 pub use segment::SegmentOptions;
 use segment::{segment, NO_SEGMENT};
@@ -130,7 +133,7 @@ struct LayerKey {
 fn segment_classes(
     seg: &segment::Segments,
     normals: &[Vec3],
-    dirs: &[Vec3],
+    dirs: &PixelDirs,
     depth: &[f32],
 ) -> Vec<SurfaceClass> {
     let count = seg.size.len();
@@ -140,7 +143,7 @@ fn segment_classes(
         let s = seg.id[p];
         if s != NO_SEGMENT {
             sum_n[s as usize] += normals[p];
-            sum_z[s as usize] += (dirs[p].z * depth[p]) as f64;
+            sum_z[s as usize] += (dirs.at(p).z * depth[p]) as f64;
         }
     }
     let (cos_flat, sin_vertical) = (25f32.to_radians().cos(), 25f32.to_radians().sin());
@@ -337,12 +340,22 @@ impl<'a> Stages<'a> {
 
 /// Build layers from an RGB-D panorama. `progress` is told each stage's name as it starts.
 pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Result<Built, BuildError> {
+    layer(input, o, progress).map(Layered::into_built)
+}
+
+/// [`build`] up to the layer images: every stage but making the images (the `images` stage then
+/// only names the layers and measures their depths).
+pub fn layer<'a>(
+    input: &'a RgbdInput,
+    o: &BuildOptions,
+    progress: &dyn Fn(&str),
+) -> Result<Layered<'a>, BuildError> {
     check_input(input, o)?;
     let m = input.mapping;
     let n = m.width() * m.height();
     let mut stages = Stages::new(progress);
     let nb = Neighbours::new(m);
-    let dirs = pixel_dirs(&m);
+    let dirs = PixelDirs::new(m);
 
     // (1) Depth classes. Unknown → NaN; far content → +inf (direction only).
     stages.start("classify");
@@ -380,21 +393,26 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         rgb: &input.rgb,
     };
     let fills = fill_all(&cx, count, o.fill_colour, &mut stages);
+    let segments = seg.size.len();
+    // What the images do not need goes before they are made.
+    drop((seg, links, dirs, nb));
 
-    // (7) Images, names, roles, order.
+    // (7) Names, roles, order and depths; the images themselves on demand.
     stages.start("images");
-    let layers = built_layers(input, o, &keys, first, &fills, (&depth, &normals, &layer_of));
-    let covered = (0..n).filter(|&p| layer_of[p] != u32::MAX).count();
+    let (heads, index) = layer_heads(&keys, first, &fills, &depth, &layer_of);
+    let fills = fills.into_iter().enumerate().filter(|(k, _)| index.contains(&(*k as u32))).map(|(_, f)| f);
+    let fills: Vec<fill::Fill> = fills.collect();
+    let covered = layer_of.par_iter().filter(|&&l| l != u32::MAX).count();
     let max_band_deg = fills.iter().map(|f| f.max_angle).fold(0.0, f64::max).to_degrees();
     let report = BuildReport {
         width: m.width(),
         height: m.height(),
         stages: stages.finish(),
-        layers: layers.iter().map(LayerStats::of).collect(),
+        layers: heads.iter().map(LayerStats::of).collect(),
         coverage: covered as f64 / n as f64,
         unknown_pixels,
         mixed_pixels,
-        segments: seg.size.len(),
+        segments,
         d_dirmin: dmin,
         max_band_deg,
         freedom_radius: o.freedom_radius,
@@ -402,7 +420,8 @@ pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Re
         fold_deg: o.segment.edges.fold_deg,
         margin_px: o.margin_px,
     };
-    Ok(Built { layers, layer_of, report })
+    let normals = if o.normals_out { normals } else { Vec::new() };
+    Ok(Layered { input, depth, normals, layer_of, heads, fills, index, normals_out: o.normals_out, report })
 }
 
 /// The input's planes all of one size, and the freedom radius usable.
@@ -489,23 +508,23 @@ fn normals(
     input: &RgbdInput,
     nb: &Neighbours,
     links: &edges::Links,
-    dirs: &[Vec3],
+    dirs: &PixelDirs,
     depth: &[f32],
 ) -> Vec<Vec3> {
     match &input.normals {
         Some(given) if given.len() == depth.len() => given
             .par_iter()
-            .zip(dirs)
-            .map(|(&nv, &d)| {
+            .enumerate()
+            .map(|(p, &nv)| {
                 let nv = nv.normalize_or_zero();
-                if nv.dot(d) > 0.0 {
+                if nv.dot(dirs.at(p)) > 0.0 {
                     -nv
                 } else {
                     nv
                 }
             })
             .collect(),
-        _ => edges::estimate_normals(nb, links, &edges::points(dirs, depth)),
+        _ => edges::estimate_normals(nb, links, dirs, depth),
     }
 }
 
@@ -516,56 +535,74 @@ fn assign_layers(
     nb: &Neighbours,
     seg: &segment::Segments,
     normals: &[Vec3],
-    dirs: &[Vec3],
+    dirs: &PixelDirs,
     depth: &mut [f32],
 ) -> (Vec<LayerKey>, Vec<u32>, u32) {
-    let n = depth.len();
-    let has_infinity = depth.iter().any(|d| d.is_infinite());
-    let mut pixel_keys = keys_of_pixels(o, seg, normals, dirs, depth);
-    let (piece, piece_size) = pieces(nb, depth, &seg.id, &seg.size);
-    let part = parts(nb, depth, &piece, &piece_size, &pixel_keys);
-    if part.iter().any(|&c| c != 0) {
-        pixel_keys.par_iter_mut().zip(&piece).for_each(|(k, &s)| {
-            if let Some(k) = k {
-                k.part = part[s as usize];
-            }
-        });
-    }
-    let mut keys = distinct(&pixel_keys);
-    if keys.is_empty() && !has_infinity {
-        // All unknown: one background layer.
-        keys.push(LayerKey { level: 0, band_rev: 0, class: SurfaceClass::Any, part: 0 });
-    }
-    let first = has_infinity as u32;
-    let mut layer_of: Vec<u32> = (0..n)
-        .into_par_iter()
-        .map(|p| match pixel_keys[p] {
-            Some(k) => first + keys.binary_search(&k).expect("key collected") as u32,
-            None if depth[p].is_infinite() => 0,
-            None => u32::MAX,
-        })
-        .collect();
+    let (keys, mut layer_of, first) = keyed_layers(o, nb, seg, normals, dirs, depth);
     assign_unknown(nb, depth, &mut layer_of, first);
     repair_breaks(nb, depth, &mut layer_of);
     (keys, layer_of, first)
 }
 
-/// Each pixel's layer key before parts: its segment's level, depth band (far to near) and, with
-/// `classify = geometry`, the background's surface class; `None` outside every segment.
-fn keys_of_pixels(
+/// Each pixel's layer before unknown depths join one: the layer keys (after the infinity
+/// layer, when there is one), the layer of each pixel (`u32::MAX`: none) and the index of the
+/// first keyed layer.
+fn keyed_layers(
     o: &BuildOptions,
+    nb: &Neighbours,
     seg: &segment::Segments,
     normals: &[Vec3],
-    dirs: &[Vec3],
+    dirs: &PixelDirs,
     depth: &[f32],
-) -> Vec<Option<LayerKey>> {
+) -> (Vec<LayerKey>, Vec<u32>, u32) {
+    let n = depth.len();
+    let has_infinity = depth.iter().any(|d| d.is_infinite());
+    // Keys as indices into the distinct keys before parts (4 bytes a pixel, not 16).
+    let key_of = keys_of_pixels(o, seg, normals, dirs, depth);
+    let unparted = distinct(n, &key_of);
+    let key_index: Vec<u32> = (0..n)
+        .into_par_iter()
+        .map(|p| key_of(p).map_or(u32::MAX, |k| unparted.binary_search(&k).expect("key collected") as u32))
+        .collect();
+    let (piece, piece_size) = pieces(nb, depth, &seg.id, &seg.size);
+    let part = parts(nb, depth, &piece, &piece_size, |p| Some(key_index[p]).filter(|&i| i != u32::MAX));
+    let key_of = |p: usize| {
+        let i = key_index[p];
+        (i != u32::MAX).then(|| LayerKey { part: part[piece[p] as usize], ..unparted[i as usize] })
+    };
+    let mut keys = distinct(n, &key_of);
+    if keys.is_empty() && !has_infinity {
+        // All unknown: one background layer.
+        keys.push(LayerKey { level: 0, band_rev: 0, class: SurfaceClass::Any, part: 0 });
+    }
+    let first = has_infinity as u32;
+    let layer_of: Vec<u32> = (0..n)
+        .into_par_iter()
+        .map(|p| match key_of(p) {
+            Some(k) => first + keys.binary_search(&k).expect("key collected") as u32,
+            None if depth[p].is_infinite() => 0,
+            None => u32::MAX,
+        })
+        .collect();
+    (keys, layer_of, first)
+}
+
+/// Each pixel's layer key before parts: its segment's level, depth band (far to near) and, with
+/// `classify = geometry`, the background's surface class; `None` outside every segment.
+fn keys_of_pixels<'a>(
+    o: &'a BuildOptions,
+    seg: &'a segment::Segments,
+    normals: &[Vec3],
+    dirs: &PixelDirs,
+    depth: &'a [f32],
+) -> impl Fn(usize) -> Option<LayerKey> + Sync + 'a {
     let band_of = |d: f32| o.depth_bands.iter().filter(|&&b| (d as f64) >= b).count() as u32;
     let nbands = o.depth_bands.len() as u32 + 1;
     let class = match o.classify {
         Classify::Depth => vec![SurfaceClass::Any; seg.size.len()],
         Classify::Geometry => segment_classes(seg, normals, dirs, depth),
     };
-    let key_of = |p: usize| -> Option<LayerKey> {
+    move |p: usize| -> Option<LayerKey> {
         let s = seg.id[p];
         if s == NO_SEGMENT {
             return None;
@@ -577,17 +614,16 @@ fn keys_of_pixels(
             class: if level == 0 { class[s as usize] } else { SurfaceClass::Any },
             part: 0,
         })
-    };
-    (0..depth.len()).into_par_iter().map(key_of).collect()
+    }
 }
 
-/// The distinct keys, in order.
-fn distinct(pixel_keys: &[Option<LayerKey>]) -> Vec<LayerKey> {
-    pixel_keys
-        .par_iter()
-        .fold(std::collections::BTreeSet::new, |mut set, k| {
-            if let Some(k) = k {
-                set.insert(*k);
+/// The distinct keys of pixels `0..n`, in order.
+fn distinct(n: usize, key_of: &(impl Fn(usize) -> Option<LayerKey> + Sync)) -> Vec<LayerKey> {
+    (0..n)
+        .into_par_iter()
+        .fold(std::collections::BTreeSet::new, |mut set, p| {
+            if let Some(k) = key_of(p) {
+                set.insert(k);
             }
             set
         })
@@ -597,169 +633,6 @@ fn distinct(pixel_keys: &[Option<LayerKey>]) -> Vec<LayerKey> {
         })
         .into_iter()
         .collect()
-}
-
-/// Step 7: each layer's image, name and role, farthest first; layers with no pixel left out.
-fn built_layers(
-    input: &RgbdInput,
-    o: &BuildOptions,
-    keys: &[LayerKey],
-    first: u32,
-    fills: &[fill::Fill],
-    (depth, normals, layer_of): (&[f32], &[Vec3], &[u32]),
-) -> Vec<BuiltLayer> {
-    let mut layers = Vec::new();
-    let mut name_count = std::collections::BTreeMap::<String, u32>::new();
-    for (k, f) in fills.iter().enumerate() {
-        let (base, role) = if first == 1 && k == 0 {
-            ("infinity".to_string(), Role::Infinity)
-        } else {
-            let key = keys[k - first as usize];
-            match (key.level, key.class) {
-                (0, SurfaceClass::Floor) => ("floor".to_string(), Role::Floor),
-                (0, SurfaceClass::Ceiling) => ("ceiling".to_string(), Role::Ceiling),
-                (0, SurfaceClass::Wall) => ("walls".to_string(), Role::Wall),
-                (0, SurfaceClass::Any) => ("background".to_string(), Role::Background),
-                (level, _) => (format!("objects-{level}"), Role::Object),
-            }
-        };
-        // Depth bands give several layers of one kind: number them.
-        let idx = name_count.entry(base.clone()).or_default();
-        *idx += 1;
-        let name = if *idx > 1 { format!("{base}-{idx}") } else { base };
-        let layer = layer_image(input, depth, normals, layer_of, k as u32, f, o.normals_out);
-        layers.push(BuiltLayer {
-            name,
-            role,
-            order: k as u32,
-            own_pixels: layer_of.iter().filter(|&&l| l == k as u32).count(),
-            filled_pixels: f.pixels.len() - f.border,
-            depth_range: finite_range(layer.depth().unwrap_or_default()),
-            image: layer,
-        });
-    }
-    // Leave out what the scene does not need: a layer with no pixel is dropped.
-    layers.retain(|l| l.own_pixels + l.filled_pixels > 0);
-    for (k, l) in layers.iter_mut().enumerate() {
-        l.order = k as u32;
-    }
-    layers
-}
-
-/// Unit direction of every pixel centre. The equirect is separable (per-column azimuth, per-row
-/// polar angle), which saves two thirds of the trigonometry on big canvases.
-pub fn pixel_dirs(m: &AnyMapping) -> Vec<Vec3> {
-    let (w, h) = (m.width(), m.height());
-    match m {
-        AnyMapping::Equirect(_) => {
-            let cols: Vec<(f64, f64)> = (0..w)
-                .map(|i| {
-                    let d = m.pixel_dir(i, h / 2);
-                    let r = d.x.hypot(d.y);
-                    (d.x / r, d.y / r)
-                })
-                .collect();
-            let rows: Vec<(f64, f64)> = (0..h)
-                .map(|j| {
-                    let d = m.pixel_dir(0, j);
-                    (d.x.hypot(d.y), d.z)
-                })
-                .collect();
-            (0..w * h)
-                .into_par_iter()
-                .map(|p| {
-                    let ((c, s), (st, ct)) = (cols[p % w], rows[p / w]);
-                    Vec3::new((st * c) as f32, (st * s) as f32, ct as f32)
-                })
-                .collect()
-        }
-        AnyMapping::Cube(_) => {
-            (0..w * h).into_par_iter().map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect()
-        }
-    }
-}
-
-/// The image of layer `k`: its own pixels (as seen from the centre) plus its fill.
-fn layer_image(
-    input: &RgbdInput,
-    depth: &[f32],
-    normals: &[Vec3],
-    layer_of: &[u32],
-    k: u32,
-    fill: &fill::Fill,
-    with_normals: bool,
-) -> LayerImage {
-    let m = input.mapping;
-    let n = m.width() * m.height();
-    let (mut z, src): (Vec<f32>, Vec<usize>) = (0..n)
-        .into_par_iter()
-        .map(|p| if layer_of[p] == k { (depth[p], p) } else { (OUTSIDE_DEPTH, usize::MAX) })
-        .unzip();
-    // The continued surface's normal, not the colour source's (elsewhere on the surface).
-    let mut normal_src = if with_normals { src.clone() } else { Vec::new() };
-    for f in &fill.pixels {
-        z[f.pixel] = f.depth;
-        if with_normals {
-            normal_src[f.pixel] = f.surface;
-        }
-    }
-    let mut img = LayerImage::new(m.width(), m.height());
-    let half = |v: f32| half::f16::from_f32(v).to_f32();
-    for (c, name) in ["R", "G", "B"].iter().enumerate() {
-        let mut data: Vec<f32> =
-            src.par_iter().map(|&s| if s == usize::MAX { 0.0 } else { half(input.rgb[c][s]) }).collect();
-        for f in &fill.pixels {
-            data[f.pixel] = half(f.rgb[c]);
-        }
-        img.set_channel(name, SampleType::F16, data);
-    }
-    img.set_channel("Z", SampleType::F32, z);
-    if with_normals {
-        for (c, name) in ["N.X", "N.Y", "N.Z"].iter().enumerate() {
-            let data = normal_src
-                .iter()
-                .map(|&s| if s == usize::MAX { 0.0 } else { half(normals[s].to_array()[c]) })
-                .collect();
-            img.set_channel(name, SampleType::F16, data);
-        }
-    }
-    img
-}
-
-fn finite_range(z: &[f32]) -> Option<(f32, f32)> {
-    let mut r: Option<(f32, f32)> = None;
-    for &d in z {
-        if d > 0.0 && d.is_finite() {
-            r = Some(match r {
-                Some((lo, hi)) => (lo.min(d), hi.max(d)),
-                None => (d, d),
-            });
-        }
-    }
-    r
-}
-
-/// A manifest for built layers: one native EXR per layer named after it, painter's order,
-/// roles and depth ranges.
-pub fn manifest(
-    built: &Built,
-    kind: MappingKind,
-    freedom_radius: f64,
-    transforms: Vec<Transform>,
-) -> Manifest {
-    let layers = built
-        .layers
-        .iter()
-        .map(|l| {
-            let mut d = LayerDecl::native(&format!("{}.exr", l.name));
-            d.name = Some(l.name.clone());
-            d.role = Some(l.role);
-            d.order = Some(l.order);
-            d.depth_range = l.depth_range;
-            d
-        })
-        .collect();
-    Manifest { version: "1".into(), transforms, mapping: MappingDecl { kind }, freedom_radius, layers }
 }
 
 #[cfg(test)]

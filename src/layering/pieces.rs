@@ -162,9 +162,9 @@ pub(super) fn parts(
     depth: &[f32],
     piece: &[u32],
     size: &[u32],
-    keys: &[Option<LayerKey>],
+    key: impl Fn(usize) -> Option<u32> + Sync,
 ) -> Vec<u32> {
-    let mut conflicts: Vec<(u32, u32)> = breaks(nb, depth, |p| keys[p])
+    let mut conflicts: Vec<(u32, u32)> = breaks(nb, depth, key)
         .into_iter()
         .filter(|&(p, q)| piece[p] != piece[q])
         .map(|(p, q)| (piece[p].min(piece[q]), piece[p].max(piece[q])))

@@ -92,7 +92,7 @@ impl Shadow {
 
     /// Log ratio of the light at pixel `p` to that at `source`, the pixel it copies.
     pub(super) fn transfer(&self, tx: &FillContext, p: usize, source: usize) -> f32 {
-        self.log_at(tx.dirs[p]) - self.log_at(tx.dirs[source])
+        self.log_at(tx.dirs.at(p)) - self.log_at(tx.dirs.at(source))
     }
 
     /// The shading `g` (log ratio, interpolated from the ring less the shadow) of filled pixel `p`
@@ -302,8 +302,8 @@ pub(super) fn fit(
     let samples: Vec<Sample> = samples
         .iter()
         .filter_map(|&(p, q, y)| {
-            let at = frame.coords(tx.dirs[p])?;
-            Some(Sample { at, source: frame.coords(tx.dirs[q]).unwrap_or(far), y })
+            let at = frame.coords(tx.dirs.at(p))?;
+            Some(Sample { at, source: frame.coords(tx.dirs.at(q)).unwrap_or(far), y })
         })
         .collect();
     let plane = LightPlane::new(&samples)?;
@@ -339,11 +339,11 @@ fn frame_about(
     radius: f32,
     alpha: f32,
 ) -> Option<Frame> {
-    let c = hole.iter().map(|&p| tx.dirs[p]).sum::<Vec3>().normalize_or_zero();
+    let c = hole.iter().map(|&p| tx.dirs.at(p)).sum::<Vec3>().normalize_or_zero();
     let (e1, e2) = c.any_orthonormal_pair();
     let (mut lo, mut hi) = ((f32::MAX, f32::MAX), (f32::MIN, f32::MIN));
     for &p in hole.iter().chain(samples.iter().map(|s| &s.0)) {
-        let d = tx.dirs[p];
+        let d = tx.dirs.at(p);
         let z = d.dot(c);
         if z < MIN_COS {
             return None;

@@ -47,3 +47,53 @@ impl DirTable {
         }
     }
 }
+
+/// Pixel-centre unit directions in `f32` by row-major pixel index, for loops that look them up
+/// pixel by pixel: from the separable table on an equirect canvas (no per-pixel storage: 12 bytes a
+/// pixel less on big canvases), from a full table otherwise. Equal to
+/// `m.pixel_dir(i, j).as_vec3()` on cube maps and within an `f32` rounding of it on equirect ones.
+pub enum PixelDirs {
+    /// Equirect: [`DirTable::Equirect`]'s rows and columns, and the canvas width.
+    Separable {
+        /// Canvas width, pixels (divides pixel indices by multiplication).
+        width: strength_reduce::StrengthReducedUsize,
+        /// Per row: `(sin θ, cos θ)`.
+        rows: Vec<(f64, f64)>,
+        /// Per column: `(cos φ, sin φ)`.
+        cols: Vec<(f64, f64)>,
+    },
+    /// One direction per pixel.
+    Full(Vec<glam::Vec3>),
+}
+
+impl PixelDirs {
+    /// The directions of mapping `m`'s pixels.
+    pub fn new(m: AnyMapping) -> PixelDirs {
+        use rayon::prelude::*;
+        match DirTable::new(m) {
+            DirTable::Equirect { rows, cols } => PixelDirs::Separable {
+                width: strength_reduce::StrengthReducedUsize::new(m.width()),
+                rows,
+                cols,
+            },
+            DirTable::Generic(m) => {
+                let w = m.width();
+                let dir = |p: usize| m.pixel_dir(p % w, p / w).as_vec3();
+                PixelDirs::Full((0..w * m.height()).into_par_iter().map(dir).collect())
+            }
+        }
+    }
+
+    /// Unit direction through the centre of pixel `p` (row-major), `f32`.
+    #[inline(always)]
+    pub fn at(&self, p: usize) -> glam::Vec3 {
+        match self {
+            PixelDirs::Separable { width, rows, cols } => {
+                let (j, i) = strength_reduce::StrengthReducedUsize::div_rem(p, *width);
+                let ((st, ct), (cp, sp)) = (rows[j], cols[i]);
+                glam::Vec3::new((st * cp) as f32, (st * sp) as f32, ct as f32)
+            }
+            PixelDirs::Full(v) => v[p],
+        }
+    }
+}

@@ -19,7 +19,7 @@ pub mod layout;
 mod neighbours;
 
 pub use cube::{Cube3x2, CubeFace, FacePoint};
-pub use dirs::DirTable;
+pub use dirs::{DirTable, PixelDirs};
 pub use equirect::Equirect;
 pub use fast::fast_atan2;
 pub use neighbours::{opposite, Neighbours, OFFSETS};

@@ -16,7 +16,7 @@ use super::edges::Links;
 use rayon::prelude::*;
 
 use crate::continuity::continuous_with;
-use crate::mapping::{opposite, Neighbours};
+use crate::mapping::{opposite, Neighbours, PixelDirs};
 
 /// One filled pixel.
 mod surface;
@@ -55,7 +55,7 @@ pub struct FillContext<'a> {
     /// 8-neighbours of every pixel on the canvas (across the seam, poles and cube-face edges).
     pub nb: &'a Neighbours,
     /// Pixel-centre unit directions.
-    pub dirs: &'a [Vec3],
+    pub dirs: &'a PixelDirs,
     /// Input depth (+inf for infinitely far content).
     pub depth: &'a [f32],
     /// Unit normals facing the centre (zero = unknown).
@@ -138,31 +138,34 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     seeds.extend(fold_seeds);
     let reach: HashMap<usize, f64> =
         seeds.par_iter().map(|&s| (s, planar_reach(cx, &surfaces, k, s))).collect();
-    // The band search and the rival search are independent.
-    let ((src, angle_of, order), (slot_of, rivals)) = rayon::join(
-        || band(cx, k, &seeds, jump_seeds, &surfaces, &reach),
-        || rivals(cx, k, &seeds[..jump_seeds]),
-    );
+    // The band search and the rival search are independent. Their per-pixel tables go before
+    // the continuity pass allocates its own.
     let mut fill = Fill::default();
-    let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
     let mut own_plane: HashMap<usize, FillPixel> = HashMap::new();
-    for q in order {
-        let own = src[q] as usize;
-        // Pixels only fold seeds reach have no rivals.
-        let none = [NONE; RIVALS];
-        let rival = rivals.get(slot_of[q] as usize).unwrap_or(&none);
-        let Some((s, d)) = pick_surface(cx, &surfaces, own, rival, q) else { continue };
-        let mut pixel = |s: usize, depth: f32| {
-            let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
-            FillPixel { pixel: q, depth, rgb: cx.colour(c).to_array(), surface: s }
-        };
-        fill.pixels.push(pixel(s, d));
-        if s != own {
-            if let Some(d) = continue_surface(cx, &surfaces, own, q) {
-                own_plane.insert(q, pixel(own, d));
+    {
+        let ((src, angle_of, order), (slot_of, rivals)) = rayon::join(
+            || band(cx, k, &seeds, jump_seeds, &surfaces, &reach),
+            || rivals(cx, k, &seeds[..jump_seeds]),
+        );
+        let mut colour_of_seed: HashMap<usize, usize> = HashMap::new();
+        for q in order {
+            let own = src[q] as usize;
+            // Pixels only fold seeds reach have no rivals.
+            let none = [NONE; RIVALS];
+            let rival = rivals.get(slot_of[q] as usize).unwrap_or(&none);
+            let Some((s, d)) = pick_surface(cx, &surfaces, own, rival, q) else { continue };
+            let mut pixel = |s: usize, depth: f32| {
+                let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
+                FillPixel { pixel: q, depth, rgb: cx.colour(c).to_array(), surface: s }
+            };
+            fill.pixels.push(pixel(s, d));
+            if s != own {
+                if let Some(d) = continue_surface(cx, &surfaces, own, q) {
+                    own_plane.insert(q, pixel(own, d));
+                }
             }
+            fill.max_angle = fill.max_angle.max(f64::from(angle_of[q]));
         }
-        fill.max_angle = fill.max_angle.max(angle_of[q]);
     }
     keep_continuous(cx, k, &mut fill, own_plane);
     fill
@@ -185,7 +188,7 @@ fn band(
     jump_seeds: usize,
     surfaces: &Surfaces,
     reach: &HashMap<usize, f64>,
-) -> (Vec<u32>, Vec<f64>, Vec<usize>) {
+) -> (Vec<u32>, Vec<f32>, Vec<usize>) {
     let n = cx.nb.len();
     // (1) The band: nearest seed within the parallax a camera in the freedom radius can open.
     // Breadth-first from the seeds; a pixel already claimed switches to a nearer (in angle)
@@ -193,7 +196,8 @@ fn band(
     // source drifts diagonally along a straight edge (the first seed to arrive wins) and the
     // band comes out up to √2 narrower than the parallax needs.
     let mut src = vec![NONE; n];
-    let mut angle_of = vec![0f64; n];
+    // Angles are `f32` arccosines: stored as such, exactly.
+    let mut angle_of = vec![0f32; n];
     let mut order = Vec::new();
     let mut queue: VecDeque<usize> = seeds[..jump_seeds].iter().copied().collect();
     // 1: jump seed, 2: fold seed.
@@ -221,11 +225,12 @@ fn band(
                 continue;
             }
             let first = src[q] == NONE;
-            let Some(angle) = claim_angle(cx, surfaces, reach, s, q, (!first).then(|| angle_of[q])) else {
+            let held = (!first).then(|| f64::from(angle_of[q]));
+            let Some(angle) = claim_angle(cx, surfaces, reach, s, q, held) else {
                 continue;
             };
             src[q] = s as u32;
-            angle_of[q] = angle;
+            angle_of[q] = angle as f32;
             if first {
                 order.push(q);
             }
@@ -245,7 +250,7 @@ fn claim_angle(
     q: usize,
     held: Option<f64>,
 ) -> Option<f64> {
-    let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
+    let angle = cx.dirs.at(q).dot(cx.dirs.at(s)).clamp(-1.0, 1.0).acos() as f64;
     // Strictly nearer (beyond rounding) or no switch: every switch lowers a pixel's angle, so the
     // propagation ends.
     let refused = held.is_some_and(|h| angle >= h - 1e-9)
@@ -591,7 +596,7 @@ fn pick_surface(
         }
         let a = cur.0;
         let (na, nb) = (cx.normals[a], cx.normals[b]);
-        let (pa, pb) = (cx.dirs[a] * cx.depth[a], cx.dirs[b] * cx.depth[b]);
+        let (pa, pb) = (cx.dirs.at(a) * cx.depth[a], cx.dirs.at(b) * cx.depth[b]);
         // One segment's two faces (a segment can leak round a crease) share one centroid,
         // which tells nothing: their seeds stand in.
         let (ca, cb) = if cx.surface[a] == cx.surface[b] {

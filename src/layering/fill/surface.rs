@@ -77,9 +77,11 @@ pub(super) fn planar_reach(cx: &FillContext, surfaces: &Surfaces, k: u32, s: usi
             let t = plane_depth(cx, s, n, q);
             let turned = cx.normals[q] != Vec3::ZERO && cx.normals[q].dot(n) < SAME_PLANE_COS;
             if turned
-                || !(n.dot(cx.dirs[q]) < 0.0 && t.is_finite() && (t - dq).abs() <= cx.plane_tol as f32 * dq)
+                || !(n.dot(cx.dirs.at(q)) < 0.0
+                    && t.is_finite()
+                    && (t - dq).abs() <= cx.plane_tol as f32 * dq)
             {
-                let angle = cx.dirs[q].dot(cx.dirs[s]).clamp(-1.0, 1.0).acos() as f64;
+                let angle = cx.dirs.at(q).dot(cx.dirs.at(s)).clamp(-1.0, 1.0).acos() as f64;
                 reach = reach.min(angle);
                 break;
             }
@@ -137,7 +139,7 @@ impl Surfaces {
                     far.resize(id + 1, 0.0);
                 }
                 far[id] = far[id].max(d);
-                sums[id].0 += cx.dirs[p] * d;
+                sums[id].0 += cx.dirs.at(p) * d;
                 sums[id].1 += 1;
             }
         }
@@ -219,7 +221,7 @@ pub(super) fn plane_hit_with(
     if !ds.is_finite() || nrm == Vec3::ZERO {
         return None;
     }
-    if nrm.dot(cx.dirs[q]) > -1e-3 {
+    if nrm.dot(cx.dirs.at(q)) > -1e-3 {
         return None;
     }
     let t = plane_depth(cx, s, nrm, q);
@@ -230,7 +232,7 @@ pub(super) fn plane_hit_with(
 /// Distance along the ray through `q` to the plane through seed `s` with normal `nrm`.
 #[inline]
 pub(super) fn plane_depth(cx: &FillContext, s: usize, nrm: Vec3, q: usize) -> f32 {
-    nrm.dot(cx.dirs[s] * cx.depth[s]) / nrm.dot(cx.dirs[q])
+    nrm.dot(cx.dirs.at(s) * cx.depth[s]) / nrm.dot(cx.dirs.at(q))
 }
 
 /// The neighbour of a border pixel `s` that is deepest inside its layer (most neighbours in the

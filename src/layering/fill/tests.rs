@@ -7,7 +7,7 @@ use crate::mapping::{AnyMapping, Mapping, MappingKind};
 #[allow(clippy::too_many_arguments)]
 fn context<'a>(
     nb: &'a Neighbours,
-    dirs: &'a [Vec3],
+    dirs: &'a PixelDirs,
     depth: &'a [f32],
     normals: &'a [Vec3],
     layer_of: &'a [u32],
@@ -68,13 +68,15 @@ fn sphere_and_wall_reach(w: usize, dist: f32, wall: f32, az: f64) -> (f64, f64, 
     let at = |az: f64| (w / 4 * w) + ((az.to_radians() / pixel) as usize);
     let (on_sphere, on_wall) = (at(az), at(40.0));
     assert_eq!((surface[on_sphere], surface[on_wall]), (1, 0));
-    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let pdirs = PixelDirs::Full(dirs.clone());
+    let cx = context(&nb, &pdirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
     let surfaces = Surfaces::new(&cx, 0, [on_sphere, on_wall].into_iter());
     let sphere = planar_reach(&cx, &surfaces, 0, on_sphere) / pixel;
     let wall = planar_reach(&cx, &surfaces, 0, on_wall) / pixel;
     // A seed without a normal of its own (at an object's outline) is limited by the one it borrows.
     normals[on_sphere] = Vec3::ZERO;
-    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let pdirs = PixelDirs::Full(dirs.clone());
+    let cx = context(&nb, &pdirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
     let surfaces = Surfaces::new(&cx, 0, [on_sphere].into_iter());
     let borrowed = planar_reach(&cx, &surfaces, 0, on_sphere) / pixel;
     eprintln!("{dist} m: sphere reach {sphere:.1} px, without a normal {borrowed:.1} px; wall {wall} px");
@@ -100,7 +102,7 @@ fn a_curved_surface_is_continued_only_as_far_as_its_plane_fits() {
 /// hidden by a nearer layer 1 m away: the planes of a fill context.
 struct Blocked {
     nb: Neighbours,
-    dirs: Vec<Vec3>,
+    dirs: PixelDirs,
     depth: Vec<f32>,
     layer_of: Vec<u32>,
     links: Links,
@@ -119,7 +121,7 @@ impl Blocked {
         let (m, w, n, nb) = equirect(64);
         let depth: Vec<f32> = (0..n).map(|p| if in_block(p) { 1.0 } else { wall(p) }).collect();
         Blocked {
-            dirs: (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect(),
+            dirs: PixelDirs::Full((0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect()),
             layer_of: (0..n).map(|p| in_block(p) as u32).collect(),
             links: Links::compute(&nb, &depth, &EdgeOptions::default()),
             normals: vec![Vec3::ZERO; n],
@@ -192,7 +194,8 @@ fn specks_without_a_plane_seed_no_fill() {
     let links = Links::compute(&nb, &depth, &EdgeOptions::default());
     let normals = vec![Vec3::ZERO; n];
     let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
-    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let pdirs = PixelDirs::Full(dirs.clone());
+    let cx = context(&nb, &pdirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
     let fill = fill_layer(&cx, 0);
     let screen = fill.pixels.iter().filter(|f| f.depth < 2.0).count();
     eprintln!("{} filled, {screen} at the specks' depth", fill.pixels.len());
@@ -204,7 +207,8 @@ fn specks_without_a_plane_seed_no_fill() {
     let depth: Vec<f32> = (0..n).map(|p| if hidden(p) { 1.0 } else { 3.0 }).collect();
     let surface: Vec<u32> = (0..n).map(|p| if ring(p) { u32::MAX } else { hidden(p) as u32 }).collect();
     let links = Links::compute(&nb, &depth, &EdgeOptions::default());
-    let cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let pdirs = PixelDirs::Full(dirs.clone());
+    let cx = context(&nb, &pdirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
     let unknown = fill_layer(&cx, 0);
     eprintln!("{} filled from a ring of unknown depth", unknown.pixels.len());
     assert!(unknown.pixels.len() > 100, "the ring of unknown depth seeds the fill");
@@ -239,7 +243,8 @@ fn a_seed_whose_plane_misses_leaves_the_pixel_to_one_whose_plane_meets_it() {
     }
     let links = Links::compute(&nb, &depth, &EdgeOptions::default());
     let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
-    let mut cx = context(&nb, &dirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let pdirs = PixelDirs::Full(dirs.clone());
+    let mut cx = context(&nb, &pdirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
     // Every part of the block is within the radius: the whole of it may be filled.
     cx.freedom_radius = 2.95;
     let fill = fill_layer(&cx, 0);

@@ -75,9 +75,9 @@ impl FillContext<'_> {
     #[inline]
     fn point(&self, p: usize, depth: f32) -> Vec3 {
         if depth.is_finite() {
-            self.dirs[p] * depth
+            self.dirs.at(p) * depth
         } else {
-            self.dirs[p]
+            self.dirs.at(p)
         }
     }
 }
@@ -95,7 +95,7 @@ struct Plane {
 
 impl Plane {
     fn new(tx: &FillContext, q: usize, depth: f32, surface: usize) -> Plane {
-        let dq = tx.dirs[q];
+        let dq = tx.dirs.at(q);
         let finite = depth.is_finite();
         let ns = tx.normals[surface];
         let n = if finite && ns.dot(dq) < -0.05 { ns } else { -dq };
@@ -209,7 +209,7 @@ fn along_elevation(tx: &FillContext, clean: &[bool], fill: &Fill) -> Vec<Option<
     let quantum = 0.25 * alpha;
     let mut circles: std::collections::BTreeMap<i64, Vec<usize>> = Default::default();
     for (i, f) in fill.pixels.iter().enumerate().filter(|(_, f)| f.depth.is_infinite()) {
-        let z = f64::from(tx.dirs[f.pixel].z).clamp(-1.0, 1.0);
+        let z = f64::from(tx.dirs.at(f.pixel).z).clamp(-1.0, 1.0);
         circles.entry((z.asin() / quantum).round() as i64).or_default().push(i);
     }
     let circles: Vec<(i64, Vec<usize>)> = circles.into_iter().collect();
@@ -220,7 +220,7 @@ fn along_elevation(tx: &FillContext, clean: &[bool], fill: &Fill) -> Vec<Option<
             members
                 .iter()
                 .filter_map(|&i| {
-                    let d = tx.dirs[fill.pixels[i].pixel].as_dvec3();
+                    let d = tx.dirs.at(fill.pixels[i].pixel).as_dvec3();
                     circle.as_mut()?.colour(d.y.atan2(d.x)).map(|c| (i, c))
                 })
                 .collect::<Vec<_>>()
@@ -545,7 +545,7 @@ fn on_plane(tx: &FillContext, plane: &Plane, p: usize) -> bool {
     if !d.is_finite() || d <= 0.0 {
         return false;
     }
-    let point = tx.dirs[p] * d;
+    let point = tx.dirs.at(p) * d;
     (plane.n.dot(point - plane.x)).abs() <= PLANE_TOL * d.max(plane.x.length())
 }
 
