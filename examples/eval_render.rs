@@ -37,7 +37,7 @@ struct Systems {
 fn systems(scene: &Scene, width: usize) -> Res<Systems> {
     let mapping = AnyMapping::new(MappingKind::Equirect, width, width / 2)?;
     let r = render_on(scene, &mapping);
-    let built = layering::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {})?;
+    let built = layering::build(rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {})?;
     Ok(Systems {
         mapping,
         layered: built.layers.into_iter().map(|l| l.image).collect(),

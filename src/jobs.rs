@@ -113,12 +113,13 @@ pub fn build_panorama_with_progress(
     progress(PREPARE_STAGE);
     let (rgbd, prepare) = files.prepare(depth, &s.depth, &s.prepare)?;
     let prepare_s = t.elapsed().as_secs_f64();
-    let layered = layering::layer(&rgbd, &s.options, progress)?;
+    let kind = rgbd.mapping.kind();
+    let layered = layering::layer(rgbd, &s.options, progress)?;
     let build_s = t.elapsed().as_secs_f64();
     progress(WRITING_STAGE);
     let t = Instant::now();
     // Each layer's image is made as it is written: one full canvas in memory at a time.
-    let manifest = layered.manifest(rgbd.mapping.kind(), s.options.freedom_radius, transforms(s));
+    let manifest = layered.manifest(kind, s.options.freedom_radius, transforms(s));
     let manifest = panorama::write_panorama_with(output, &manifest, &|k| Ok(layered.image(k)), &s.save)?;
     let write_s = t.elapsed().as_secs_f64();
     let mut report = layered.report;
@@ -168,12 +169,13 @@ pub struct BuiltPanorama {
 
 /// Build from an RGB-D panorama already read ([`build_panorama`] without the files).
 pub fn build_rgbd(
-    rgbd: &layering::RgbdInput,
+    rgbd: layering::RgbdInput,
     s: &BuildSettings,
     progress: &dyn Fn(&str),
 ) -> crate::Result<BuiltPanorama> {
+    let kind = rgbd.mapping.kind();
     let built = layering::build(rgbd, &s.options, progress)?;
-    let manifest = layering::manifest(&built, rgbd.mapping.kind(), s.options.freedom_radius, transforms(s));
+    let manifest = layering::manifest(&built, kind, s.options.freedom_radius, transforms(s));
     let layers = built.layers.into_iter().map(|l| l.image).collect();
     Ok(BuiltPanorama { manifest, layers, report: built.report })
 }
@@ -251,7 +253,7 @@ fn prepare_and_build(
     let t = Instant::now();
     let (rgbd, prepare) = files.prepare(depth, &s.depth, &s.prepare)?;
     let prepare_s = t.elapsed().as_secs_f64();
-    let mut built = build_rgbd(&rgbd, s, progress)?;
+    let mut built = build_rgbd(rgbd, s, progress)?;
     built.report.stages.insert(0, (PREPARE_STAGE, prepare_s));
     Ok((built, prepare))
 }

@@ -9,8 +9,9 @@ use super::*;
 
 /// Layers decided and filled, their images not made yet: [`Layered::image`] makes one at a time
 /// (a writer then holds one full canvas, not all of them; see docs/benchmarks.md).
-pub struct Layered<'a> {
-    pub(super) input: &'a RgbdInput,
+pub struct Layered {
+    /// The input, its depth and normals let go.
+    pub(super) input: RgbdInput,
     pub(super) depth: Vec<f32>,
     /// Empty without [`BuildOptions::normals_out`].
     pub(super) normals: Vec<Vec3>,
@@ -25,7 +26,7 @@ pub struct Layered<'a> {
     pub report: BuildReport,
 }
 
-impl Layered<'_> {
+impl Layered {
     /// Number of layers (empty ones left out).
     pub fn len(&self) -> usize {
         self.heads.len()
@@ -40,7 +41,7 @@ impl Layered<'_> {
     pub fn image(&self, k: usize) -> LayerImage {
         let own = (&self.depth[..], &self.layer_of[..], self.index[k]);
         let normals = self.normals_out.then_some(&self.normals[..]);
-        layer_image(self.input, own, &self.fills[k], normals)
+        layer_image(&self.input, own, &self.fills[k], normals)
     }
 
     /// A manifest for these layers: one native EXR per layer named after it, painter's order,

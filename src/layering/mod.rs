@@ -339,18 +339,15 @@ impl<'a> Stages<'a> {
 }
 
 /// Build layers from an RGB-D panorama. `progress` is told each stage's name as it starts.
-pub fn build(input: &RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Result<Built, BuildError> {
+pub fn build(input: RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Result<Built, BuildError> {
     layer(input, o, progress).map(Layered::into_built)
 }
 
 /// [`build`] up to the layer images: every stage but making the images (the `images` stage then
-/// only names the layers and measures their depths).
-pub fn layer<'a>(
-    input: &'a RgbdInput,
-    o: &BuildOptions,
-    progress: &dyn Fn(&str),
-) -> Result<Layered<'a>, BuildError> {
-    check_input(input, o)?;
+/// only names the layers and measures their depths). The input's depth and normals are let go
+/// once read.
+pub fn layer(mut input: RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) -> Result<Layered, BuildError> {
+    check_input(&input, o)?;
     let m = input.mapping;
     let n = m.width() * m.height();
     let mut stages = Stages::new(progress);
@@ -359,13 +356,15 @@ pub fn layer<'a>(
 
     // (1) Depth classes. Unknown → NaN; far content → +inf (direction only).
     stages.start("classify");
-    let classified = classify(input, o, &nb);
+    let classified = classify(&input, o, &nb);
+    input.depth = Vec::new();
     let Classified { mut depth, links, mixed_pixels, dmin } = classified;
     let unknown_pixels = depth.iter().filter(|d| d.is_nan()).count();
 
     // (2) Normals.
     stages.start("normals");
-    let normals = normals(input, &nb, &links, &dirs, &depth);
+    let normals = normals(&input, &nb, &links, &dirs, &depth);
+    input.normals = None;
 
     // (3, 4) Links, segments, levels.
     stages.start("segments");

@@ -23,7 +23,7 @@ fn assignment_accuracy(b: &Built, r: &Rendered) -> f64 {
 
 fn check_room(m: AnyMapping, normals: bool) {
     let r = render_on(&Scene::room(), &m);
-    let b = layering::build(&rgbd_input(&r, m, normals), &BuildOptions::default(), &|_| {}).unwrap();
+    let b = layering::build(rgbd_input(&r, m, normals), &BuildOptions::default(), &|_| {}).unwrap();
     let acc = assignment_accuracy(&b, &r);
     assert!(acc >= 0.995, "{:?} normals={normals}: assignment accuracy {acc}", m.kind());
 
@@ -112,7 +112,7 @@ fn room_cube() {
 fn a_scene_without_discontinuities_gives_one_layer() {
     let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
     let r = render_on(&Scene { room: Scene::room().room, objects: vec![] }, &m);
-    let b = layering::build(&rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
+    let b = layering::build(rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
     assert_eq!(b.layers.len(), 1, "{:?}", b.report.layers);
     assert_eq!(b.layers[0].filled_pixels, 0);
     assert!(b.layers[0].image.channel("N.X").is_none(), "normals only when asked for");
@@ -158,7 +158,7 @@ fn stiff_scenes_stay_finite() {
                 inp.depth[p] = f32::INFINITY;
             }
         }
-        let b = layering::build(&inp, &BuildOptions::default(), &|_| {}).unwrap();
+        let b = layering::build(inp, &BuildOptions::default(), &|_| {}).unwrap();
         assert_eq!(b.report.coverage, 1.0, "scene {k}");
         for l in &b.layers {
             for c in &l.image.channels {
@@ -181,7 +181,7 @@ fn geometry_classification_separates_floor_ceiling_walls() {
     let m = AnyMapping::new(MappingKind::Equirect, 512, 256).unwrap();
     let r = render_on(&Scene::room(), &m);
     let options = BuildOptions { classify: layering::Classify::Geometry, ..BuildOptions::default() };
-    let b = layering::build(&rgbd_input(&r, m, false), &options, &|_| {}).unwrap();
+    let b = layering::build(rgbd_input(&r, m, false), &options, &|_| {}).unwrap();
     let roles: Vec<Role> = b.layers.iter().map(|l| l.role).collect();
     for role in [Role::Floor, Role::Ceiling, Role::Wall, Role::Object] {
         assert!(roles.contains(&role), "no {role:?} layer: {:?}", b.report.layers);
@@ -226,7 +226,7 @@ fn anti_aliased_depth_keeps_walls_behind_objects() {
         depth: filter(&hi.depth),
         normals: None,
     };
-    let b = layering::build(&input, &BuildOptions::default(), &|_| {}).unwrap();
+    let b = layering::build(input.clone(), &BuildOptions::default(), &|_| {}).unwrap();
     assert!(b.report.mixed_pixels > 500, "mixed pixels: {}", b.report.mixed_pixels);
     let own = |b: &Built, role: Role| -> usize {
         b.layers.iter().filter(|l| l.role == role).map(|l| l.own_pixels).sum()
@@ -250,7 +250,7 @@ fn anti_aliased_depth_keeps_walls_behind_objects() {
     // occludes itself still keeps the objects in front (before it, 0.085 against 0.119: a good
     // part of them went to the background here).
     let kept =
-        layering::build(&input, &BuildOptions { drop_mixed: false, ..BuildOptions::default() }, &|_| {})
+        layering::build(input, &BuildOptions { drop_mixed: false, ..BuildOptions::default() }, &|_| {})
             .unwrap();
     let kept_obj = own(&kept, Role::Object) as f64 / n;
     assert!((kept_obj - truth).abs() < 0.02, "mixed pixels kept: objects {kept_obj} (truth {truth})");
@@ -262,7 +262,7 @@ fn fill_colour_accuracy(fill_colour: FillColour) -> f64 {
     let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
     let r = render_on(&Scene::room(), &m);
     let o = BuildOptions { fill_colour, ..BuildOptions::default() };
-    let b = layering::build(&rgbd_input(&r, m, false), &o, &|_| {}).unwrap();
+    let b = layering::build(rgbd_input(&r, m, false), &o, &|_| {}).unwrap();
     let bg = &b.layers[0].image;
     let scene = Scene::room();
     let (mut right, mut filled) = (0, 0);
@@ -343,7 +343,7 @@ fn the_fill_continues_a_wall_seen_through_a_frame_under_uneven_light() {
         let c = wall(m.pixel_dir(p % m.width(), p / m.width()));
         (0..3).for_each(|i| input.rgb[i][p] = c[i]);
     }
-    let b = layering::build(&input, &BuildOptions::default(), &|_| {}).unwrap();
+    let b = layering::build(input, &BuildOptions::default(), &|_| {}).unwrap();
     let (mut right, mut filled) = (0, 0);
     for (d, c) in filled_room(&b, &scene, &r, m) {
         let truth = wall(d);
@@ -369,7 +369,7 @@ fn near_sphere_built() -> (AnyMapping, Scene, Rendered, Built) {
     let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
     let scene = near_sphere_outdoors();
     let r = render_on(&scene, &m);
-    let b = layering::build(&rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
+    let b = layering::build(rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
     (m, scene, r, b)
 }
 
@@ -422,7 +422,7 @@ fn the_fill_does_not_carry_the_ground_past_its_far_edge() {
     };
     let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
     let r = render_on(&scene, &m);
-    let b = layering::build(&rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
+    let b = layering::build(rgbd_input(&r, m, false), &BuildOptions::default(), &|_| {}).unwrap();
     let ground_at = |x: usize, y: usize| {
         scene.hits(DVec3::ZERO, m.pixel_dir(x, y.min(m.height() - 1))).iter().any(|h| h.object == 1)
     };
@@ -469,7 +469,7 @@ fn the_surface_beside_an_object_keeps_its_own_colour() {
         depth: (0..512 * 1024).map(|p| at(&hi.depth, p, 1, 1)).collect(),
         normals: None,
     };
-    let b = layering::build(&input, &BuildOptions::default(), &|_| {}).unwrap();
+    let b = layering::build(input, &BuildOptions::default(), &|_| {}).unwrap();
     let bg = b.layers.iter().find(|l| l.role == Role::Background).unwrap();
     let (w, h) = (1024, 512);
     let (mut right, mut border) = (0, 0);
@@ -569,7 +569,7 @@ fn a_resized_room_keeps_its_objects_in_front() {
         depth: up(&lo.depth),
         normals: None,
     };
-    let b = layering::build(&input, &BuildOptions::default(), &|_| {}).unwrap();
+    let b = layering::build(input, &BuildOptions::default(), &|_| {}).unwrap();
     let r = render_on(&Scene::room(), &m);
     let objects = (0..w * h).filter(|&p| r.first_hit.object[p] != 0).count();
     let kept = (0..w * h).filter(|&p| r.first_hit.object[p] != 0 && front(&b, p)).count();
@@ -594,7 +594,7 @@ fn a_pole_joined_to_the_floor_is_split_at_its_foot() {
     let r = render_on(&scene, &m);
     let mut o = BuildOptions::default();
     o.segment.edges.fold_deg = None;
-    let b = layering::build(&rgbd_input(&r, m, false), &o, &|_| {}).unwrap();
+    let b = layering::build(rgbd_input(&r, m, false), &o, &|_| {}).unwrap();
     let pole = (0..m.width() * m.height()).filter(|&p| r.first_hit.object[p] != 0).count();
     let kept = (0..m.width() * m.height()).filter(|&p| r.first_hit.object[p] != 0 && front(&b, p)).count();
     let floor_up =
@@ -652,7 +652,7 @@ fn the_fill_carries_an_occluders_shadow_behind_it() {
             let (c, _) = wall(m.pixel_dir(p % m.width(), p / m.width()), shadowed);
             (0..3).for_each(|i| input.rgb[i][p] = c[i]);
         }
-        let b = layering::build(&input, &BuildOptions::default(), &|_| {}).unwrap();
+        let b = layering::build(input, &BuildOptions::default(), &|_| {}).unwrap();
         // Filled wall pixels: right (within 15 % per channel), and right in the shadow's core.
         let (mut right, mut filled, mut core_right, mut core) = (0, 0, 0, 0);
         for (d, c) in filled_room(&b, &scene, &r, m) {

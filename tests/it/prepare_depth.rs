@@ -108,7 +108,7 @@ fn low_resolution_depth_is_upsampled_along_the_colour() {
     let low = block_down(&input.depth, W, 4);
     let resized = prepare(&input, samples(W / 4, low, SampleFormat::F32), &enc, &Default::default());
     let built = layering::build(
-        &RgbdInput { depth: resized.depth, ..input.clone() },
+        RgbdInput { depth: resized.depth, ..input.clone() },
         &BuildOptions::default(),
         &|_| {},
     )
@@ -197,7 +197,7 @@ fn scanner_noise_is_smoothed() {
     };
     assert!(err(&p.depth) < 0.5 * err(&noisy), "median error {} -> {}", err(&noisy), err(&p.depth));
     let layers = |depth: Vec<f32>| {
-        layering::build(&RgbdInput { depth, ..input.clone() }, &BuildOptions::default(), &|_| {})
+        layering::build(RgbdInput { depth, ..input.clone() }, &BuildOptions::default(), &|_| {})
             .unwrap()
             .layers
             .len()
@@ -379,8 +379,8 @@ fn layers_from_soft_depth_validate_clean() {
         .depth
     }];
     for depth in soft {
-        let built = layering::build(&RgbdInput { depth, ..input.clone() }, &BuildOptions::default(), &|_| {})
-            .unwrap();
+        let built =
+            layering::build(RgbdInput { depth, ..input.clone() }, &BuildOptions::default(), &|_| {}).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let manifest = layering::manifest(&built, m.kind(), 0.5, vec![]);
         let images: Vec<_> = built.layers.iter().map(|l| l.image.clone()).collect();

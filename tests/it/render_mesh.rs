@@ -27,7 +27,7 @@ impl Pano {
         let mapping = AnyMapping::new(kind, w, h).unwrap();
         let r = render_on(scene, &mapping);
         let built =
-            layering::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
+            layering::build(rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
         let layers: Vec<LayerImage> = built.layers.into_iter().map(|l| l.image).collect();
         let refs: Vec<RenderLayer> = layers.iter().map(|image| RenderLayer { image, mapping }).collect();
         let meshes =

@@ -21,7 +21,7 @@ struct Systems {
 fn systems(scene: &Scene, kind: MappingKind, w: usize, h: usize) -> Systems {
     let mapping = AnyMapping::new(kind, w, h).unwrap();
     let r = render_on(scene, &mapping);
-    let built = layering::build(&rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
+    let built = layering::build(rgbd_input(&r, mapping, true), &BuildOptions::default(), &|_| {}).unwrap();
     Systems {
         mapping,
         layered: built.layers.into_iter().map(|l| l.image).collect(),

@@ -179,7 +179,6 @@ fn whole_segments(id: &[u32], split: &[bool], count: usize) -> Dsu {
             root[s as usize] = p as u32;
         } else {
             dsu.parent[p] = root[s as usize];
-            dsu.size[root[s as usize] as usize] += 1;
         }
     }
     dsu
