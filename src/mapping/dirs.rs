@@ -97,3 +97,32 @@ impl PixelDirs {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mapping::MappingKind;
+
+    /// `PixelDirs::at` is the pixel-centre direction of `Mapping::pixel_dir`: exactly on a cube
+    /// map, within an `f32` rounding on an equirect canvas (poles and seam included).
+    #[test]
+    fn pixel_dirs_are_the_mapping_directions() {
+        for (kind, w, h) in [
+            (MappingKind::Equirect, 64, 32),
+            (MappingKind::Equirect, 4000, 2000),
+            (MappingKind::Cube3x2, 48, 32),
+        ] {
+            let m = AnyMapping::new(kind, w, h).unwrap();
+            let dirs = PixelDirs::new(m);
+            for p in (0..w * h).step_by(7).chain([0, w - 1, w * h - 1]) {
+                let want = m.pixel_dir(p % w, p / w).as_vec3();
+                let got = dirs.at(p);
+                let err = (got - want).abs().max_element();
+                match kind {
+                    MappingKind::Cube3x2 => assert_eq!(got, want, "pixel {p}"),
+                    _ => assert!(err <= 1.2e-7, "pixel {p} of {w}x{h}: {got} vs {want}"),
+                }
+            }
+        }
+    }
+}

@@ -704,3 +704,37 @@ fn progress_names_the_listed_stages() {
         assert_eq!(listed.contains(&"fill colour".to_string()), !nearest);
     }
 }
+
+/// `pomc build` makes each layer's image as it writes it (one full canvas in memory at a time):
+/// what it writes reads back bit for bit as the layers `build_rgbd` holds in memory, normals
+/// included, with the same manifest.
+#[test]
+fn the_file_job_writes_the_layers_build_makes() {
+    use pomc::jobs::{build_panorama, build_rgbd, BuildSettings};
+    use pomc::layering::input;
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/data/room-rgbd");
+    let (colour, depth) = (root.join("colour.png"), root.join("depth.exr"));
+    let mut s = BuildSettings::default();
+    s.options.normals_out = true;
+    let files = input::read(&colour, s.colour_space, &depth, None, &s.limits).unwrap();
+    let (rgbd, _) = files.prepare(&depth, &s.depth, &s.prepare).unwrap();
+    let in_memory = build_rgbd(rgbd, &s, &|_| {}).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let written = build_panorama(&colour, &depth, dir.path(), &s).unwrap();
+    let pano = pomc::panorama::Panorama::open(dir.path()).unwrap();
+    let read = pano.read_layers(&Default::default()).unwrap();
+    assert!(in_memory.layers.len() >= 2);
+    assert_eq!(read.len(), in_memory.layers.len());
+    for (r, m) in read.iter().zip(&in_memory.layers) {
+        for c in &m.channels {
+            let got = &r.channel(&c.name).unwrap_or_else(|| panic!("channel {} written", c.name)).data;
+            let same = got.iter().zip(&c.data).all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "channel {} differs", c.name);
+        }
+    }
+    let names = |m: &pomc::manifest::Manifest| {
+        m.layers.iter().map(|l| (l.name.clone(), l.depth_range)).collect::<Vec<_>>()
+    };
+    assert_eq!(names(&written.manifest), names(&in_memory.manifest));
+    assert_eq!(written.report.layers.len(), in_memory.report.layers.len());
+}
