@@ -110,15 +110,14 @@ pub fn build_panorama_with_progress(
     let files = input::read(colour, s.colour_space, depth, s.normals_in.as_deref(), &s.limits)?;
     let read_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    progress(PREPARE_STAGE);
-    let (rgbd, prepare) = files.prepare(depth, &s.depth, &s.prepare)?;
-    let prepare_s = t.elapsed().as_secs_f64();
+    let (rgbd, prepare, prepare_s) = prepare_stage(files, depth, s, progress)?;
     let kind = rgbd.mapping.kind();
     let layered = layering::layer(rgbd, &s.options, progress)?;
     let build_s = t.elapsed().as_secs_f64();
     progress(WRITING_STAGE);
     let t = Instant::now();
-    // Each layer's image is made as it is written: one full canvas in memory at a time.
+    // Each layer's image is made as it is written (its time counts in `write_s`): one full
+    // canvas in memory at a time.
     let manifest = layered.manifest(kind, s.options.freedom_radius, transforms(s));
     let manifest = panorama::write_panorama_with(output, &manifest, &|k| Ok(layered.image(k)), &s.save)?;
     let write_s = t.elapsed().as_secs_f64();
@@ -239,23 +238,24 @@ pub fn build_arrays(
         colour_channels: false,
     };
     let files = input::RgbdFiles { mapping, rgb, depth: samples, normals };
-    Ok(prepare_and_build(files, name, s, progress)?.0)
+    let (rgbd, _, prepare_s) = prepare_stage(files, name, s, progress)?;
+    let mut built = build_rgbd(rgbd, s, progress)?;
+    built.report.stages.insert(0, (PREPARE_STAGE, prepare_s));
+    Ok(built)
 }
 
-/// The `prepare` stage (timed first in the report's stages), then the build's.
-fn prepare_and_build(
+/// The `prepare` stage: the build's input, what preparing found, and its time (the report's
+/// first stage).
+fn prepare_stage(
     files: input::RgbdFiles,
     depth: &Path,
     s: &BuildSettings,
     progress: &dyn Fn(&str),
-) -> crate::Result<(BuiltPanorama, PrepareReport)> {
+) -> crate::Result<(layering::RgbdInput, PrepareReport, f64)> {
     progress(PREPARE_STAGE);
     let t = Instant::now();
     let (rgbd, prepare) = files.prepare(depth, &s.depth, &s.prepare)?;
-    let prepare_s = t.elapsed().as_secs_f64();
-    let mut built = build_rgbd(rgbd, s, progress)?;
-    built.report.stages.insert(0, (PREPARE_STAGE, prepare_s));
-    Ok((built, prepare))
+    Ok((rgbd, prepare, t.elapsed().as_secs_f64()))
 }
 
 /// How [`Renderer`] draws a view (`pomc render --method`).

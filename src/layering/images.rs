@@ -22,7 +22,9 @@ pub struct Layered {
     /// Each kept layer's index in `layer_of` (layers with no pixel are left out).
     pub(super) index: Vec<u32>,
     pub(super) normals_out: bool,
-    /// Figures of the build; its last stage, `images`, grows as [`Layered::into_built`] makes them.
+    /// Figures of the build; its last stage, `images`, grows as [`Layered::into_built`] makes the
+    /// images (made one by one with [`Layered::image`], their time is the caller's: `pomc build`
+    /// counts it in writing).
     pub report: BuildReport,
 }
 

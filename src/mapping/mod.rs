@@ -19,7 +19,8 @@ pub mod layout;
 mod neighbours;
 
 pub use cube::{Cube3x2, CubeFace, FacePoint};
-pub use dirs::{DirTable, PixelDirs};
+pub use dirs::DirTable;
+pub(crate) use dirs::PixelDirs;
 pub use equirect::Equirect;
 pub use fast::fast_atan2;
 pub use neighbours::{opposite, Neighbours, OFFSETS};

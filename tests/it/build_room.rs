@@ -31,6 +31,14 @@ fn check_room(m: AnyMapping, normals: bool) {
     let roles: Vec<Role> = b.layers.iter().map(|l| l.role).collect();
     assert_eq!(roles, vec![Role::Background, Role::Object], "{:?}", b.report.layers);
     assert_eq!(b.report.coverage, 1.0);
+    // `layer_of` indexes `layers`: each layer's own pixels are those pointing at it, and its image
+    // holds them.
+    for (k, l) in b.layers.iter().enumerate() {
+        let own: Vec<usize> = (0..b.layer_of.len()).filter(|&p| b.layer_of[p] == k as u32).collect();
+        assert_eq!(own.len(), l.own_pixels, "layer {k}");
+        let z = l.image.depth().unwrap();
+        assert!(own.iter().all(|&p| z[p] > 0.0), "layer {k} holds its own pixels");
+    }
 
     // Filled depth behind the objects against the true hidden room surface.
     let bg = &b.layers[0].image;
