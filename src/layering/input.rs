@@ -276,8 +276,21 @@ pub fn read_colour(
         ColourSpace::Srgb => true,
         ColourSpace::Linear => false,
     };
-    let img = img.to_rgb32f();
     let (w, h) = (img.width() as usize, img.height() as usize);
+    if let image::DynamicImage::ImageRgb8(rgb) = &img {
+        // 8-bit: the 256 codes decoded once, exactly as below (no float copy of the image, no
+        // power per sample).
+        let codes = image::RgbImage::from_fn(256, 1, |x, _| image::Rgb([x as u8; 3]));
+        let codes = image::DynamicImage::ImageRgb8(codes).to_rgb32f();
+        let table: Vec<f32> = codes
+            .as_raw()
+            .chunks_exact(3)
+            .map(|c| if decode { srgb_to_linear(c[0]) } else { c[0] })
+            .collect();
+        let plane = |c: usize| rgb.as_raw().par_chunks_exact(3).map(|px| table[px[c] as usize]).collect();
+        return Ok((w, h, [plane(0), plane(1), plane(2)]));
+    }
+    let img = img.to_rgb32f();
     let plane = |c: usize| -> Vec<f32> {
         let values = img.as_raw().par_chunks_exact(3).map(|px| px[c]);
         if decode {
@@ -461,6 +474,29 @@ pub fn read_normals(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// 8-bit colour goes through a table of its 256 codes: the planes equal the general path
+    /// (`to_rgb32f`, then sRGB decoding unless linear) sample for sample, channels in order.
+    #[test]
+    fn eight_bit_colour_decodes_as_the_float_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.png");
+        let img = image::RgbImage::from_fn(32, 16, |x, y| {
+            image::Rgb([(x * 8) as u8, (y * 16 + x) as u8, (255 - x * 7) as u8])
+        });
+        img.save(&path).unwrap();
+        let float = image::DynamicImage::ImageRgb8(img).to_rgb32f();
+        for space in [ColourSpace::Auto, ColourSpace::Linear] {
+            let (w, h, rgb) = read_colour(&path, space, &ReadLimits::default()).unwrap();
+            assert_eq!((w, h), (32, 16));
+            for (p, px) in float.as_raw().chunks_exact(3).enumerate() {
+                for c in 0..3 {
+                    let want = if space == ColourSpace::Auto { srgb_to_linear(px[c]) } else { px[c] };
+                    assert_eq!(rgb[c][p].to_bits(), want.to_bits(), "{space:?} pixel {p} channel {c}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn truncated_jpegs_are_refused() {
