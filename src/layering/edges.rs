@@ -251,7 +251,6 @@ pub fn estimate_normals(nb: &Neighbours, links: &Links, dirs: &PixelDirs, depth:
         .into_par_iter()
         .map(|p| if depth[p] > 0.0 && depth[p].is_finite() { dirs.at(p) * depth[p] } else { Vec3::NAN })
         .collect();
-    let point = |p: usize| points[p];
     (0..nb.len())
         .into_par_iter()
         .map(|p| {
@@ -259,15 +258,13 @@ pub fn estimate_normals(nb: &Neighbours, links: &Links, dirs: &PixelDirs, depth:
             // The neighbour `k` of `p`, and the one after it, when they lie on the same surface.
             let step = |k: usize| -> Option<(usize, Vec3)> {
                 let q = nb.get_at(x, y, k).filter(|_| links.continuous(p, k))?;
-                let pq = point(q);
-                pq.is_finite().then_some((q, pq))
+                points[q].is_finite().then_some((q, points[q]))
             };
             let step2 = |q: usize, k: usize| -> Option<Vec3> {
                 let r = nb.get2_at(x, y, k).filter(|_| links.continuous(q, k))?;
-                let pr = point(r);
-                pr.is_finite().then_some(pr)
+                points[r].is_finite().then_some(points[r])
             };
-            let c = point(p);
+            let c = points[p];
             if !c.is_finite() {
                 return Vec3::ZERO;
             }

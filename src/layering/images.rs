@@ -21,7 +21,6 @@ pub struct Layered {
     pub(super) fills: Vec<fill::Fill>,
     /// Each kept layer's index in `layer_of` (layers with no pixel are left out).
     pub(super) index: Vec<u32>,
-    pub(super) normals_out: bool,
     /// Figures of the build; its last stage, `images`, grows as [`Layered::into_built`] makes the
     /// images (made one by one with [`Layered::image`], their time is the caller's: `pomc build`
     /// counts it in writing).
@@ -42,7 +41,7 @@ impl Layered {
     /// The full-canvas image of layer `k` (painter's order); panics if `k >= len()`.
     pub fn image(&self, k: usize) -> LayerImage {
         let own = (&self.depth[..], &self.layer_of[..], self.index[k]);
-        let normals = self.normals_out.then_some(&self.normals[..]);
+        let normals = (!self.normals.is_empty()).then_some(&self.normals[..]);
         layer_image(&self.input, own, &self.fills[k], normals)
     }
 
@@ -73,15 +72,15 @@ impl Layered {
     }
 }
 
-/// Step 7: each layer's name, role and figures, farthest first (images empty), and the index of
-/// each (into `fills` and `layer_of`); layers with no pixel left out.
+/// Step 7: each layer's name, role and figures, farthest first (images empty), its fill, and its
+/// index in `fills` and `layer_of`; layers with no pixel left out.
 pub(super) fn layer_heads(
     keys: &[LayerKey],
     first: u32,
-    fills: &[fill::Fill],
+    fills: Vec<fill::Fill>,
     depth: &[f32],
     layer_of: &[u32],
-) -> (Vec<BuiltLayer>, Vec<u32>) {
+) -> (Vec<BuiltLayer>, Vec<fill::Fill>, Vec<u32>) {
     let mut own = vec![0usize; fills.len()];
     let mut range: Vec<Option<(f32, f32)>> = vec![None; fills.len()];
     for (&l, &d) in layer_of.iter().zip(depth) {
@@ -90,10 +89,9 @@ pub(super) fn layer_heads(
             widen(r, d);
         }
     }
-    let mut heads = Vec::new();
-    let mut index = Vec::new();
+    let (mut heads, mut kept, mut index) = (Vec::new(), Vec::new(), Vec::new());
     let mut name_count = std::collections::BTreeMap::<String, u32>::new();
-    for (k, f) in fills.iter().enumerate() {
+    for (k, f) in fills.into_iter().enumerate() {
         let (base, role) = if first == 1 && k == 0 {
             ("infinity".to_string(), Role::Infinity)
         } else {
@@ -127,9 +125,10 @@ pub(super) fn layer_heads(
             depth_range: range[k],
             image: LayerImage::new(0, 0),
         });
+        kept.push(f);
         index.push(k as u32);
     }
-    (heads, index)
+    (heads, kept, index)
 }
 
 /// `r` widened to finite depth `d` (others leave it).

@@ -398,9 +398,7 @@ pub fn layer(mut input: RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) ->
 
     // (7) Names, roles, order and depths; the images themselves on demand.
     stages.start("images");
-    let (heads, index) = layer_heads(&keys, first, &fills, &depth, &layer_of);
-    let fills = fills.into_iter().enumerate().filter(|(k, _)| index.contains(&(*k as u32))).map(|(_, f)| f);
-    let fills: Vec<fill::Fill> = fills.collect();
+    let (heads, fills, index) = layer_heads(&keys, first, fills, &depth, &layer_of);
     let covered = layer_of.par_iter().filter(|&&l| l != u32::MAX).count();
     let max_band_deg = fills.iter().map(|f| f.max_angle).fold(0.0, f64::max).to_degrees();
     let report = BuildReport {
@@ -420,7 +418,7 @@ pub fn layer(mut input: RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) ->
         margin_px: o.margin_px,
     };
     let normals = if o.normals_out { normals } else { Vec::new() };
-    Ok(Layered { input, depth, normals, layer_of, heads, fills, index, normals_out: o.normals_out, report })
+    Ok(Layered { input, depth, normals, layer_of, heads, fills, index, report })
 }
 
 /// The input's planes all of one size, and the freedom radius usable.
