@@ -12,10 +12,11 @@ use crate::layer_io::ReadLimits;
 use crate::layering::input::{self, Convention, DepthEncoding};
 use crate::layering::{self, BuildOptions, BuildReport};
 use crate::manifest::{Manifest, Transform};
-use crate::mapping::AnyMapping;
+use crate::mapping::{AnyMapping, Mapping};
 use crate::mesh::MeshOptions;
 use crate::panorama::{self, Panorama, SaveOptions};
 use crate::prepare::{self, DepthSamples, PrepareOptions, PrepareReport, PreparedDepth, SampleFormat};
+use crate::render::stereo::{self, StereoCamera};
 use crate::render::{self, rasterize, Camera, Frame, RasterOptions, RenderLayer, SplatOptions, Stage};
 
 /// Everything `pomc build` takes besides its input and output paths.
@@ -270,6 +271,25 @@ pub enum RenderMethod {
     Mesh,
 }
 
+/// What a view is seen through: one camera, or a stereo pair whose eyes make one image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ViewCamera {
+    /// One camera.
+    Mono(Camera),
+    /// Two eyes, stacked by their layout.
+    Stereo(StereoCamera),
+}
+
+impl ViewCamera {
+    /// Width and height of the whole image.
+    pub fn size(&self) -> (usize, usize) {
+        match self {
+            ViewCamera::Mono(c) => (c.width(), c.height()),
+            ViewCamera::Stereo(s) => s.size(),
+        }
+    }
+}
+
 /// One rendered view and its figures.
 #[derive(Clone, Debug)]
 pub struct View {
@@ -390,6 +410,38 @@ impl Renderer {
             let border = geometry.iter().map(|m| m.border_pixels).sum();
             (sources.as_slice(), warnings.as_slice(), triangles, border)
         })
+    }
+
+    /// Width of an equirect with the layers' angular resolution (the canvas width, or 4 faces of a
+    /// cube map): the default width of a panoramic output.
+    pub fn panorama_width(&self) -> usize {
+        match &self.layers[0].1 {
+            AnyMapping::Equirect(m) => m.width(),
+            AnyMapping::Cube(c) => 4 * c.face_size(),
+        }
+    }
+
+    /// Render the view through `camera`, mono or stereo (each eye rendered in turn, then stacked;
+    /// holes and counts are both eyes', stage times their sums).
+    pub fn render_view(&self, camera: &ViewCamera) -> crate::Result<View> {
+        match camera {
+            ViewCamera::Mono(c) => self.render(c),
+            ViewCamera::Stereo(s) => {
+                let (l, r) = (self.render(&s.left)?, self.render(&s.right)?);
+                let frame = stereo::stack(&l.frame, &r.frame, s.layout);
+                let mut stages = l.stages;
+                for (a, b) in stages.iter_mut().zip(&r.stages) {
+                    a.seconds += b.seconds;
+                }
+                Ok(View {
+                    holes: l.holes + r.holes,
+                    hole_ratio: frame.hole_ratio(),
+                    counts: serde_json::json!({"left": l.counts, "right": r.counts}),
+                    frame,
+                    stages,
+                })
+            }
+        }
     }
 
     /// Render the view from `camera`.

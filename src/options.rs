@@ -9,12 +9,15 @@ use std::path::PathBuf;
 use glam::DVec3;
 
 use crate::colour::ColourSpace;
-use crate::jobs::BuildSettings;
+use crate::jobs::{BuildSettings, ViewCamera};
 use crate::layer_io::ReadLimits;
 use crate::layering::input::{Convention, Preset};
 use crate::layering::{BuildOptions, Classify, EdgeOptions, FillColour};
 use crate::mesh::{self, normals::NormalWeighting, simplify::SimplifyOptions, MeshOptions};
 use crate::prepare::{DepthKind, KnownDistance, Refine, UnknownDepth};
+use crate::render::{
+    Camera, EquirectCamera, Perspective, PoleMerge, RenderError, StereoCamera, StereoLayout,
+};
 
 /// How the depth is read and prepared (`pomc build` and `pomc prepare`).
 #[derive(clap::Args, Clone, Debug)]
@@ -235,6 +238,90 @@ impl MeshArgs {
     }
 }
 
+/// The output camera of a view (`pomc render`, Python `Panorama.render`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CameraKind {
+    /// Pinhole camera: --eye, --look-at, --up, --fov, --size.
+    Perspective,
+    /// A new 2:1 equirect panorama centred at --eye (world axes, +Z up).
+    Equirect,
+    /// Omnidirectional stereo: two equirect eyes on a viewing circle of diameter --ipd around --eye,
+    /// stacked by --stereo-layout.
+    Ods,
+}
+
+/// How a view is seen: its camera and, for stereo, the eyes (`pomc render`).
+#[derive(clap::Args, Clone, Debug, PartialEq)]
+pub struct CameraArgs {
+    /// Output camera.
+    #[arg(long, value_enum, default_value = "perspective")]
+    pub camera: CameraKind,
+    /// Eye position in the world, metres: x,y,z (default: the panorama centre).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<DVec3>,
+    /// Point looked at, world: x,y,z (default: the centre of the panorama image, eye − 1,0,0 in the
+    /// panorama's frame; +X is the image's left/right seam).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub look_at: Option<DVec3>,
+    /// Up direction, world: x,y,z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0,0,1")]
+    pub up: DVec3,
+    /// Horizontal field of view, degrees (perspective).
+    #[arg(long, default_value_t = 60.0, value_parser = Range::OPEN_ANGLE.parser())]
+    pub fov: f64,
+    /// Output size WxH, the whole image (default 960x540 perspective, 2048x1024 equirect; ods: each
+    /// eye as wide as the panorama, 2:1).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
+    /// Stereo layout: tb (top-bottom, left eye on top) or sbs (side by side, left eye left).
+    #[arg(long, value_enum, default_value = "tb")]
+    pub stereo_layout: StereoLayout,
+    /// Interpupillary distance of stereo cameras, metres.
+    #[arg(long, value_name = "M", default_value_t = 0.064, value_parser = Range::NON_NEGATIVE.parser())]
+    pub ipd: f64,
+    /// Stereo fades to mono between these elevations, degrees (Blender's pole merge): FROM,TO.
+    #[arg(long, value_name = "FROM,TO", default_value = "60,75", value_parser = parse_pole_merge)]
+    pub pole_merge: (f64, f64),
+    /// Keep the full eye separation up to the poles.
+    #[arg(long)]
+    pub no_pole_merge: bool,
+}
+
+impl CameraArgs {
+    /// The camera at `eye` (looking at `look_at`, else along `look` from it); `panorama_width` is
+    /// the width of an equirect at the panorama's resolution (the default ODS eye width).
+    pub fn view_camera(
+        &self,
+        eye: DVec3,
+        look_at: Option<DVec3>,
+        look: DVec3,
+        panorama_width: usize,
+    ) -> Result<ViewCamera, RenderError> {
+        Ok(match self.camera {
+            CameraKind::Perspective => {
+                let (w, h) = self.size.unwrap_or((960, 540));
+                let at = look_at.unwrap_or(eye + look);
+                ViewCamera::Mono(Camera::Perspective(Perspective::new(eye, at, self.up, self.fov, w, h)?))
+            }
+            CameraKind::Equirect => {
+                let (w, h) = self.size.unwrap_or((2048, 1024));
+                ViewCamera::Mono(Camera::Equirect(EquirectCamera::new(eye, w, h)?))
+            }
+            CameraKind::Ods => {
+                let w = panorama_width.max(2) / 2 * 2;
+                let (w, h) = self.size.unwrap_or(match self.stereo_layout {
+                    StereoLayout::Tb => (w, w),
+                    StereoLayout::Sbs => (2 * w, w / 2),
+                });
+                let (from, to) = self.pole_merge;
+                let merge =
+                    (!self.no_pole_merge).then(|| PoleMerge { from: from.to_radians(), to: to.to_radians() });
+                ViewCamera::Stereo(StereoCamera::ods(eye, w, h, self.ipd, merge, self.stereo_layout)?)
+            }
+        })
+    }
+}
+
 /// A keyword's value as a binding holds it: a flag's truth, or a value in the command line's
 /// syntax (`0.1`, `1,2,3`, `ray`).
 #[derive(Clone, Debug, PartialEq)]
@@ -346,6 +433,25 @@ pub fn parse_vec3(s: &str) -> Result<DVec3, String> {
     match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(DVec3::new(*x, *y, *z)),
         _ => Err(format!("expected three finite numbers x,y,z, got `{s}`")),
+    }
+}
+
+/// An image size `WxH` (positive integers; the camera checks the limits).
+pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("expected WxH (e.g. 1920x1080), got `{s}`");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    match (w.trim().parse::<usize>(), h.trim().parse::<usize>()) {
+        (Ok(w), Ok(h)) if w > 0 && h > 0 => Ok((w, h)),
+        _ => Err(bad()),
+    }
+}
+
+/// `FROM,TO` elevations in degrees with `0 ≤ FROM < TO ≤ 90`.
+fn parse_pole_merge(s: &str) -> Result<(f64, f64), String> {
+    let v = numbers(s, "two elevations FROM,TO in degrees")?;
+    match v.as_slice() {
+        [from, to] if *from >= 0.0 && to > from && *to <= 90.0 => Ok((*from, *to)),
+        _ => Err(format!("expected FROM,TO in degrees with 0 ≤ FROM < TO ≤ 90, got `{s}`")),
     }
 }
 

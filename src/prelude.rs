@@ -41,7 +41,7 @@ pub use crate::convert::{convert_file, ConvertReport, ConvertSettings};
 pub use crate::error::{Error, Result};
 pub use crate::jobs::{
     build_panorama, build_panorama_with_progress, prepare_depth_files, write_depth, BuildSettings,
-    BuildSummary, RenderMethod, Renderer, View,
+    BuildSummary, RenderMethod, Renderer, View, ViewCamera,
 };
 pub use crate::layer::{LayerImage, Sample};
 pub use crate::layer_io::ReadLimits;
@@ -53,7 +53,9 @@ pub use crate::mesh::scene::{mesh_panorama, Scene, SceneSettings};
 pub use crate::mesh::{mesh_layer, MeshOptions};
 pub use crate::panorama::{write_panorama, Panorama, SaveOptions};
 pub use crate::prepare::{DepthKind, PrepareOptions, PrepareReport, PreparedDepth, Refine, UnknownDepth};
-pub use crate::render::{Camera, EquirectCamera, Frame, Perspective};
+pub use crate::render::{
+    Camera, EquirectCamera, Frame, OdsEye, Perspective, PoleMerge, StereoCamera, StereoLayout,
+};
 pub use crate::resample::{convert_layer, Canvas, Filter, SampleOptions};
 pub use crate::validate::{validate, Report, Severity, ValidateSettings};
 pub use crate::viewer::{self, Site, SiteSettings};

@@ -10,6 +10,7 @@ use std::f64::consts::{PI, TAU};
 
 use glam::{DMat4, DVec2, DVec3};
 
+pub use super::ods::{OdsEye, PoleMerge};
 use super::RenderError;
 
 /// Largest output side accepted, pixels (bounds the accumulation buffers).
@@ -19,6 +20,10 @@ pub const MAX_PIXELS: usize = 1 << 27;
 /// A camera-space point is projected only if it lies at least this far (cosine of its angle with
 /// the optical axis) in front of the eye: keeps `x/z` finite for points grazing the eye plane.
 const MIN_FORWARD_COS: f64 = 1e-6;
+/// Content at infinity is projected as a point this far along its direction (camera units): far
+/// enough that an ODS eye's offset turns it by < 1e-13 rad, a power of two so that scaling keeps
+/// the other cameras' projections bit for bit.
+pub(crate) const AT_INFINITY: f64 = (1u64 << 40) as f64;
 
 /// A pinhole camera: `x` right, `y` down in the image; camera space is `x` right, `y` up, `z`
 /// forward (the viewing direction).
@@ -59,9 +64,11 @@ pub enum Camera {
     Perspective(Perspective),
     /// A full equirect panorama from another centre.
     Equirect(EquirectCamera),
+    /// One eye of an omnidirectional stereo panorama.
+    Ods(OdsEye),
 }
 
-fn check_size(width: usize, height: usize) -> Result<(), RenderError> {
+pub(super) fn check_size(width: usize, height: usize) -> Result<(), RenderError> {
     let ok = width > 0
         && height > 0
         && width <= MAX_SIDE
@@ -74,7 +81,7 @@ fn check_size(width: usize, height: usize) -> Result<(), RenderError> {
     }
 }
 
-fn finite(v: DVec3, what: &str) -> Result<DVec3, RenderError> {
+pub(super) fn finite(v: DVec3, what: &str) -> Result<DVec3, RenderError> {
     if v.is_finite() {
         Ok(v)
     } else {
@@ -156,6 +163,7 @@ impl Camera {
                 Camera::Perspective(Perspective { width: w, height: h, focal: c.focal * factor as f64, ..c })
             }
             Camera::Equirect(c) => Camera::Equirect(EquirectCamera { width: w, height: h, ..c }),
+            Camera::Ods(c) => Camera::Ods(OdsEye { width: w, height: h, ..c }),
         })
     }
 
@@ -164,6 +172,7 @@ impl Camera {
         match self {
             Camera::Perspective(c) => c.width,
             Camera::Equirect(c) => c.width,
+            Camera::Ods(c) => c.width,
         }
     }
 
@@ -172,6 +181,7 @@ impl Camera {
         match self {
             Camera::Perspective(c) => c.height,
             Camera::Equirect(c) => c.height,
+            Camera::Ods(c) => c.height,
         }
     }
 
@@ -180,6 +190,7 @@ impl Camera {
         match self {
             Camera::Perspective(c) => c.eye,
             Camera::Equirect(c) => c.eye,
+            Camera::Ods(c) => c.eye,
         }
     }
 
@@ -200,7 +211,27 @@ impl Camera {
 
     /// Whether output columns wrap around (the equirect seam).
     pub fn wraps(&self) -> bool {
-        matches!(self, Camera::Equirect(_))
+        matches!(self, Camera::Equirect(_) | Camera::Ods(_))
+    }
+
+    /// Distance from where the ray that sees camera-space point `p` starts to `p`: its length, but
+    /// for an ODS eye, whose rays start on the viewing circle.
+    #[inline]
+    pub fn distance(&self, p: DVec3) -> f64 {
+        match self {
+            Camera::Ods(c) => c.distance(p),
+            _ => p.length(),
+        }
+    }
+
+    /// Camera-space start of the ray through continuous output pixel `(x, y)`: the eye, but for an
+    /// ODS eye.
+    #[inline]
+    pub fn origin(&self, x: f64, y: f64) -> DVec3 {
+        match self {
+            Camera::Ods(c) => c.origin(x, y),
+            _ => DVec3::ZERO,
+        }
     }
 
     /// World → camera space (rigid): camera space has the eye at the origin.
@@ -217,6 +248,7 @@ impl Camera {
                 rot * DMat4::from_translation(-c.eye)
             }
             Camera::Equirect(c) => DMat4::from_translation(-c.eye),
+            Camera::Ods(c) => DMat4::from_translation(-c.eye),
         }
     }
 
@@ -248,6 +280,7 @@ impl Camera {
                 let x = (phi / TAU * c.width as f64).min(c.width as f64 - 1e-9);
                 Some(DVec2::new(x.max(0.0), theta / PI * c.height as f64))
             }
+            Camera::Ods(c) => c.project(p),
         }
     }
 
@@ -258,24 +291,25 @@ impl Camera {
     pub fn x_scale(&self, y: f64) -> f64 {
         match self {
             Camera::Perspective(_) => 1.0,
-            Camera::Equirect(c) => {
-                let h = c.height as f64;
+            Camera::Equirect(EquirectCamera { height, .. }) | Camera::Ods(OdsEye { height, .. }) => {
+                let h = *height as f64;
                 (PI * y / h).sin().max((PI * 0.5 / h).sin())
             }
         }
     }
 
     /// World-space unit direction through continuous output pixel `(x, y)` (pixel centres at
-    /// `i + 0.5`).
+    /// `i + 0.5`); the ray starts at [`Camera::origin`].
     pub fn ray(&self, x: f64, y: f64) -> DVec3 {
         match self {
             Camera::Perspective(c) => (c.forward * c.focal
                 + c.right * (x - c.width as f64 / 2.0)
                 + c.up * (c.height as f64 / 2.0 - y))
                 .normalize(),
-            Camera::Equirect(c) => {
-                let phi = TAU * x / c.width as f64;
-                let theta = PI * y / c.height as f64;
+            Camera::Equirect(EquirectCamera { width, height, .. })
+            | Camera::Ods(OdsEye { width, height, .. }) => {
+                let phi = TAU * x / *width as f64;
+                let theta = PI * y / *height as f64;
                 let (st, ct) = theta.sin_cos();
                 let (sp, cp) = phi.sin_cos();
                 DVec3::new(st * cp, st * sp, ct)
@@ -288,7 +322,7 @@ impl Camera {
     pub fn view_cone(&self) -> Option<(DVec3, f64)> {
         match self {
             Camera::Perspective(c) => Some((c.forward, c.half_diagonal_angle())),
-            Camera::Equirect(_) => None,
+            Camera::Equirect(_) | Camera::Ods(_) => None,
         }
     }
 }

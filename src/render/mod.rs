@@ -8,6 +8,8 @@
 //! of each layer's quadtree mesh. [`metrics`] compares frames for the evaluation harness.
 //!
 //! - [`camera`]: perspective and equirect output cameras;
+//! - [`ods`]: one eye of an omnidirectional stereo panorama;
+//! - [`stereo`]: stereo cameras and layouts;
 //! - `splat`: reprojection, adaptive sub-sampling, tiling and threads;
 //! - `accum`: per-pixel visibility and filter sums;
 //! - [`rasterize`]: the mesh method (meshes, footprints, rasterisation, deferred colour);
@@ -29,8 +31,10 @@ pub(crate) mod accum;
 pub mod camera;
 pub mod frame;
 pub mod metrics;
+pub mod ods;
 pub mod rasterize;
 pub(crate) mod splat;
+pub mod stereo;
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -38,10 +42,11 @@ use std::time::Instant;
 use glam::DMat4;
 use serde::Serialize;
 
-pub use camera::{Camera, EquirectCamera, Perspective};
+pub use camera::{Camera, EquirectCamera, OdsEye, Perspective, PoleMerge};
 pub use frame::Frame;
 pub use rasterize::{MeshRenderStats, MeshRendered, RasterCounts, RasterOptions};
 pub use splat::{SplatCounts, SplatOptions};
+pub use stereo::{StereoCamera, StereoLayout};
 
 use crate::layer::LayerImage;
 use crate::layer_io::ReadLimits;

@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::accum::Accum;
-use super::camera::Camera;
+use super::camera::{Camera, AT_INFINITY};
 use crate::continuity;
 use crate::layer::{classify, LayerImage, Sample};
 use crate::mapping::{AnyMapping, Mapping};
@@ -245,9 +245,9 @@ impl LayerCtx<'_> {
         let (cam, dist) = match self.sample(p) {
             Sample::Surface(d) if d >= 0.0 && d.is_finite() => {
                 let c = self.centre + ray * d as f64;
-                (c, c.length() as f32)
+                (c, self.camera.distance(c) as f32)
             }
-            Sample::Infinite => (ray, f32::INFINITY),
+            Sample::Infinite => (ray * AT_INFINITY, f32::INFINITY),
             _ => return Pt { ray, ..Pt::default() },
         };
         let rgb = [self.planes.rgb[0][p], self.planes.rgb[1][p], self.planes.rgb[2][p]];
@@ -410,7 +410,11 @@ impl LayerCtx<'_> {
                 linked[k] = Some(nb);
                 nb.vis.then_some(nb.q)
             } else if nb.ray != DVec3::ZERO {
-                let p = if c.dist.is_infinite() { nb.ray } else { self.centre + nb.ray * c.z as f64 };
+                let p = if c.dist.is_infinite() {
+                    nb.ray * AT_INFINITY
+                } else {
+                    self.centre + nb.ray * c.z as f64
+                };
                 own[k] = Some(p);
                 self.camera.project(p)
             } else {
@@ -464,7 +468,7 @@ impl LayerCtx<'_> {
     ) -> u64 {
         let (cam, rgb) = interpolate(c, linked, own, o.0, o.1);
         let Some(q) = self.camera.project(cam) else { return 0 };
-        let dist = if c.dist.is_infinite() { f32::INFINITY } else { cam.length() as f32 };
+        let dist = if c.dist.is_infinite() { f32::INFINITY } else { self.camera.distance(cam) as f32 };
         splat(self.camera, self.scales, radius, &Splat { q, dist, rgb, layer: self.index, cover }, acc);
         1
     }

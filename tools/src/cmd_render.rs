@@ -4,21 +4,14 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::DVec3;
-use pomc::jobs::{RenderMethod, Renderer, View};
+use pomc::jobs::{RenderMethod, Renderer, View, ViewCamera};
+use pomc::options::CameraArgs;
 use pomc::panorama::Panorama;
-use pomc::render::{frame, Camera, EquirectCamera, Perspective};
+use pomc::render::frame;
 
-use crate::args::{parse_vec3, Range};
+use crate::args::parse_vec3;
 use crate::output::Output;
 use crate::Failure;
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum CameraArg {
-    /// Pinhole camera: --eye, --look-at, --up, --fov, --size
-    Perspective,
-    /// A new 2:1 equirect panorama centred at --eye (world axes, +Z up)
-    Equirect,
-}
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -27,24 +20,8 @@ pub struct Args {
     /// Colour output: .exr (linear float) or .png (clamped, sRGB-encoded 8-bit).
     #[arg(short, long)]
     output: PathBuf,
-    #[arg(long, value_enum, default_value = "perspective")]
-    camera: CameraArg,
-    /// Eye position in the world, metres: x,y,z (default: the panorama centre).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    eye: Option<DVec3>,
-    /// Point looked at, world: x,y,z (default: the centre of the panorama image, eye − 1,0,0 in the
-    /// panorama's frame; +X is the image's left/right seam).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    look_at: Option<DVec3>,
-    /// Up direction, world: x,y,z.
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0,0,1")]
-    up: DVec3,
-    /// Horizontal field of view, degrees (perspective).
-    #[arg(long, default_value_t = 60.0, value_parser = Range::OPEN_ANGLE.parser())]
-    fov: f64,
-    /// Output size WxH (default 960x540 perspective, 2048x1024 equirect).
-    #[arg(long, value_parser = parse_size)]
-    size: Option<(usize, usize)>,
+    #[command(flatten)]
+    view: CameraArgs,
     #[arg(long, value_enum, default_value = "splat")]
     method: RenderMethod,
     /// Also write the distance from the eye (EXR, channel Z; +inf for infinity content, -1 in holes).
@@ -104,27 +81,9 @@ fn frame_name(name: &std::path::Path, index: usize) -> Option<PathBuf> {
     Some(PathBuf::from(format!("{}{index:0width$}{}", &s[..start], &s[end..])))
 }
 
-fn parse_size(s: &str) -> Result<(usize, usize), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WxH, got `{s}`"))?;
-    let w = w.trim().parse::<usize>().map_err(|e| e.to_string())?;
-    let h = h.trim().parse::<usize>().map_err(|e| e.to_string())?;
-    Ok((w, h))
-}
-
 /// The camera of one shot; without a look-at, it looks at the centre of the panorama image.
-fn camera(args: &Args, shot: Shot, look: DVec3) -> Result<Camera, pomc::Error> {
-    let eye = shot.eye;
-    Ok(match args.camera {
-        CameraArg::Perspective => {
-            let (w, h) = args.size.unwrap_or((960, 540));
-            let at = shot.look_at.unwrap_or(eye + look);
-            Camera::Perspective(Perspective::new(eye, at, args.up, args.fov, w, h)?)
-        }
-        CameraArg::Equirect => {
-            let (w, h) = args.size.unwrap_or((2048, 1024));
-            Camera::Equirect(EquirectCamera::new(eye, w, h)?)
-        }
-    })
+fn camera(args: &Args, shot: Shot, look: DVec3, panorama_width: usize) -> Result<ViewCamera, pomc::Error> {
+    Ok(args.view.view_camera(shot.eye, shot.look_at, look, panorama_width)?)
 }
 
 /// Write one frame's outputs (colour, and depth and mask when asked) under `index`'s names.
@@ -162,11 +121,12 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let bar = out.spinner("reading");
     let pano = Panorama::open(&args.pano)?;
     let m = &pano.manifest;
-    let single = [Shot { eye: args.eye.unwrap_or(m.centre()), look_at: args.look_at }];
+    let single = [Shot { eye: args.view.eye.unwrap_or(m.centre()), look_at: args.view.look_at }];
     let shots: &[Shot] = shots.as_deref().unwrap_or(&single);
-    // Every camera is checked before the layers are read.
+    // Every camera is checked before the layers are read (with a provisional panorama width).
     let look = m.default_look();
-    let cams: Vec<Camera> = shots.iter().map(|s| camera(&args, *s, look)).collect::<Result<_, _>>()?;
+    let cameras = |width| shots.iter().map(|s| camera(&args, *s, look, width)).collect::<Result<Vec<_>, _>>();
+    cameras(2048)?;
     if args.method == RenderMethod::Mesh {
         bar.set_message("reading and meshing");
     }
@@ -174,13 +134,14 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let (_, mesh_s) = renderer.setup_seconds();
     let read_s = start.elapsed().as_secs_f64() - mesh_s.unwrap_or(0.0);
     bar.finish_and_clear();
+    let cams = cameras(renderer.panorama_width())?;
     let mesh_extra = mesh_json(&renderer, &out);
     let progress = (args.path.is_some()).then(|| out.progress(cams.len() as u64, "rendering"));
     let mut frames = Vec::new();
     let mut last = None;
     for (i, (cam, shot)) in cams.iter().zip(shots).enumerate() {
         let t = Instant::now();
-        let r = renderer.render(cam)?;
+        let r = renderer.render_view(cam)?;
         let render_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let colour = write_frame(&args, &r, args.path.as_ref().map(|_| i))?;
@@ -275,7 +236,7 @@ impl Run<'_> {
         serde_json::json!({
             "output": colour,
             "method": self.method(),
-            "camera": format!("{:?}", self.args.camera).to_lowercase(),
+            "camera": format!("{:?}", self.args.view.camera).to_lowercase(),
             "eye": eye.to_array(),
             "freedom_radius": m.freedom_radius,
             "eye_offset": m.eye_offset(eye),
@@ -297,7 +258,7 @@ impl Run<'_> {
         let worst_holes = frames.iter().filter_map(|f| f["hole_ratio"].as_f64()).fold(0.0, f64::max);
         serde_json::json!({
             "method": self.method(),
-            "camera": format!("{:?}", self.args.camera).to_lowercase(),
+            "camera": format!("{:?}", self.args.view.camera).to_lowercase(),
             "width": r.frame.width,
             "height": r.frame.height,
             "layers": self.renderer.layer_count(),

@@ -147,7 +147,7 @@ pub fn render_mesh(
     let (w, h) = cam.size();
     let to_cam = camera.to_camera() * local_to_world;
     let setup = Setup { cam: &cam, o: *o, frustum: frustum(&cam) };
-    let (preps, mut counts) = prepare_triangles(meshes, &setup, to_cam);
+    let (preps, mut counts) = prepare_triangles(meshes, &setup, to_cam, camera);
     let bins = bin_by_band(&preps, h);
     let mut zbuf = vec![NO_FRAG; w * h];
     let work: Vec<(u64, u64)> = zbuf
@@ -166,7 +166,7 @@ pub fn render_mesh(
     let t_compose = Instant::now();
     let planes: Vec<Planes> =
         layers.iter().zip(meshes).map(|(l, g)| Planes::new(l.image, l.mapping, g.has_infinity)).collect();
-    let (frame, infinity_pixels) = compose(&cam, &zbuf, &planes, meshes, to_cam.inverse(), o);
+    let (frame, infinity_pixels) = compose(&cam, camera, &zbuf, &planes, meshes, to_cam.inverse(), o);
     counts.infinity_pixels += infinity_pixels;
     let frame = if ss > 1 { frame.downsampled(ss) } else { frame };
     let compose_s = t_compose.elapsed().as_secs_f64();
@@ -233,14 +233,31 @@ fn check_meshes(layers: &[RenderLayer], meshes: &[LayerGeometry]) -> Result<(), 
     Ok(())
 }
 
+/// Where camera-space point `p` is drawn: itself, but for an ODS eye the point along the ray that
+/// sees it from the eye centre, at the distance from the ray's start (the vertex displacement of
+/// ODS rasterisation; NaN, so never drawn, where no ray sees it). Triangles between displaced
+/// vertices follow the eye's curved projection to second order in their size.
+fn placed(camera: &Camera, p: DVec3) -> DVec3 {
+    match camera {
+        Camera::Ods(c) => c.ray_to(p).map_or(DVec3::NAN, |(d, t)| d * t),
+        _ => p,
+    }
+}
+
 /// The triangles of every mesh set up for the camera (`to_cam`: panorama-local to camera space),
 /// with the counts of those culled and clipped.
-fn prepare_triangles(meshes: &[LayerGeometry], setup: &Setup, to_cam: DMat4) -> (Vec<Prep>, RasterCounts) {
+fn prepare_triangles(
+    meshes: &[LayerGeometry],
+    setup: &Setup,
+    to_cam: DMat4,
+    camera: &Camera,
+) -> (Vec<Prep>, RasterCounts) {
     let mut counts = RasterCounts::default();
     let mut preps: Vec<Prep> = Vec::new();
     for (k, m) in meshes.iter().enumerate() {
         counts.triangles_jump += m.jump_triangles as u64;
-        let lv: Vec<DVec3> = m.mesh.positions.par_iter().map(|&p| to_cam.transform_point3(p)).collect();
+        let lv: Vec<DVec3> =
+            m.mesh.positions.par_iter().map(|&p| placed(camera, to_cam.transform_point3(p))).collect();
         let lv = &lv;
         let parts: Vec<(Vec<Prep>, RasterCounts)> = m
             .mesh
@@ -269,6 +286,7 @@ fn prepare_triangles(meshes: &[LayerGeometry], setup: &Setup, to_cam: DMat4) -> 
 /// from infinity content by direction. Returns the frame and the pixels infinity filled.
 fn compose(
     cam: &Cam,
+    camera: &Camera,
     zbuf: &[setup::Frag],
     planes: &[Planes],
     meshes: &[LayerGeometry],
@@ -295,7 +313,7 @@ fn compose(
                         Cam::Persp { f: focal, .. } => f.z as f64 * r.length() / focal,
                         Cam::Equi { .. } => f.z as f64,
                     };
-                    let pc = r.normalize() * dist;
+                    let pc = camera.origin(x as f64 + 0.5, y as f64 + 0.5) + r.normalize() * dist;
                     let local = cam_to_local.transform_point3(pc);
                     let ld = local.length();
                     let c = planes[k]

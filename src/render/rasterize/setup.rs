@@ -5,7 +5,7 @@ use std::f64::consts::{PI, TAU};
 
 use glam::DVec3;
 
-use crate::render::camera::Camera;
+use crate::render::camera::{Camera, EquirectCamera, OdsEye};
 
 use super::{RasterCounts, RasterOptions, BAND};
 
@@ -57,8 +57,9 @@ impl Cam {
                 cx: c.width as f64 / 2.0,
                 cy: c.height as f64 / 2.0,
             },
-            Camera::Equirect(c) => {
-                let (w, h) = (c.width, c.height);
+            Camera::Equirect(EquirectCamera { width, height, .. })
+            | Camera::Ods(OdsEye { width, height, .. }) => {
+                let (w, h) = (*width, *height);
                 Cam::Equi {
                     w,
                     h,

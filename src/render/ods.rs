@@ -1,0 +1,264 @@
+//! Omnidirectional stereo (ODS): one eye of a stereo panorama (spec §9.2, docs/stereo.md).
+//!
+//! Each output column looks along its azimuth from a point on the *viewing circle* of radius
+//! `IPD / 2` around the eye centre, tangent to it: the left eye's ray for direction `d` starts at
+//! `(IPD / 2) · normalize(Z × d)` (to the left of `d`), the right eye's at the opposite point, and
+//! both eyes look in parallel (no convergence). This is the model of Blender Cycles' spherical
+//! stereo with parallel convergence, and its "pole merge" too: above `from` degrees of elevation
+//! the offset fades as `cos(π/2 · (|e| − from) / (to − from))`, reaching 0 at `to`, so the eyes
+//! meet at the poles and nothing swirls there.
+//!
+//! A point `P` (eye-centred, horizontal distance `ρ`, azimuth `α`) is seen by the ray of azimuth
+//! `α − asin(s / ρ)` (`s` the signed offset, positive for the left eye) and elevation
+//! `atan2(P_z, √(ρ² − s²))`, at distance `√(ρ² − s² + P_z²)` along it. Points with `ρ ≤ |s|` — on
+//! or inside the viewing circle, or within `|s|` of the vertical axis below the pole merge — are
+//! seen by no ray and are not drawn.
+
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+use glam::{DVec2, DVec3};
+
+use super::camera::{check_size, finite};
+use super::RenderError;
+
+/// Fading of the eye offset towards the poles (Blender's "pole merge"), elevation angles in
+/// radians, `0 ≤ from < to ≤ π/2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoleMerge {
+    /// Elevation (absolute) where the offset starts to fade.
+    pub from: f64,
+    /// Elevation where it reaches 0.
+    pub to: f64,
+}
+
+impl Default for PoleMerge {
+    /// Blender's defaults: 60° to 75°.
+    fn default() -> Self {
+        PoleMerge { from: 60f64.to_radians(), to: 75f64.to_radians() }
+    }
+}
+
+impl PoleMerge {
+    /// The share of the eye offset kept at elevation `e` (radians): 1 below `from`, 0 above `to`.
+    #[inline]
+    pub fn fade(&self, e: f64) -> f64 {
+        let a = e.abs();
+        if a <= self.from {
+            1.0
+        } else if a >= self.to {
+            0.0
+        } else {
+            (FRAC_PI_2 * (a - self.from) / (self.to - self.from)).cos()
+        }
+    }
+}
+
+/// One eye of an ODS panorama: an equirect in the world axes (as [`super::EquirectCamera`]) whose
+/// rays start on the viewing circle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OdsEye {
+    /// Centre of the viewing circle in world coordinates, metres.
+    pub eye: DVec3,
+    /// Image width, pixels (twice the height).
+    pub width: usize,
+    /// Image height, pixels.
+    pub height: usize,
+    /// Signed eye offset, metres: `+IPD/2` for the left eye, `−IPD/2` for the right.
+    pub offset: f64,
+    /// Fading to mono towards the poles; `None` keeps the full offset everywhere.
+    pub pole_merge: Option<PoleMerge>,
+}
+
+/// Fixed-point steps of the pole-merge solve (each contracts the error by ≲ 0.3 for points beyond
+/// 0.1 m; the solve stops earlier once converged).
+const MERGE_STEPS: usize = 40;
+
+impl OdsEye {
+    /// One eye of `width × height` (2:1) centred at `eye`, its rays starting `offset` metres to the
+    /// left of their direction (negative: to the right).
+    pub fn new(
+        eye: DVec3,
+        width: usize,
+        height: usize,
+        offset: f64,
+        pole_merge: Option<PoleMerge>,
+    ) -> Result<Self, RenderError> {
+        check_size(width, height)?;
+        if width != 2 * height {
+            return Err(RenderError::BadSize { width, height });
+        }
+        if !offset.is_finite() {
+            return Err(RenderError::BadCamera(format!("eye offset {offset} is not finite")));
+        }
+        if let Some(m) = pole_merge {
+            if !(m.from >= 0.0 && m.from < m.to && m.to <= FRAC_PI_2) {
+                return Err(RenderError::BadCamera(format!(
+                    "pole merge from {}° to {}°: need 0 ≤ from < to ≤ 90",
+                    m.from.to_degrees(),
+                    m.to.to_degrees()
+                )));
+            }
+        }
+        Ok(OdsEye { eye: finite(eye, "eye")?, width, height, offset, pole_merge })
+    }
+
+    /// The signed offset for rays of elevation `e`.
+    #[inline]
+    fn offset_at(&self, e: f64) -> f64 {
+        match &self.pole_merge {
+            Some(m) => self.offset * m.fade(e),
+            None => self.offset,
+        }
+    }
+
+    /// The ray that sees eye-centred point `p`: its unit direction and the distance along it;
+    /// `None` when no ray does (see the module notes) or `p` is not finite.
+    pub fn ray_to(&self, p: DVec3) -> Option<(DVec3, f64)> {
+        if !p.is_finite() {
+            return None;
+        }
+        let rho2 = p.x * p.x + p.y * p.y;
+        let rho = rho2.sqrt();
+        let along = |s: f64| (rho2 - s * s).max(0.0).sqrt();
+        let mut s = self.offset;
+        if self.pole_merge.is_some() {
+            // The offset depends on the ray's elevation, which depends on the offset.
+            let mut e = p.z.atan2(rho);
+            for _ in 0..MERGE_STEPS {
+                s = self.offset_at(e);
+                if s.abs() >= rho {
+                    break;
+                }
+                let next = p.z.atan2(along(s));
+                let done = (next - e).abs() < 1e-13;
+                e = next;
+                if done {
+                    break;
+                }
+            }
+            s = self.offset_at(e);
+        }
+        if s.abs() >= rho && s != 0.0 || rho2 + p.z * p.z == 0.0 {
+            return None;
+        }
+        let t_h = along(s);
+        let alpha = p.y.atan2(p.x);
+        let phi = if rho > 0.0 { alpha - (s / rho).asin() } else { 0.0 };
+        let dist = t_h.hypot(p.z);
+        let (sp, cp) = phi.sin_cos();
+        let d = DVec3::new(cp * t_h, sp * t_h, p.z) / dist;
+        Some((d, dist))
+    }
+
+    /// Continuous output pixel coordinates of eye-centred point `p` (see [`OdsEye::ray_to`]).
+    #[inline]
+    pub fn project(&self, p: DVec3) -> Option<DVec2> {
+        let (d, _) = self.ray_to(p)?;
+        Some(self.pixel(d))
+    }
+
+    /// Output pixel of ray direction `d` (the equirect convention of [`super::EquirectCamera`]).
+    #[inline]
+    fn pixel(&self, d: DVec3) -> DVec2 {
+        let mut phi = d.y.atan2(d.x);
+        if phi < 0.0 {
+            phi += TAU;
+        }
+        let theta = d.x.hypot(d.y).atan2(d.z);
+        let x = (phi / TAU * self.width as f64).min(self.width as f64 - 1e-9);
+        DVec2::new(x.max(0.0), theta / PI * self.height as f64)
+    }
+
+    /// Distance from the start of the ray that sees `p` to `p` (its length when no ray does).
+    #[inline]
+    pub fn distance(&self, p: DVec3) -> f64 {
+        self.ray_to(p).map_or(p.length(), |(_, t)| t)
+    }
+
+    /// Where the ray through continuous output pixel `(x, y)` starts, relative to the eye centre.
+    pub fn origin(&self, x: f64, y: f64) -> DVec3 {
+        let phi = TAU * x / self.width as f64;
+        let e = FRAC_PI_2 - PI * y / self.height as f64;
+        let (sp, cp) = phi.sin_cos();
+        DVec3::new(-sp, cp, 0.0) * self.offset_at(e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn eye(offset: f64, merge: bool) -> OdsEye {
+        let pole_merge = merge.then(PoleMerge::default);
+        OdsEye { eye: DVec3::ZERO, width: 4096, height: 2048, offset, pole_merge }
+    }
+
+    /// The ray through the pixel a point projects to, started at the pixel's origin, passes
+    /// through the point at the distance `ray_to` gives (an independent inverse).
+    #[test]
+    fn the_pixel_ray_passes_through_the_point() {
+        for merge in [false, true] {
+            for offset in [0.032, -0.032] {
+                let c = eye(offset, merge);
+                for p in [
+                    DVec3::new(2.0, 0.5, 0.3),
+                    DVec3::new(-0.4, -0.9, 1.7),
+                    DVec3::new(0.3, 0.2, -1.5),
+                    DVec3::new(0.05, -0.06, 0.02),
+                    DVec3::new(1.0, 1.0, 3.2),
+                    DVec3::new(-3.0, 0.001, -0.2),
+                ] {
+                    let (d, t) = c.ray_to(p).unwrap();
+                    let q = c.project(p).unwrap();
+                    let o = c.origin(q.x, q.y);
+                    let hit = o + d * t;
+                    assert!((hit - p).length() < 1e-9, "{merge} {offset} {p}: {hit}");
+                    // The pixel's direction is the ray's.
+                    let (phi, theta) = (TAU * q.x / 4096.0, PI * q.y / 2048.0);
+                    let dir = DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+                    assert!((dir - d).length() < 1e-9, "{p}: {dir} vs {d}");
+                    assert!((c.distance(p) - t).abs() < 1e-12);
+                }
+            }
+        }
+    }
+
+    /// The ODS disparity: a point at horizontal distance ρ is seen 2·asin(r/ρ) apart by the eyes, the
+    /// left eye turning right (towards smaller azimuth: a smaller column).
+    #[test]
+    fn disparity_is_the_ods_formula() {
+        let (l, r) = (eye(0.032, false), eye(-0.032, false));
+        for rho in [0.1, 0.5, 2.0, 10.0] {
+            let p = DVec3::new(rho * 0.6, rho * 0.8, 0.0);
+            let (ql, qr) = (l.project(p).unwrap(), r.project(p).unwrap());
+            let expect = 2.0 * (0.032f64 / rho).asin() / TAU * 4096.0;
+            assert!((qr.x - ql.x - expect).abs() < 1e-9, "{rho}: {} vs {expect}", qr.x - ql.x);
+            assert!((ql.y - 1024.0).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn inside_the_viewing_circle_nothing_is_seen() {
+        let c = eye(0.032, false);
+        assert!(c.project(DVec3::new(0.02, 0.01, 0.5)).is_none());
+        assert!(c.project(DVec3::ZERO).is_none());
+        assert!(c.project(DVec3::new(f64::NAN, 0.0, 1.0)).is_none());
+        // With the pole merge, high above the head the eyes have met: it is seen.
+        let m = eye(0.032, true);
+        let q = m.project(DVec3::new(0.02, 0.01, 0.5)).unwrap();
+        assert!(q.y < 2048.0 * (15.0 / 180.0), "{q}");
+    }
+
+    #[test]
+    fn pole_merge_fades_as_blender() {
+        let m = PoleMerge::default();
+        assert_eq!(m.fade(0.5), 1.0);
+        assert_eq!(m.fade(-1.4), 0.0);
+        let mid = 67.5f64.to_radians();
+        assert!((m.fade(mid) - (PI / 4.0).cos()).abs() < 1e-12);
+        // Far points above 75° have no disparity at all.
+        let (l, r) = (eye(0.032, true), eye(-0.032, true));
+        let p = DVec3::new(0.2, 0.1, 2.0);
+        assert!((l.project(p).unwrap() - r.project(p).unwrap()).length() < 1e-9);
+    }
+}
