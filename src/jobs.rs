@@ -428,7 +428,7 @@ impl Renderer {
             ViewCamera::Mono(c) => self.render(c),
             ViewCamera::Stereo(s) => {
                 let (l, r) = (self.render(&s.left)?, self.render(&s.right)?);
-                let frame = stereo::stack(&l.frame, &r.frame, s.layout);
+                let frame = stereo::stack(&l.frame, &r.frame, s);
                 let mut stages = l.stages;
                 for (a, b) in stages.iter_mut().zip(&r.stages) {
                     a.seconds += b.seconds;

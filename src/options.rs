@@ -15,6 +15,7 @@ use crate::layering::input::{Convention, Preset};
 use crate::layering::{BuildOptions, Classify, EdgeOptions, FillColour};
 use crate::mesh::{self, normals::NormalWeighting, simplify::SimplifyOptions, MeshOptions};
 use crate::prepare::{DepthKind, KnownDistance, Refine, UnknownDepth};
+use crate::render::stereo::Orientation;
 use crate::render::{
     Camera, EquirectCamera, Perspective, PoleMerge, RenderError, StereoCamera, StereoLayout,
 };
@@ -285,6 +286,10 @@ pub struct CameraArgs {
     /// Keep the full eye separation up to the poles.
     #[arg(long)]
     pub no_pole_merge: bool,
+    /// Columns of stereo panoramas: world (the axes of --camera equirect) or player (as 360° players
+    /// and headsets show them: centre column forward, moving right turns right; use it for videos).
+    #[arg(long, value_enum, default_value = "world")]
+    pub orientation: Orientation,
 }
 
 impl CameraArgs {
@@ -316,7 +321,11 @@ impl CameraArgs {
                 let (from, to) = self.pole_merge;
                 let merge =
                     (!self.no_pole_merge).then(|| PoleMerge { from: from.to_radians(), to: to.to_radians() });
-                ViewCamera::Stereo(StereoCamera::ods(eye, w, h, self.ipd, merge, self.stereo_layout)?)
+                let mut cam = StereoCamera::ods(eye, w, h, self.ipd, merge, self.stereo_layout)?;
+                if self.orientation == Orientation::Player {
+                    cam.player_yaw = Some(look.y.atan2(look.x));
+                }
+                ViewCamera::Stereo(cam)
             }
         })
     }

@@ -33,6 +33,7 @@ __all__ = [
     "BUILD_OPTIONS",
     "prepare_depth",
     "MESH_OPTIONS",
+    "RENDER_OPTIONS",
     "save_colour",
 ]
 
@@ -45,7 +46,7 @@ def _defaults(job: str) -> Dict[str, Any]:
     library declares them once; ``_pomc.option_defaults`` lists them)."""
     out: Dict[str, Any] = {}
     for key, text in _pomc.option_defaults(job):
-        if key in _NAMED:
+        if key in _NAMED or (job == "render" and key in ("eye", "look_at")):
             continue
         value: Any = text
         if text in ("true", "false"):
@@ -68,6 +69,10 @@ BUILD_OPTIONS: Dict[str, Any] = _defaults("build")
 #: ``pomc mesh`` uses by default (``simplify`` and ``greedy`` are the negations of
 #: ``--no-simplify`` and ``--no-greedy``; 0 turns ``max_error`` and ``max_angle`` off).
 MESH_OPTIONS: Dict[str, Any] = _defaults("mesh")
+
+#: Camera keyword options of :meth:`Panorama.render`, with the values ``pomc render`` uses by
+#: default (``size`` is a (width, height) pair; ``eye`` and ``look_at`` are its arguments).
+RENDER_OPTIONS: Dict[str, Any] = _defaults("render")
 
 
 def _usage(message: str) -> PomcError:
@@ -159,23 +164,31 @@ class Panorama:
 
     def render(
         self,
-        eye: Sequence[float],
-        look_at: Sequence[float],
+        eye: Optional[Sequence[float]] = None,
+        look_at: Optional[Sequence[float]] = None,
         *,
-        up: Sequence[float] = (0.0, 0.0, 1.0),
-        fov: float = 60.0,
-        size: Tuple[int, int] = (960, 540),
         method: str = "splat",
+        **camera: Any,
     ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Render a perspective view (world frame, metres; ``fov`` horizontal degrees; ``size``
-        = (width, height)) as ``pomc render``: colour H×W×3 float32 linear, depth H×W float32
-        (distance from the eye; -1 in holes), mask H×W bool (covered). :func:`save_colour` writes
-        the colour as ``pomc render -o`` does (PNG sRGB, EXR linear)."""
+        """Render a view as ``pomc render`` (world frame, metres): colour H×W×3 float32 linear,
+        depth H×W float32 (distance from the eye; -1 in holes), mask H×W bool (covered).
+        :func:`save_colour` writes the colour as ``pomc render -o`` does (PNG sRGB, EXR linear).
+
+        ``eye`` defaults to the panorama centre, ``look_at`` to the centre of the panorama image.
+        Camera options are ``pomc render``'s, see :data:`RENDER_OPTIONS`: ``camera``
+        ("perspective", "equirect" or "ods"), ``up``, ``fov`` (horizontal degrees), ``size``
+        ((width, height) of the whole image), and for stereo ``stereo_layout`` ("tb" or "sbs"),
+        ``ipd`` (metres), ``pole_merge`` ((from, to) degrees) and ``no_pole_merge``."""
         if method not in ("splat", "mesh"):
             raise _usage(f"method must be 'splat' or 'mesh', got {method!r}")
-        w, h = (int(size[0]), int(size[1]))
+        size = camera.get("size")
+        if size is not None and not isinstance(size, str):
+            camera["size"] = f"{int(size[0])}x{int(size[1])}"
         colour, depth, mask, _ = self._inner.render(
-            _vec3("eye", eye), _vec3("look_at", look_at), _vec3("up", up), float(fov), (w, h), method
+            None if eye is None else _vec3("eye", eye),
+            None if look_at is None else _vec3("look_at", look_at),
+            method,
+            camera,
         )
         return colour, depth, mask
 

@@ -21,12 +21,10 @@ class Panorama:
     def validate_json(self) -> str: ...
     def render(
         self,
-        eye: List[float],
-        look_at: List[float],
-        up: List[float],
-        fov: float,
-        size: Tuple[int, int],
+        eye: Optional[List[float]],
+        look_at: Optional[List[float]],
         method: str,
+        options: Dict[str, Any],
     ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, float]: ...
     def mesh(self, layer: Optional[int], options: Dict[str, Any]) -> List[Dict[str, Any]]: ...
     def export_mesh(self, path: str, options: Dict[str, Any], local: bool = False) -> List[str]: ...

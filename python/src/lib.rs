@@ -22,9 +22,9 @@ use pomc::layering::input::ColourSamples;
 use pomc::manifest::Manifest;
 use pomc::mesh::scene::{self, SceneSettings};
 use pomc::mesh::MeshOptions;
-use pomc::options::{self, BuildArgs, Keyword, MeshArgs};
+use pomc::options::{self, BuildArgs, CameraArgs, Keyword, MeshArgs};
 use pomc::panorama::{Panorama, SaveOptions};
-use pomc::render::{Camera, Perspective};
+
 
 create_exception!(_pomc, PomcError, PyException, "A pomc failure; `.code` is its stable code.");
 
@@ -178,29 +178,33 @@ impl PyPanorama {
         serde_json::to_string(&report).map_err(|e| usage(e.to_string()))
     }
 
-    /// Render a perspective view: colour (H×W×3 float32 linear), depth (H×W float32), mask (H×W
-    /// bool: covered), and the hole ratio.
-    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    /// Render a view through the camera the keyword options describe (`pomc render`'s camera
+    /// options): colour (H×W×3 float32 linear), depth (H×W float32), mask (H×W bool: covered), and
+    /// the hole ratio. Stereo cameras return both eyes stacked as the layout says.
+    #[pyo3(signature = (eye, look_at, method, options))]
+    #[allow(clippy::type_complexity)]
     fn render<'py>(
         &self,
         py: Python<'py>,
-        eye: [f64; 3],
-        look_at: [f64; 3],
-        up: [f64; 3],
-        fov: f64,
-        size: (usize, usize),
+        eye: Option<[f64; 3]>,
+        look_at: Option<[f64; 3]>,
         method: &str,
+        options: &Bound<'py, PyDict>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>, f64)> {
         let method = match method {
             "splat" => RenderMethod::Splat,
             "mesh" => RenderMethod::Mesh,
             other => return Err(usage(format!("method `{other}`: use \"splat\" or \"mesh\""))),
         };
-        let (w, h) = size;
-        let cam = Perspective::new(DVec3::from(eye), DVec3::from(look_at), DVec3::from(up), fov, w, h)
-            .map_err(|e| to_py(e.into()))?;
+        let args: CameraArgs = options::from_keywords("render", &keywords(options)?).map_err(usage)?;
+        let eye = eye.map(DVec3::from).unwrap_or(pomc::manifest::centre(self.manifest.local_to_world()));
+        let look = self.manifest.default_look();
         let view = py
-            .allow_threads(|| self.renderer(method).and_then(|r| r.render(&Camera::Perspective(cam))))
+            .allow_threads(|| {
+                let renderer = self.renderer(method)?;
+                let cam = args.view_camera(eye, look_at.map(DVec3::from), look, renderer.panorama_width())?;
+                renderer.render_view(&cam)
+            })
             .map_err(to_py)?;
         let f = view.frame;
         let n = f.width * f.height;
@@ -465,14 +469,16 @@ fn keywords(o: &Bound<'_, PyDict>) -> PyResult<Vec<(String, Keyword)>> {
     Ok(out)
 }
 
-/// `(keyword, default)` of every option of `pomc build` (`"build"`) or `pomc mesh` (`"mesh"`), the
+/// `(keyword, default)` of every option of `pomc build` (`"build"`), `pomc mesh` (`"mesh"`) or the
+/// camera of `pomc render` (`"render"`), the
 /// default as the command line shows it (`None`: none).
 #[pyfunction]
 fn option_defaults(job: &str) -> PyResult<Vec<(String, Option<String>)>> {
     match job {
         "build" => Ok(options::keyword_defaults::<BuildArgs>()),
         "mesh" => Ok(options::keyword_defaults::<MeshArgs>()),
-        other => Err(usage(format!("no options of `{other}`: build or mesh"))),
+        "render" => Ok(options::keyword_defaults::<CameraArgs>()),
+        other => Err(usage(format!("no options of `{other}`: build, mesh or render"))),
     }
 }
 

@@ -27,6 +27,19 @@ impl StereoLayout {
     }
 }
 
+/// How the columns of a panoramic output run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum Orientation {
+    /// The world axes of `--camera equirect` (spec §3: column 0 at azimuth +X, azimuth growing
+    /// towards +Y to the right; the sphere seen from outside).
+    #[default]
+    World,
+    /// What 360° players and headsets expect (the sphere seen from inside): the centre column looks
+    /// along the panorama's forward (the centre of its image) and moving right turns right.
+    Player,
+}
+
 /// A stereo camera: the left and right eyes, and the layout of the image they make.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StereoCamera {
@@ -36,6 +49,9 @@ pub struct StereoCamera {
     pub right: Camera,
     /// How the eyes share the image.
     pub layout: StereoLayout,
+    /// `None`: each eye in the world axes; `Some(a)`: in the players' orientation, the centre
+    /// column at world azimuth `a` (radians, from +X towards +Y), rounded to a whole column.
+    pub player_yaw: Option<f64>,
 }
 
 impl StereoCamera {
@@ -54,7 +70,7 @@ impl StereoCamera {
         }
         let (w, h) = layout.eye_size(width, height).ok_or(RenderError::BadSize { width, height })?;
         let eye_cam = |offset| OdsEye::new(eye, w, h, offset, pole_merge).map(Camera::Ods);
-        Ok(StereoCamera { left: eye_cam(ipd / 2.0)?, right: eye_cam(-ipd / 2.0)?, layout })
+        Ok(StereoCamera { left: eye_cam(ipd / 2.0)?, right: eye_cam(-ipd / 2.0)?, layout, player_yaw: None })
     }
 
     /// Width and height of the whole image.
@@ -67,8 +83,38 @@ impl StereoCamera {
     }
 }
 
-/// The two eyes' frames (of one size) as one image in `layout`.
-pub fn stack(left: &Frame, right: &Frame, layout: StereoLayout) -> Frame {
+/// The two eyes' frames (of one size, world axes) as the camera's image: turned to the players'
+/// orientation if it asks, stacked in its layout.
+pub fn stack(left: &Frame, right: &Frame, camera: &StereoCamera) -> Frame {
+    match camera.player_yaw {
+        Some(yaw) => stack_eyes(&to_player(left, yaw), &to_player(right, yaw), camera.layout),
+        None => stack_eyes(left, right, camera.layout),
+    }
+}
+
+/// A world-axes equirect frame in the players' orientation with its centre column at azimuth
+/// `yaw`: output column `x` is input column `k − 1 − x` (mod width), `k = round(w (yaw + π) / 2π)`,
+/// so pixel centres map onto pixel centres (a mirror and a turn, no resampling).
+pub fn to_player(f: &Frame, yaw: f64) -> Frame {
+    let w = f.width as i64;
+    let k = (w as f64 * (yaw + std::f64::consts::PI) / std::f64::consts::TAU).round() as i64;
+    let mut out = Frame::holes_only(f.width, f.height);
+    for y in 0..f.height {
+        let row = y * f.width;
+        for x in 0..w {
+            let (o, i) = (row + x as usize, row + (k - 1 - x).rem_euclid(w) as usize);
+            for c in 0..3 {
+                out.rgb[c][o] = f.rgb[c][i];
+            }
+            out.depth[o] = f.depth[i];
+            out.covered[o] = f.covered[i];
+        }
+    }
+    out
+}
+
+/// Two frames of one size as one image in `layout`.
+fn stack_eyes(left: &Frame, right: &Frame, layout: StereoLayout) -> Frame {
     let (w, h) = (left.width, left.height);
     debug_assert_eq!((w, h), (right.width, right.height));
     let (ow, oh) = match layout {
@@ -101,12 +147,31 @@ mod tests {
         let mut l = Frame::holes_only(4, 2);
         l.rgb[0].fill(1.0);
         let r = Frame::holes_only(4, 2);
-        let tb = stack(&l, &r, StereoLayout::Tb);
+        let tb = stack_eyes(&l, &r, StereoLayout::Tb);
         assert_eq!((tb.width, tb.height), (4, 4));
         assert!(tb.rgb[0][..8].iter().all(|&v| v == 1.0) && tb.rgb[0][8..].iter().all(|&v| v == 0.0));
-        let sbs = stack(&l, &r, StereoLayout::Sbs);
+        let sbs = stack_eyes(&l, &r, StereoLayout::Sbs);
         assert_eq!((sbs.width, sbs.height), (8, 2));
         assert_eq!(&sbs.rgb[0][..8], &[1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
+    }
+
+    /// In the players' orientation the centre column looks along the forward azimuth and moving
+    /// right turns right (clockwise seen from above: decreasing azimuth).
+    #[test]
+    fn player_orientation_centres_forward_and_turns_right() {
+        let (w, h) = (16, 8);
+        let mut f = Frame::holes_only(w, h);
+        for x in 0..w {
+            f.rgb[0][x] = (x as f32 + 0.5) / w as f32 * 360.0; // azimuth of the column, degrees
+        }
+        for (yaw, centre) in [(0.0, 0.0), (90.0, 90.0), (-90.0, 270.0)] {
+            let p = to_player(&f, f64::to_radians(yaw));
+            // Pixel w/2 − 1 and w/2 straddle the centre: their azimuths average to the forward.
+            let (a, b) = (p.rgb[0][w / 2 - 1], p.rgb[0][w / 2]);
+            let mid = if (a - b).abs() > 180.0 { ((a + b + 360.0) / 2.0) % 360.0 } else { (a + b) / 2.0 };
+            assert!((mid - centre).abs() < 1e-4, "{yaw}: {a} {b}");
+            assert!(((a - b).rem_euclid(360.0) - 22.5).abs() < 1e-4, "turns right: {a} then {b}");
+        }
     }
 
     #[test]
