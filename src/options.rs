@@ -249,6 +249,9 @@ pub enum CameraKind {
     /// Omnidirectional stereo: two equirect eyes on a viewing circle of diameter --ipd around --eye,
     /// stacked by --stereo-layout.
     Ods,
+    /// VR180: two 180° × 180° half equirects looking along --look-at from eyes --ipd apart, side by
+    /// side unless --stereo-layout tb.
+    Vr180,
 }
 
 /// How a view is seen: its camera and, for stereo, the eyes (`pomc render`).
@@ -271,12 +274,13 @@ pub struct CameraArgs {
     #[arg(long, default_value_t = 60.0, value_parser = Range::OPEN_ANGLE.parser())]
     pub fov: f64,
     /// Output size WxH, the whole image (default 960x540 perspective, 2048x1024 equirect; ods: each
-    /// eye as wide as the panorama, 2:1).
+    /// eye as wide as the panorama, 2:1; vr180: each eye half as wide, square).
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     pub size: Option<(usize, usize)>,
-    /// Stereo layout: tb (top-bottom, left eye on top) or sbs (side by side, left eye left).
-    #[arg(long, value_enum, default_value = "tb")]
-    pub stereo_layout: StereoLayout,
+    /// Stereo layout: tb (top-bottom, left eye on top) or sbs (side by side, left eye left); default
+    /// tb for ods, sbs for vr180.
+    #[arg(long, value_enum)]
+    pub stereo_layout: Option<StereoLayout>,
     /// Interpupillary distance of stereo cameras, metres.
     #[arg(long, value_name = "M", default_value_t = 0.064, value_parser = Range::NON_NEGATIVE.parser())]
     pub ipd: f64,
@@ -314,18 +318,29 @@ impl CameraArgs {
             }
             CameraKind::Ods => {
                 let w = panorama_width.max(2) / 2 * 2;
-                let (w, h) = self.size.unwrap_or(match self.stereo_layout {
+                let layout = self.stereo_layout.unwrap_or(StereoLayout::Tb);
+                let (w, h) = self.size.unwrap_or(match layout {
                     StereoLayout::Tb => (w, w),
                     StereoLayout::Sbs => (2 * w, w / 2),
                 });
                 let (from, to) = self.pole_merge;
                 let merge =
                     (!self.no_pole_merge).then(|| PoleMerge { from: from.to_radians(), to: to.to_radians() });
-                let mut cam = StereoCamera::ods(eye, w, h, self.ipd, merge, self.stereo_layout)?;
+                let mut cam = StereoCamera::ods(eye, w, h, self.ipd, merge, layout)?;
                 if self.orientation == Orientation::Player {
                     cam.player_yaw = Some(look.y.atan2(look.x));
                 }
                 ViewCamera::Stereo(cam)
+            }
+            CameraKind::Vr180 => {
+                let side = (panorama_width / 2).max(1);
+                let layout = self.stereo_layout.unwrap_or(StereoLayout::Sbs);
+                let (w, h) = self.size.unwrap_or(match layout {
+                    StereoLayout::Tb => (side, 2 * side),
+                    StereoLayout::Sbs => (2 * side, side),
+                });
+                let forward = look_at.map_or(look, |at| at - eye);
+                ViewCamera::Stereo(StereoCamera::vr180(eye, forward, self.up, w, h, self.ipd, layout)?)
             }
         })
     }

@@ -100,6 +100,34 @@ def test_render_equals_the_command(built, tmp_path):
         assert mask.mean() > 0.99
 
 
+def test_stereo_cameras_equal_the_command(built, tmp_path):
+    pano = pomc.open(built / "py")
+    assert pomc.RENDER_OPTIONS["camera"] == "perspective" and pomc.RENDER_OPTIONS["ipd"] == 0.064
+    cases = [
+        (dict(camera="ods", size=(256, 256)), ["--camera", "ods", "--size", "256x256"]),
+        (dict(camera="ods", size=(512, 128), stereo_layout="sbs", ipd=0.07, pole_merge=(50, 80),
+              orientation="player"),
+         ["--camera", "ods", "--size", "512x128", "--stereo-layout", "sbs", "--ipd", "0.07",
+          "--pole-merge", "50,80", "--orientation", "player"]),
+        (dict(camera="ods", size=(256, 256), no_pole_merge=True), ["--camera", "ods", "--size", "256x256",
+                                                                   "--no-pole-merge"]),
+        (dict(camera="vr180", size=(256, 128)), ["--camera", "vr180", "--size", "256x128"]),
+    ]
+    for method in ("splat", "mesh"):
+        for kw, flags in cases:
+            out = tmp_path / "cli.exr"
+            cli("render", str(built / "py"), "-o", str(out), "--method", method, *flags)
+            truth = exr_channels(out)
+            colour, _, mask = pano.render(method=method, **kw)
+            w, h = kw["size"]
+            assert colour.shape == (h, w, 3), (kw, colour.shape)
+            for c, name in enumerate("RGB"):
+                assert np.array_equal(colour[..., c], truth[name]), f"{method} {kw} {name}"
+            assert mask.mean() > 0.99
+    with pytest.raises(pomc.PomcError, match="stereo.layout"):
+        pano.render(camera="ods", stereo_layout="diagonal")
+
+
 def test_save_colour_writes_what_the_command_writes(built, tmp_path):
     pano = pomc.open(built / "py")
     eye, look = (0.15, -0.1, 0.05), (0.15, 1.0, 0.0)

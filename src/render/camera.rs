@@ -57,6 +57,54 @@ pub struct EquirectCamera {
     pub height: usize,
 }
 
+/// One eye of a VR180 image: a half equirect, 180° × 180° around `forward`, in the orientation
+/// players show (the centre column looks along `forward`, moving right turns right; row 0 looks
+/// along `up`). Camera space is `(−forward, −right, up)`, in which the image is the middle half of
+/// a `2·width`-wide equirect of spec §3 — a mirror, so the mesh rasteriser draws it as one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HalfEquirect {
+    /// The eye in world coordinates, metres.
+    pub eye: DVec3,
+    /// Unit right, up and forward vectors in the world (orthonormal).
+    pub right: DVec3,
+    /// Unit up vector: the image's top row.
+    pub up: DVec3,
+    /// Unit viewing direction: the image's centre.
+    pub forward: DVec3,
+    /// Image width, pixels (equal to the height: 180° each way).
+    pub width: usize,
+    /// Image height, pixels.
+    pub height: usize,
+}
+
+impl HalfEquirect {
+    /// A half equirect of `side × side` pixels at `eye` looking along `forward` (horizontal part
+    /// used when `up` is `+Z`; any `up` not parallel to it).
+    pub fn new(eye: DVec3, forward: DVec3, up: DVec3, side: usize) -> Result<Self, RenderError> {
+        check_size(side, side)?;
+        let p = Perspective::new(eye, eye + finite(forward, "look direction")?, up, 90.0, 1, 1)?;
+        Ok(HalfEquirect {
+            eye: p.eye,
+            right: p.right,
+            up: p.up,
+            forward: p.forward,
+            width: side,
+            height: side,
+        })
+    }
+
+    /// World → camera rotation (rows: −forward, −right, up).
+    fn rotation(&self) -> DMat4 {
+        DMat4::from_cols(
+            (-self.forward).extend(0.0),
+            (-self.right).extend(0.0),
+            self.up.extend(0.0),
+            glam::DVec4::W,
+        )
+        .transpose()
+    }
+}
+
 /// Any output camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Camera {
@@ -66,6 +114,8 @@ pub enum Camera {
     Equirect(EquirectCamera),
     /// One eye of an omnidirectional stereo panorama.
     Ods(OdsEye),
+    /// One eye of a VR180 image.
+    HalfEquirect(HalfEquirect),
 }
 
 pub(super) fn check_size(width: usize, height: usize) -> Result<(), RenderError> {
@@ -164,6 +214,7 @@ impl Camera {
             }
             Camera::Equirect(c) => Camera::Equirect(EquirectCamera { width: w, height: h, ..c }),
             Camera::Ods(c) => Camera::Ods(OdsEye { width: w, height: h, ..c }),
+            Camera::HalfEquirect(c) => Camera::HalfEquirect(HalfEquirect { width: w, height: h, ..c }),
         })
     }
 
@@ -173,6 +224,7 @@ impl Camera {
             Camera::Perspective(c) => c.width,
             Camera::Equirect(c) => c.width,
             Camera::Ods(c) => c.width,
+            Camera::HalfEquirect(c) => c.width,
         }
     }
 
@@ -182,6 +234,7 @@ impl Camera {
             Camera::Perspective(c) => c.height,
             Camera::Equirect(c) => c.height,
             Camera::Ods(c) => c.height,
+            Camera::HalfEquirect(c) => c.height,
         }
     }
 
@@ -191,6 +244,7 @@ impl Camera {
             Camera::Perspective(c) => c.eye,
             Camera::Equirect(c) => c.eye,
             Camera::Ods(c) => c.eye,
+            Camera::HalfEquirect(c) => c.eye,
         }
     }
 
@@ -249,6 +303,7 @@ impl Camera {
             }
             Camera::Equirect(c) => DMat4::from_translation(-c.eye),
             Camera::Ods(c) => DMat4::from_translation(-c.eye),
+            Camera::HalfEquirect(c) => c.rotation() * DMat4::from_translation(-c.eye),
         }
     }
 
@@ -281,6 +336,16 @@ impl Camera {
                 Some(DVec2::new(x.max(0.0), theta / PI * c.height as f64))
             }
             Camera::Ods(c) => c.project(p),
+            Camera::HalfEquirect(c) => {
+                if !p.is_finite() || p == DVec3::ZERO {
+                    return None;
+                }
+                // Azimuth in (−π, π] from −forward's opposite: 0 straight ahead, growing to the right.
+                let phi = (-p.y).atan2(-p.x);
+                let theta = p.x.hypot(p.y).atan2(p.z);
+                let (w, h) = (c.width as f64, c.height as f64);
+                Some(DVec2::new(w / 2.0 + phi / PI * w, theta / PI * h))
+            }
         }
     }
 
@@ -291,7 +356,9 @@ impl Camera {
     pub fn x_scale(&self, y: f64) -> f64 {
         match self {
             Camera::Perspective(_) => 1.0,
-            Camera::Equirect(EquirectCamera { height, .. }) | Camera::Ods(OdsEye { height, .. }) => {
+            Camera::Equirect(EquirectCamera { height, .. })
+            | Camera::Ods(OdsEye { height, .. })
+            | Camera::HalfEquirect(HalfEquirect { height, .. }) => {
                 let h = *height as f64;
                 (PI * y / h).sin().max((PI * 0.5 / h).sin())
             }
@@ -314,6 +381,13 @@ impl Camera {
                 let (sp, cp) = phi.sin_cos();
                 DVec3::new(st * cp, st * sp, ct)
             }
+            Camera::HalfEquirect(c) => {
+                let phi = PI * (x / c.width as f64 - 0.5);
+                let theta = PI * y / c.height as f64;
+                let (st, ct) = theta.sin_cos();
+                let (sp, cp) = phi.sin_cos();
+                (c.forward * (st * cp) + c.right * (st * sp) + c.up * ct).normalize()
+            }
         }
     }
 
@@ -322,6 +396,8 @@ impl Camera {
     pub fn view_cone(&self) -> Option<(DVec3, f64)> {
         match self {
             Camera::Perspective(c) => Some((c.forward, c.half_diagonal_angle())),
+            // Everything in view is within 90° of forward (its edges and poles are at 90°).
+            Camera::HalfEquirect(c) => Some((c.forward, std::f64::consts::FRAC_PI_2)),
             Camera::Equirect(_) | Camera::Ods(_) => None,
         }
     }
@@ -369,6 +445,9 @@ mod tests {
         for c in [
             cam(DVec3::ZERO, DVec3::new(1.0, 1.0, 0.3), DVec3::Z),
             Camera::Equirect(EquirectCamera::new(DVec3::new(0.1, 0.2, 0.3), 64, 32).unwrap()),
+            Camera::HalfEquirect(
+                HalfEquirect::new(DVec3::ZERO, DVec3::new(1.0, 2.0, 0.3), DVec3::Z, 48).unwrap(),
+            ),
         ] {
             for (x, y) in [(0.5, 0.5), (10.25, 20.75), (40.0, 17.0)] {
                 let d = c.ray(x, y);
@@ -376,6 +455,18 @@ mod tests {
                 assert!((q - DVec2::new(x, y)).length() < 1e-9, "{c:?} {x},{y} -> {q}");
             }
         }
+    }
+
+    /// VR180 eyes are seen from inside: the centre looks forward, the right edge right, the top up.
+    #[test]
+    fn half_equirect_is_seen_from_inside() {
+        let c = Camera::HalfEquirect(HalfEquirect::new(DVec3::ZERO, DVec3::Y, DVec3::Z, 100).unwrap());
+        assert!((c.ray(50.0, 50.0) - DVec3::Y).length() < 1e-12);
+        // Looking along +Y with +Z up, right is +X.
+        assert!((c.ray(100.0, 50.0) - DVec3::X).length() < 1e-12);
+        assert!((c.ray(25.0, 0.0) - DVec3::Z).length() < 1e-12);
+        let right = c.project(c.to_camera().transform_vector3(DVec3::new(1.0, 1.0, 0.0))).unwrap();
+        assert!((right - DVec2::new(75.0, 50.0)).length() < 1e-9, "{right}");
     }
 
     #[test]

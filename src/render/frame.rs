@@ -109,6 +109,20 @@ impl Frame {
         f
     }
 
+    /// Columns `x0 .. x0 + width` of the frame.
+    pub(crate) fn columns(&self, x0: usize, width: usize) -> Frame {
+        let mut f = Frame::holes_only(width, self.height);
+        for y in 0..self.height {
+            let (src, dst) = (y * self.width + x0, y * width);
+            for c in 0..3 {
+                f.rgb[c][dst..dst + width].copy_from_slice(&self.rgb[c][src..src + width]);
+            }
+            f.depth[dst..dst + width].copy_from_slice(&self.depth[src..src + width]);
+            f.covered[dst..dst + width].copy_from_slice(&self.covered[src..src + width]);
+        }
+        f
+    }
+
     /// Pixels no sample reached.
     pub fn holes(&self) -> usize {
         self.covered.iter().filter(|&&c| !c).count()

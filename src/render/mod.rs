@@ -42,7 +42,7 @@ use std::time::Instant;
 use glam::DMat4;
 use serde::Serialize;
 
-pub use camera::{Camera, EquirectCamera, OdsEye, Perspective, PoleMerge};
+pub use camera::{Camera, EquirectCamera, HalfEquirect, OdsEye, Perspective, PoleMerge};
 pub use frame::Frame;
 pub use rasterize::{MeshRenderStats, MeshRendered, RasterCounts, RasterOptions};
 pub use splat::{SplatCounts, SplatOptions};

@@ -12,7 +12,8 @@
 //! `α − asin(s / ρ)` (`s` the signed offset, positive for the left eye) and elevation
 //! `atan2(P_z, √(ρ² − s²))`, at distance `√(ρ² − s² + P_z²)` along it. Points with `ρ ≤ |s|` — on
 //! or inside the viewing circle, or within `|s|` of the vertical axis below the pole merge — are
-//! seen by no ray and are not drawn.
+//! seen by no ray: those more than `|s|` above or below the eye are drawn where the rays grazing
+//! the cylinder `ρ = |s|` look ([`OdsEye::ray_to_or_edge`]), the others (the viewer's head) not.
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -69,9 +70,8 @@ pub struct OdsEye {
     pub pole_merge: Option<PoleMerge>,
 }
 
-/// Fixed-point steps of the pole-merge solve (each contracts the error by ≲ 0.3 for points beyond
-/// 0.1 m; the solve stops earlier once converged).
-const MERGE_STEPS: usize = 40;
+/// Bisection steps of the pole-merge solve: the 15° fade band to below 1e-15 rad.
+const MERGE_STEPS: usize = 56;
 
 impl OdsEye {
     /// One eye of `width × height` (2:1) centred at `eye`, its rays starting `offset` metres to the
@@ -120,24 +120,10 @@ impl OdsEye {
         let rho2 = p.x * p.x + p.y * p.y;
         let rho = rho2.sqrt();
         let along = |s: f64| (rho2 - s * s).max(0.0).sqrt();
-        let mut s = self.offset;
-        if self.pole_merge.is_some() {
-            // The offset depends on the ray's elevation, which depends on the offset.
-            let mut e = p.z.atan2(rho);
-            for _ in 0..MERGE_STEPS {
-                s = self.offset_at(e);
-                if s.abs() >= rho {
-                    break;
-                }
-                let next = p.z.atan2(along(s));
-                let done = (next - e).abs() < 1e-13;
-                e = next;
-                if done {
-                    break;
-                }
-            }
-            s = self.offset_at(e);
-        }
+        let s = match &self.pole_merge {
+            None => self.offset,
+            Some(m) => self.merged_offset(m, p.z, rho2),
+        };
         if s.abs() >= rho && s != 0.0 || rho2 + p.z * p.z == 0.0 {
             return None;
         }
@@ -150,10 +136,56 @@ impl OdsEye {
         Some((d, dist))
     }
 
-    /// Continuous output pixel coordinates of eye-centred point `p` (see [`OdsEye::ray_to`]).
+    /// [`OdsEye::ray_to`], but a point no ray sees that lies more than `|offset|` above or below
+    /// the eye is first moved out horizontally onto the cylinder of radius `|offset|` around the
+    /// vertical axis (just outside it): the near-vertical rays grazing the cylinder there see what
+    /// is next to it, so content around the poles stays covered without the pole merge. A point
+    /// within `|offset|` of the eye both ways (the viewer's head) is not drawn.
+    pub fn ray_to_or_edge(&self, p: DVec3) -> Option<(DVec3, f64)> {
+        self.ray_to(p).or_else(|| {
+            if !(p.z.abs() > self.offset.abs()) {
+                return None;
+            }
+            let rho = p.x.hypot(p.y);
+            let edge = self.offset.abs() * (1.0 + 1e-9) + f64::MIN_POSITIVE;
+            let q = if rho > 0.0 {
+                DVec3::new(p.x * edge / rho, p.y * edge / rho, p.z)
+            } else {
+                p + DVec3::X * edge
+            };
+            self.ray_to(q)
+        })
+    }
+
+    /// The offset of the ray that sees a point at height `z` and squared horizontal distance `rho2`
+    /// under the pole merge, whose fade depends on that ray's elevation `e`: a root of
+    /// `g(e) = atan2(|z|, √(ρ² − s(e)²)) − e`, found by bisection between `from` and `to` (`g` is
+    /// continuous, positive at `from` and negative at `to` whenever the root lies between them).
+    fn merged_offset(&self, m: &PoleMerge, z: f64, rho2: f64) -> f64 {
+        let along = |s: f64| (rho2 - s * s).max(0.0).sqrt();
+        let g = |e: f64| z.abs().atan2(along(self.offset * m.fade(e))) - e;
+        if g(m.from) <= 0.0 {
+            return self.offset; // seen below the fade: the full offset
+        }
+        if g(m.to) >= 0.0 {
+            return 0.0; // seen above it: the eyes have met
+        }
+        let (mut lo, mut hi) = (m.from, m.to);
+        for _ in 0..MERGE_STEPS {
+            let mid = 0.5 * (lo + hi);
+            if g(mid) > 0.0 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        self.offset * m.fade(0.5 * (lo + hi))
+    }
+
+    /// Continuous output pixel coordinates of eye-centred point `p` (see [`OdsEye::ray_to_or_edge`]).
     #[inline]
     pub fn project(&self, p: DVec3) -> Option<DVec2> {
-        let (d, _) = self.ray_to(p)?;
+        let (d, _) = self.ray_to_or_edge(p)?;
         Some(self.pixel(d))
     }
 
@@ -172,7 +204,7 @@ impl OdsEye {
     /// Distance from the start of the ray that sees `p` to `p` (its length when no ray does).
     #[inline]
     pub fn distance(&self, p: DVec3) -> f64 {
-        self.ray_to(p).map_or(p.length(), |(_, t)| t)
+        self.ray_to_or_edge(p).map_or(p.length(), |(_, t)| t)
     }
 
     /// Where the ray through continuous output pixel `(x, y)` starts, relative to the eye centre.
@@ -240,7 +272,11 @@ mod tests {
     #[test]
     fn inside_the_viewing_circle_nothing_is_seen() {
         let c = eye(0.032, false);
-        assert!(c.project(DVec3::new(0.02, 0.01, 0.5)).is_none());
+        assert!(c.project(DVec3::new(0.02, 0.01, 0.03)).is_none());
+        assert!(c.ray_to(DVec3::new(0.02, 0.01, 0.5)).is_none());
+        // High above the eye, inside the cylinder: drawn where the grazing rays look, at the pole.
+        let q = c.project(DVec3::new(0.02, 0.01, 0.5)).unwrap();
+        assert!(q.y < 2048.0 * (4.0 / 180.0), "{q}");
         assert!(c.project(DVec3::ZERO).is_none());
         assert!(c.project(DVec3::new(f64::NAN, 0.0, 1.0)).is_none());
         // With the pole merge, high above the head the eyes have met: it is seen.

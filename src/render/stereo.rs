@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 
-use super::camera::{Camera, OdsEye, PoleMerge};
+use super::camera::{finite, Camera, HalfEquirect, OdsEye, PoleMerge};
 use super::frame::Frame;
 use super::RenderError;
 
@@ -65,11 +65,34 @@ impl StereoCamera {
         pole_merge: Option<PoleMerge>,
         layout: StereoLayout,
     ) -> Result<StereoCamera, RenderError> {
-        if !(ipd >= 0.0 && ipd.is_finite()) {
-            return Err(RenderError::BadCamera(format!("interpupillary distance {ipd} m must be ≥ 0")));
-        }
+        check_ipd(ipd)?;
         let (w, h) = layout.eye_size(width, height).ok_or(RenderError::BadSize { width, height })?;
         let eye_cam = |offset| OdsEye::new(eye, w, h, offset, pole_merge).map(Camera::Ods);
+        Ok(StereoCamera { left: eye_cam(ipd / 2.0)?, right: eye_cam(-ipd / 2.0)?, layout, player_yaw: None })
+    }
+
+    /// VR180 at `eye` looking along `forward` (`up` up): two half equirects (180° × 180°) side by
+    /// side or top-bottom in a `width × height` image, from eyes `ipd` apart across the view (as a
+    /// two-lens VR180 camera has them), already in the players' orientation.
+    pub fn vr180(
+        eye: DVec3,
+        forward: DVec3,
+        up: DVec3,
+        width: usize,
+        height: usize,
+        ipd: f64,
+        layout: StereoLayout,
+    ) -> Result<StereoCamera, RenderError> {
+        check_ipd(ipd)?;
+        let (w, h) = layout.eye_size(width, height).ok_or(RenderError::BadSize { width, height })?;
+        if w != h {
+            return Err(RenderError::BadSize { width, height });
+        }
+        let centre = HalfEquirect::new(eye, forward, up, w)?;
+        let eye_cam = |offset: f64| {
+            let c = HalfEquirect { eye: eye - centre.right * offset, ..centre };
+            finite(c.eye, "eye").map(|_| Camera::HalfEquirect(c))
+        };
         Ok(StereoCamera { left: eye_cam(ipd / 2.0)?, right: eye_cam(-ipd / 2.0)?, layout, player_yaw: None })
     }
 
@@ -80,6 +103,14 @@ impl StereoCamera {
             StereoLayout::Tb => (w, 2 * h),
             StereoLayout::Sbs => (2 * w, h),
         }
+    }
+}
+
+fn check_ipd(ipd: f64) -> Result<(), RenderError> {
+    if ipd >= 0.0 && ipd.is_finite() {
+        Ok(())
+    } else {
+        Err(RenderError::BadCamera(format!("interpupillary distance {ipd} m must be ≥ 0")))
     }
 }
 

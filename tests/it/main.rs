@@ -19,5 +19,6 @@ mod pack_roundtrip;
 mod prepare_depth;
 mod render_mesh;
 mod render_room;
+mod render_stereo;
 mod source_layout;
 mod validate_codes;

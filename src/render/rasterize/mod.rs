@@ -168,6 +168,11 @@ pub fn render_mesh(
         layers.iter().zip(meshes).map(|(l, g)| Planes::new(l.image, l.mapping, g.has_infinity)).collect();
     let (frame, infinity_pixels) = compose(&cam, camera, &zbuf, &planes, meshes, to_cam.inverse(), o);
     counts.infinity_pixels += infinity_pixels;
+    // A half equirect was drawn as the middle half of a full one.
+    let frame = match camera {
+        Camera::HalfEquirect(c) => frame.columns(c.width / 2, c.width),
+        _ => frame,
+    };
     let frame = if ss > 1 { frame.downsampled(ss) } else { frame };
     let compose_s = t_compose.elapsed().as_secs_f64();
     let stats = MeshRenderStats {
@@ -235,11 +240,12 @@ fn check_meshes(layers: &[RenderLayer], meshes: &[LayerGeometry]) -> Result<(), 
 
 /// Where camera-space point `p` is drawn: itself, but for an ODS eye the point along the ray that
 /// sees it from the eye centre, at the distance from the ray's start (the vertex displacement of
-/// ODS rasterisation; NaN, so never drawn, where no ray sees it). Triangles between displaced
-/// vertices follow the eye's curved projection to second order in their size.
+/// ODS rasterisation; a vertex no ray sees is moved to the edge of what the eye sees, NaN and never
+/// drawn only if not finite). Triangles between displaced vertices follow the eye's curved
+/// projection to second order in their size.
 fn placed(camera: &Camera, p: DVec3) -> DVec3 {
     match camera {
-        Camera::Ods(c) => c.ray_to(p).map_or(DVec3::NAN, |(d, t)| d * t),
+        Camera::Ods(c) => c.ray_to_or_edge(p).map_or(DVec3::NAN, |(d, t)| d * t),
         _ => p,
     }
 }

@@ -58,20 +58,23 @@ impl Cam {
                 cy: c.height as f64 / 2.0,
             },
             Camera::Equirect(EquirectCamera { width, height, .. })
-            | Camera::Ods(OdsEye { width, height, .. }) => {
-                let (w, h) = (*width, *height);
-                Cam::Equi {
-                    w,
-                    h,
-                    rows: (0..h).map(|j| (PI * (j as f64 + 0.5) / h as f64).sin_cos()).collect(),
-                    cols: (0..w)
-                        .map(|i| {
-                            let (s, c) = (TAU * (i as f64 + 0.5) / w as f64).sin_cos();
-                            (c, s)
-                        })
-                        .collect(),
-                }
-            }
+            | Camera::Ods(OdsEye { width, height, .. }) => Cam::equirect(*width, *height),
+            // The half equirect is the middle half of a full one in its camera space.
+            Camera::HalfEquirect(c) => Cam::equirect(2 * c.width, c.height),
+        }
+    }
+
+    fn equirect(w: usize, h: usize) -> Cam {
+        Cam::Equi {
+            w,
+            h,
+            rows: (0..h).map(|j| (PI * (j as f64 + 0.5) / h as f64).sin_cos()).collect(),
+            cols: (0..w)
+                .map(|i| {
+                    let (s, c) = (TAU * (i as f64 + 0.5) / w as f64).sin_cos();
+                    (c, s)
+                })
+                .collect(),
         }
     }
 
