@@ -17,6 +17,7 @@ use crate::mesh::MeshOptions;
 use crate::panorama::{self, Panorama, SaveOptions};
 use crate::prepare::{self, DepthSamples, PrepareOptions, PrepareReport, PreparedDepth, SampleFormat};
 use crate::render::stereo::{self, StereoCamera};
+use crate::render::CubeCamera;
 use crate::render::{self, rasterize, Camera, Frame, RasterOptions, RenderLayer, SplatOptions, Stage};
 
 /// Everything `pomc build` takes besides its input and output paths.
@@ -278,6 +279,8 @@ pub enum ViewCamera {
     Mono(Camera),
     /// Two eyes, stacked by their layout.
     Stereo(StereoCamera),
+    /// A cube map, mono or stereo.
+    Cube(CubeCamera),
 }
 
 impl ViewCamera {
@@ -286,6 +289,7 @@ impl ViewCamera {
         match self {
             ViewCamera::Mono(c) => (c.width(), c.height()),
             ViewCamera::Stereo(s) => s.size(),
+            ViewCamera::Cube(c) => c.size(),
         }
     }
 }
@@ -426,20 +430,21 @@ impl Renderer {
     pub fn render_view(&self, camera: &ViewCamera) -> crate::Result<View> {
         match camera {
             ViewCamera::Mono(c) => self.render(c),
+            ViewCamera::Cube(c) => {
+                let mut l = self.render(&c.left)?;
+                l.frame = render::cube::to_cube(&l.frame, c.face, c.layout)?;
+                let Some(right) = &c.right else {
+                    l.holes = l.frame.holes();
+                    l.hole_ratio = l.frame.hole_ratio();
+                    return Ok(l);
+                };
+                let mut r = self.render(right)?;
+                r.frame = render::cube::to_cube(&r.frame, c.face, c.layout)?;
+                Ok(stereo_view(l, r, |a, b| stereo::stack_eyes(a, b, c.stereo)))
+            }
             ViewCamera::Stereo(s) => {
                 let (l, r) = (self.render(&s.left)?, self.render(&s.right)?);
-                let frame = stereo::stack(&l.frame, &r.frame, s);
-                let mut stages = l.stages;
-                for (a, b) in stages.iter_mut().zip(&r.stages) {
-                    a.seconds += b.seconds;
-                }
-                Ok(View {
-                    holes: l.holes + r.holes,
-                    hole_ratio: frame.hole_ratio(),
-                    counts: serde_json::json!({"left": l.counts, "right": r.counts}),
-                    frame,
-                    stages,
-                })
+                Ok(stereo_view(l, r, |a, b| stereo::stack(a, b, s)))
             }
         }
     }
@@ -454,6 +459,23 @@ impl Renderer {
                 view(rasterize::render_mesh(&refs, geometry, to_world, camera, &RasterOptions::default())?)
             }
         })
+    }
+}
+
+/// Two eyes' views as one: the frame `stack` makes of theirs, holes and counts of both, stage
+/// times summed.
+fn stereo_view(l: View, r: View, stack: impl Fn(&Frame, &Frame) -> Frame) -> View {
+    let frame = stack(&l.frame, &r.frame);
+    let mut stages = l.stages;
+    for (a, b) in stages.iter_mut().zip(&r.stages) {
+        a.seconds += b.seconds;
+    }
+    View {
+        holes: frame.holes(),
+        hole_ratio: frame.hole_ratio(),
+        counts: serde_json::json!({"left": l.counts, "right": r.counts}),
+        frame,
+        stages,
     }
 }
 

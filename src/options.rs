@@ -13,11 +13,12 @@ use crate::jobs::{BuildSettings, ViewCamera};
 use crate::layer_io::ReadLimits;
 use crate::layering::input::{Convention, Preset};
 use crate::layering::{BuildOptions, Classify, EdgeOptions, FillColour};
+use crate::mapping::layout::CubeLayout;
 use crate::mesh::{self, normals::NormalWeighting, simplify::SimplifyOptions, MeshOptions};
 use crate::prepare::{DepthKind, KnownDistance, Refine, UnknownDepth};
 use crate::render::stereo::Orientation;
 use crate::render::{
-    Camera, EquirectCamera, Perspective, PoleMerge, RenderError, StereoCamera, StereoLayout,
+    Camera, CubeCamera, EquirectCamera, Perspective, PoleMerge, RenderError, StereoCamera, StereoLayout,
 };
 
 /// How the depth is read and prepared (`pomc build` and `pomc prepare`).
@@ -252,6 +253,9 @@ pub enum CameraKind {
     /// VR180: two 180° × 180° half equirects looking along --look-at from eyes --ipd apart, side by
     /// side unless --stereo-layout tb.
     Vr180,
+    /// A cube map in --cube-layout seen from --eye; with --stereo, one per eye (the ODS eyes' rays),
+    /// stacked by --stereo-layout.
+    Cube,
 }
 
 /// How a view is seen: its camera and, for stereo, the eyes (`pomc render`).
@@ -290,6 +294,12 @@ pub struct CameraArgs {
     /// Keep the full eye separation up to the poles.
     #[arg(long)]
     pub no_pole_merge: bool,
+    /// --camera cube: a stereo cube map (each eye's rays as --camera ods's).
+    #[arg(long)]
+    pub stereo: bool,
+    /// Face layout of --camera cube: canonical (POMC 3×2), ffmpeg-c3x2, openexr-vstrip or py360-horizon.
+    #[arg(long, value_name = "LAYOUT", default_value_t = CubeLayout::Canonical)]
+    pub cube_layout: CubeLayout,
     /// Columns of stereo panoramas: world (the axes of --camera equirect) or player (as 360° players
     /// and headsets show them: centre column forward, moving right turns right; use it for videos).
     #[arg(long, value_enum, default_value = "world")]
@@ -297,6 +307,12 @@ pub struct CameraArgs {
 }
 
 impl CameraArgs {
+    /// The pole merge these options ask for.
+    fn merge(&self) -> Option<PoleMerge> {
+        let (from, to) = self.pole_merge;
+        (!self.no_pole_merge).then(|| PoleMerge::new(from.to_radians(), to.to_radians()))
+    }
+
     /// The camera at `eye` (looking at `look_at`, else along `look` from it); `panorama_width` is
     /// the width of an equirect at the panorama's resolution (the default ODS eye width).
     pub fn view_camera(
@@ -323,14 +339,27 @@ impl CameraArgs {
                     StereoLayout::Tb => (w, w),
                     StereoLayout::Sbs => (2 * w, w / 2),
                 });
-                let (from, to) = self.pole_merge;
-                let merge =
-                    (!self.no_pole_merge).then(|| PoleMerge { from: from.to_radians(), to: to.to_radians() });
-                let mut cam = StereoCamera::ods(eye, w, h, self.ipd, merge, layout)?;
+                let mut cam = StereoCamera::ods(eye, w, h, self.ipd, self.merge(), layout)?;
                 if self.orientation == Orientation::Player {
                     cam.player_yaw = Some(look.y.atan2(look.x));
                 }
                 ViewCamera::Stereo(cam)
+            }
+            CameraKind::Cube => {
+                let layout = self.stereo_layout.unwrap_or(StereoLayout::Tb);
+                let face = match self.size {
+                    None => (panorama_width / 4).max(1),
+                    Some((w, h)) => {
+                        let (w, h) =
+                            if self.stereo { layout.eye_size(w, h).unwrap_or((0, 0)) } else { (w, h) };
+                        self.cube_layout.face_size(w, h).map_err(|e| RenderError::BadCamera(e.to_string()))?
+                    }
+                };
+                ViewCamera::Cube(if self.stereo {
+                    CubeCamera::ods(eye, face, self.ipd, self.merge(), self.cube_layout, layout)?
+                } else {
+                    CubeCamera::mono(eye, face, self.cube_layout)?
+                })
             }
             CameraKind::Vr180 => {
                 let side = (panorama_width / 2).max(1);

@@ -176,8 +176,9 @@ class Panorama:
 
         ``eye`` defaults to the panorama centre, ``look_at`` to the centre of the panorama image.
         Camera options are ``pomc render``'s, see :data:`RENDER_OPTIONS`: ``camera``
-        ("perspective", "equirect", "ods" or "vr180"), ``up``, ``fov`` (horizontal degrees), ``size``
-        ((width, height) of the whole image), and for stereo ``stereo_layout`` ("tb" or "sbs"),
+        ("perspective", "equirect", "ods", "vr180" or "cube", with ``stereo`` and
+        ``cube_layout``), ``up``, ``fov`` (horizontal degrees), ``size`` ((width, height) of the
+        whole image), and for stereo ``stereo_layout`` ("tb" or "sbs"),
         ``ipd`` (metres), ``pole_merge`` ((from, to) degrees) and ``no_pole_merge``."""
         if method not in ("splat", "mesh"):
             raise _usage(f"method must be 'splat' or 'mesh', got {method!r}")

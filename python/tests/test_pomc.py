@@ -112,6 +112,7 @@ def test_stereo_cameras_equal_the_command(built, tmp_path):
         (dict(camera="ods", size=(256, 256), no_pole_merge=True), ["--camera", "ods", "--size", "256x256",
                                                                    "--no-pole-merge"]),
         (dict(camera="vr180", size=(256, 128)), ["--camera", "vr180", "--size", "256x128"]),
+        (dict(camera="cube", stereo=True, size=(96, 128)), ["--camera", "cube", "--stereo", "--size", "96x128"]),
     ]
     for method in ("splat", "mesh"):
         for kw, flags in cases:

@@ -145,3 +145,33 @@ fn ranges_refuse_nan_infinity_and_out_of_domain() {
     assert!(Range::ANGLE.parser()("0").unwrap_err().contains("(0, 180]"));
     assert!(Range::POSITIVE.parser_f32()("1e-50").is_err());
 }
+
+#[test]
+fn cameras_from_options() {
+    let cam = |pairs: &[(&str, Keyword)]| {
+        let a: CameraArgs = from_keywords("render", &kw(pairs)).unwrap();
+        a.view_camera(DVec3::ZERO, None, DVec3::NEG_X, 1024)
+    };
+    // Defaults: ODS eyes as wide as the panorama, top-bottom; VR180 eyes half as wide, side by side;
+    // a cube map of quarter-width faces.
+    assert_eq!(cam(&[("camera", text("ods"))]).unwrap().size(), (1024, 1024));
+    assert_eq!(cam(&[("camera", text("ods")), ("stereo_layout", text("sbs"))]).unwrap().size(), (2048, 512));
+    assert_eq!(cam(&[("camera", text("vr180"))]).unwrap().size(), (1024, 512));
+    assert_eq!(cam(&[("camera", text("cube"))]).unwrap().size(), (768, 512));
+    assert_eq!(
+        cam(&[("camera", text("cube")), ("stereo", Keyword::Flag(true))]).unwrap().size(),
+        (768, 1024)
+    );
+    let ViewCamera::Stereo(s) = cam(&[("camera", text("ods")), ("orientation", text("player"))]).unwrap()
+    else {
+        panic!("a stereo camera")
+    };
+    assert!((s.player_yaw.unwrap() - std::f64::consts::PI).abs() < 1e-12);
+    // Sizes that do not split into the eyes or the layout are refused, naming the layout.
+    let e = cam(&[("camera", text("cube")), ("size", text("100x100"))]).unwrap_err();
+    assert!(e.to_string().contains("canonical cube map"), "{e}");
+    assert!(cam(&[("camera", text("ods")), ("size", text("100x101"))]).is_err());
+    assert!(cam(&[("camera", text("vr180")), ("size", text("300x100"))]).is_err());
+    let bad: Result<CameraArgs, _> = from_keywords("render", &kw(&[("pole_merge", text("80,70"))]));
+    assert!(bad.unwrap_err().contains("FROM < TO"));
+}

@@ -278,6 +278,19 @@ impl Camera {
         }
     }
 
+    /// [`Camera::project`] and [`Camera::distance`] of `p` at once (one solve for an ODS eye); the
+    /// distance is `p`'s length when it does not project.
+    #[inline]
+    pub fn project_and_distance(&self, p: DVec3) -> (Option<DVec2>, f64) {
+        match self {
+            Camera::Ods(c) => match c.project_and_distance(p) {
+                Some((q, t)) => (Some(q), t),
+                None => (None, p.length()),
+            },
+            _ => (self.project(p), p.length()),
+        }
+    }
+
     /// Camera-space start of the ray through continuous output pixel `(x, y)`: the eye, but for an
     /// ODS eye.
     #[inline]

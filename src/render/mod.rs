@@ -10,6 +10,7 @@
 //! - [`camera`]: perspective and equirect output cameras;
 //! - [`ods`]: one eye of an omnidirectional stereo panorama;
 //! - [`stereo`]: stereo cameras and layouts;
+//! - [`cube`]: cube-map outputs, mono and stereo;
 //! - `splat`: reprojection, adaptive sub-sampling, tiling and threads;
 //! - `accum`: per-pixel visibility and filter sums;
 //! - [`rasterize`]: the mesh method (meshes, footprints, rasterisation, deferred colour);
@@ -29,6 +30,7 @@ macro_rules! add_counts {
 
 pub(crate) mod accum;
 pub mod camera;
+pub mod cube;
 pub mod frame;
 pub mod metrics;
 pub mod ods;
@@ -43,6 +45,7 @@ use glam::DMat4;
 use serde::Serialize;
 
 pub use camera::{Camera, EquirectCamera, HalfEquirect, OdsEye, Perspective, PoleMerge};
+pub use cube::CubeCamera;
 pub use frame::Frame;
 pub use rasterize::{MeshRenderStats, MeshRendered, RasterCounts, RasterOptions};
 pub use splat::{SplatCounts, SplatOptions};

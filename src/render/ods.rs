@@ -26,20 +26,36 @@ use super::RenderError;
 /// radians, `0 ≤ from < to ≤ π/2`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PoleMerge {
-    /// Elevation (absolute) where the offset starts to fade.
-    pub from: f64,
-    /// Elevation where it reaches 0.
-    pub to: f64,
+    from: f64,
+    to: f64,
+    /// `tan² from`, `tan² to` (`+inf` at π/2): the solve's trigonometry-free first tests.
+    tan2: [f64; 2],
 }
 
 impl Default for PoleMerge {
     /// Blender's defaults: 60° to 75°.
     fn default() -> Self {
-        PoleMerge { from: 60f64.to_radians(), to: 75f64.to_radians() }
+        PoleMerge::new(60f64.to_radians(), 75f64.to_radians())
     }
 }
 
 impl PoleMerge {
+    /// The fade from elevation `from` to `to` (radians; checked by [`OdsEye::new`]).
+    pub fn new(from: f64, to: f64) -> Self {
+        let t2 = |a: f64| if a >= FRAC_PI_2 { f64::INFINITY } else { a.tan().powi(2) };
+        PoleMerge { from, to, tan2: [t2(from), t2(to)] }
+    }
+
+    /// Elevation (absolute, radians) where the offset starts to fade.
+    pub fn from(&self) -> f64 {
+        self.from
+    }
+
+    /// Elevation where it reaches 0.
+    pub fn to(&self) -> f64 {
+        self.to
+    }
+
     /// The share of the eye offset kept at elevation `e` (radians): 1 below `from`, 0 above `to`.
     #[inline]
     pub fn fade(&self, e: f64) -> f64 {
@@ -70,8 +86,9 @@ pub struct OdsEye {
     pub pole_merge: Option<PoleMerge>,
 }
 
-/// Bisection steps of the pole-merge solve: the 15° fade band to below 1e-15 rad.
-const MERGE_STEPS: usize = 56;
+/// Largest number of steps of the pole-merge solve (it converges in a handful; the bound only
+/// keeps a pathological point from looping).
+const MERGE_STEPS: usize = 60;
 
 impl OdsEye {
     /// One eye of `width × height` (2:1) centred at `eye`, its rays starting `offset` metres to the
@@ -111,29 +128,34 @@ impl OdsEye {
         }
     }
 
-    /// The ray that sees eye-centred point `p`: its unit direction and the distance along it;
-    /// `None` when no ray does (see the module notes) or `p` is not finite.
-    pub fn ray_to(&self, p: DVec3) -> Option<(DVec3, f64)> {
+    /// The ray that sees eye-centred point `p`: its azimuth and its horizontal run to `p`
+    /// (`√(ρ² − s²)`); `None` when no ray does (see the module notes) or `p` is not finite.
+    #[inline]
+    fn solve(&self, p: DVec3) -> Option<(f64, f64)> {
         if !p.is_finite() {
             return None;
         }
         let rho2 = p.x * p.x + p.y * p.y;
-        let rho = rho2.sqrt();
-        let along = |s: f64| (rho2 - s * s).max(0.0).sqrt();
         let s = match &self.pole_merge {
-            None => self.offset,
-            Some(m) => self.merged_offset(m, p.z, rho2),
+            Some(m) if self.offset != 0.0 => self.merged_offset(m, p.z, rho2),
+            _ => self.offset,
         };
-        if s.abs() >= rho && s != 0.0 || rho2 + p.z * p.z == 0.0 {
+        if s * s >= rho2 && s != 0.0 || rho2 + p.z * p.z == 0.0 {
             return None;
         }
-        let t_h = along(s);
+        let rho = rho2.sqrt();
         let alpha = p.y.atan2(p.x);
         let phi = if rho > 0.0 { alpha - (s / rho).asin() } else { 0.0 };
+        Some((phi, (rho2 - s * s).max(0.0).sqrt()))
+    }
+
+    /// The ray that sees eye-centred point `p`: its unit direction and the distance along it;
+    /// `None` when no ray does (see the module notes) or `p` is not finite.
+    pub fn ray_to(&self, p: DVec3) -> Option<(DVec3, f64)> {
+        let (phi, t_h) = self.solve(p)?;
         let dist = t_h.hypot(p.z);
         let (sp, cp) = phi.sin_cos();
-        let d = DVec3::new(cp * t_h, sp * t_h, p.z) / dist;
-        Some((d, dist))
+        Some((DVec3::new(cp * t_h, sp * t_h, p.z) / dist, dist))
     }
 
     /// [`OdsEye::ray_to`], but a point no ray sees that lies more than `|offset|` above or below
@@ -142,69 +164,117 @@ impl OdsEye {
     /// is next to it, so content around the poles stays covered without the pole merge. A point
     /// within `|offset|` of the eye both ways (the viewer's head) is not drawn.
     pub fn ray_to_or_edge(&self, p: DVec3) -> Option<(DVec3, f64)> {
-        self.ray_to(p).or_else(|| {
-            if !(p.z.abs() > self.offset.abs()) {
-                return None;
-            }
-            let rho = p.x.hypot(p.y);
-            let edge = self.offset.abs() * (1.0 + 1e-9) + f64::MIN_POSITIVE;
-            let q = if rho > 0.0 {
-                DVec3::new(p.x * edge / rho, p.y * edge / rho, p.z)
-            } else {
-                p + DVec3::X * edge
-            };
-            self.ray_to(q)
+        self.ray_to(self.edge(p)?)
+    }
+
+    /// `p`, or where [`OdsEye::ray_to_or_edge`] moves it; `None` inside the viewer's head.
+    #[inline]
+    fn edge(&self, p: DVec3) -> Option<DVec3> {
+        let rho2 = p.x * p.x + p.y * p.y;
+        let o = self.offset.abs();
+        if rho2 > o * o || !p.is_finite() {
+            return Some(p); // seen (or refused) as it is; the pole merge only lowers the offset
+        }
+        if self.solve(p).is_some() {
+            return Some(p);
+        }
+        if !(p.z.abs() > o) {
+            return None;
+        }
+        let rho = rho2.sqrt();
+        let edge = o * (1.0 + 1e-9) + f64::MIN_POSITIVE;
+        Some(if rho > 0.0 {
+            DVec3::new(p.x * edge / rho, p.y * edge / rho, p.z)
+        } else {
+            p + DVec3::X * edge
         })
     }
 
     /// The offset of the ray that sees a point at height `z` and squared horizontal distance `rho2`
     /// under the pole merge, whose fade depends on that ray's elevation `e`: a root of
-    /// `g(e) = atan2(|z|, √(ρ² − s(e)²)) − e`, found by bisection between `from` and `to` (`g` is
+    /// `g(e) = atan2(|z|, √(ρ² − s(e)²)) − e`, bracketed between `from` and `to` (`g` is
     /// continuous, positive at `from` and negative at `to` whenever the root lies between them).
     fn merged_offset(&self, m: &PoleMerge, z: f64, rho2: f64) -> f64 {
         let along = |s: f64| (rho2 - s * s).max(0.0).sqrt();
         let g = |e: f64| z.abs().atan2(along(self.offset * m.fade(e))) - e;
-        if g(m.from) <= 0.0 {
+        // g(from) ≤ 0 and g(to) ≥ 0 without trigonometry (tan is increasing on [0, π/2)): most
+        // points are seen below the fade, or above it.
+        let z2 = z * z;
+        let full2 = rho2 - self.offset * self.offset;
+        if full2 > 0.0 && z2 <= m.tan2[0] * full2 {
             return self.offset; // seen below the fade: the full offset
         }
-        if g(m.to) >= 0.0 {
+        if z2 >= m.tan2[1] * rho2 {
             return 0.0; // seen above it: the eyes have met
         }
-        let (mut lo, mut hi) = (m.from, m.to);
+        if g(m.from) <= 0.0 {
+            return self.offset;
+        }
+        if g(m.to) >= 0.0 {
+            return 0.0;
+        }
+        // Illinois false position: bracketing like bisection, superlinear like the secant.
+        let (mut a, mut b) = (m.from, m.to);
+        let (mut ga, mut gb) = (g(a), g(b));
+        let mut last = 0i8;
         for _ in 0..MERGE_STEPS {
-            let mid = 0.5 * (lo + hi);
-            if g(mid) > 0.0 {
-                lo = mid;
+            let c = (a * gb - b * ga) / (gb - ga);
+            let gc = g(c);
+            if gc == 0.0 || b - a < 1e-12 {
+                return self.offset * m.fade(c);
+            }
+            if gc > 0.0 {
+                (a, ga) = (c, gc);
+                if last == 1 {
+                    gb *= 0.5;
+                }
+                last = 1;
             } else {
-                hi = mid;
+                (b, gb) = (c, gc);
+                if last == -1 {
+                    ga *= 0.5;
+                }
+                last = -1;
             }
         }
-        self.offset * m.fade(0.5 * (lo + hi))
+        self.offset * m.fade(0.5 * (a + b))
     }
 
     /// Continuous output pixel coordinates of eye-centred point `p` (see [`OdsEye::ray_to_or_edge`]).
     #[inline]
     pub fn project(&self, p: DVec3) -> Option<DVec2> {
-        let (d, _) = self.ray_to_or_edge(p)?;
-        Some(self.pixel(d))
+        self.project_and_distance(p).map(|(q, _)| q)
     }
 
-    /// Output pixel of ray direction `d` (the equirect convention of [`super::EquirectCamera`]).
+    /// [`OdsEye::project`] and [`OdsEye::distance`] in one solve.
     #[inline]
-    fn pixel(&self, d: DVec3) -> DVec2 {
-        let mut phi = d.y.atan2(d.x);
-        if phi < 0.0 {
-            phi += TAU;
-        }
-        let theta = d.x.hypot(d.y).atan2(d.z);
-        let x = (phi / TAU * self.width as f64).min(self.width as f64 - 1e-9);
-        DVec2::new(x.max(0.0), theta / PI * self.height as f64)
+    pub fn project_and_distance(&self, p: DVec3) -> Option<(DVec2, f64)> {
+        let q = self.edge(p)?;
+        let (phi, t_h) = self.solve(q)?;
+        let (w, h) = (self.width as f64, self.height as f64);
+        let x = (phi.rem_euclid(TAU) / TAU * w).min(w - 1e-9);
+        Some((DVec2::new(x.max(0.0), t_h.atan2(q.z) / PI * h), t_h.hypot(q.z)))
     }
 
     /// Distance from the start of the ray that sees `p` to `p` (its length when no ray does).
     #[inline]
     pub fn distance(&self, p: DVec3) -> f64 {
-        self.ray_to_or_edge(p).map_or(p.length(), |(_, t)| t)
+        match self.edge(p).and_then(|q| self.solve(q).map(|(_, t_h)| t_h.hypot(q.z))) {
+            Some(t) => t,
+            None => p.length(),
+        }
+    }
+
+    /// For the rays of output row coordinate `y`: `k` such that the ray of unit direction `d`
+    /// starts at `k · (−d_y, d_x, 0)` (the offset over the row's `sin θ`; 0 at the poles).
+    pub fn row_origin_scale(&self, y: f64) -> f64 {
+        let theta = PI * y / self.height as f64;
+        let st = theta.sin();
+        if st > 0.0 {
+            self.offset_at(FRAC_PI_2 - theta) / st
+        } else {
+            0.0
+        }
     }
 
     /// Where the ray through continuous output pixel `(x, y)` starts, relative to the eye centre.

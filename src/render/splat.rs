@@ -242,16 +242,19 @@ impl LayerCtx<'_> {
         let w = self.planes.mapping.width();
         let (i, j) = (p % w, p / w);
         let ray = self.to_cam.transform_vector3(self.dirs.get(i, j));
-        let (cam, dist) = match self.sample(p) {
+        let (cam, q, dist) = match self.sample(p) {
             Sample::Surface(d) if d >= 0.0 && d.is_finite() => {
                 let c = self.centre + ray * d as f64;
-                (c, self.camera.distance(c) as f32)
+                let (q, dist) = self.camera.project_and_distance(c);
+                (c, q, dist as f32)
             }
-            Sample::Infinite => (ray * AT_INFINITY, f32::INFINITY),
+            Sample::Infinite => {
+                let c = ray * AT_INFINITY;
+                (c, self.camera.project(c), f32::INFINITY)
+            }
             _ => return Pt { ray, ..Pt::default() },
         };
         let rgb = [self.planes.rgb[0][p], self.planes.rgb[1][p], self.planes.rgb[2][p]];
-        let q = self.camera.project(cam);
         Pt { cam, q: q.unwrap_or_default(), dist, z: self.planes.z[p], rgb, ok: true, vis: q.is_some(), ray }
     }
 
@@ -467,8 +470,9 @@ impl LayerCtx<'_> {
         acc: &mut Accum,
     ) -> u64 {
         let (cam, rgb) = interpolate(c, linked, own, o.0, o.1);
-        let Some(q) = self.camera.project(cam) else { return 0 };
-        let dist = if c.dist.is_infinite() { f32::INFINITY } else { self.camera.distance(cam) as f32 };
+        let (q, dist) = self.camera.project_and_distance(cam);
+        let Some(q) = q else { return 0 };
+        let dist = if c.dist.is_infinite() { f32::INFINITY } else { dist as f32 };
         splat(self.camera, self.scales, radius, &Splat { q, dist, rgb, layer: self.index, cover }, acc);
         1
     }

@@ -145,7 +145,7 @@ pub fn to_player(f: &Frame, yaw: f64) -> Frame {
 }
 
 /// Two frames of one size as one image in `layout`.
-fn stack_eyes(left: &Frame, right: &Frame, layout: StereoLayout) -> Frame {
+pub fn stack_eyes(left: &Frame, right: &Frame, layout: StereoLayout) -> Frame {
     let (w, h) = (left.width, left.height);
     debug_assert_eq!((w, h), (right.width, right.height));
     let (ow, oh) = match layout {

@@ -12,7 +12,7 @@ use pomc::mesh::MeshOptions;
 use pomc::render::rasterize::{self, LayerGeometry, MeshRendered, RasterOptions};
 use pomc::render::{self, metrics, Camera, EquirectCamera, Frame, Perspective, RenderLayer, SplatOptions};
 use pomc_fixtures::eval::{assert_no_nan, persp, truth};
-use pomc_fixtures::layers::{render_on, rgbd_input};
+use pomc_fixtures::layers::{render_on, rgbd_input, sphere_layer};
 use pomc_fixtures::{Aabb, Scene, Shape};
 
 /// The layered POMC of a scene and its meshes.
@@ -150,19 +150,6 @@ fn displaced_equirect_view_has_no_streaks_across_the_seam_or_poles() {
             .count();
         assert!(bad <= f.height / 20, "seam column {x}: {bad} pixels off");
     }
-}
-
-/// A single layer on the sphere of radius `r` around the centre (`+inf`: an infinity layer),
-/// coloured by direction: `0.5 + 0.5·d`.
-fn sphere_layer(m: &AnyMapping, r: f32) -> LayerImage {
-    let (w, h) = (m.width(), m.height());
-    let mut img = LayerImage::new(w, h);
-    img.set_channel("Z", SampleType::F32, vec![r; w * h]);
-    for (k, c) in ["R", "G", "B"].iter().enumerate() {
-        let v = (0..w * h).map(|p| (0.5 + 0.5 * m.pixel_dir(p % w, p / w)[k]) as f32).collect();
-        img.set_channel(c, SampleType::F32, v);
-    }
-    img
 }
 
 fn render_one(img: &LayerImage, m: AnyMapping, cam: &Camera, o: &RasterOptions) -> MeshRendered {

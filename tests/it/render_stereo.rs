@@ -9,13 +9,14 @@ use pomc::jobs::{RenderMethod, Renderer, ViewCamera};
 use pomc::layer::{LayerImage, SampleType};
 use pomc::layering::{self, BuildOptions};
 use pomc::manifest::{LayerDecl, Manifest, MappingDecl};
+use pomc::mapping::layout::CubeLayout;
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::mesh::MeshOptions;
 use pomc::render::rasterize::{self, RasterOptions};
 use pomc::render::{self, metrics, Camera, Frame, PoleMerge, RenderLayer, SplatOptions, StereoCamera};
-use pomc::render::{StereoLayout, StereoLayout::Tb};
+use pomc::render::{CubeCamera, StereoLayout, StereoLayout::Tb};
 use pomc_fixtures::eval::{assert_no_nan, truth};
-use pomc_fixtures::layers::{render_on, rgbd_input};
+use pomc_fixtures::layers::{render_on, rgbd_input, sphere_layer};
 use pomc_fixtures::Scene;
 
 const HALF_IPD: f64 = 0.032;
@@ -36,14 +37,19 @@ fn eyes(w: usize, merge: Option<PoleMerge>) -> [Camera; 2] {
     [s.left, s.right]
 }
 
-#[test]
-fn ods_eyes_of_the_room_match_rays_cast_from_the_viewing_circle() {
+/// The analytic room built at 1024 × 512.
+fn room_layers() -> (Scene, AnyMapping, Vec<LayerImage>) {
     let scene = Scene::room();
     let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
     let built =
         layering::build(rgbd_input(&render_on(&scene, &m), m, true), &BuildOptions::default(), &|_| {})
             .unwrap();
-    let layers: Vec<LayerImage> = built.layers.into_iter().map(|l| l.image).collect();
+    (scene, m, built.layers.into_iter().map(|l| l.image).collect())
+}
+
+#[test]
+fn ods_eyes_of_the_room_match_rays_cast_from_the_viewing_circle() {
+    let (scene, m, layers) = room_layers();
     for cam in eyes(1024, Some(PoleMerge::default())) {
         let t = truth(&scene, &cam, 2);
         let [s, f] = both(&layers, m, &cam);
@@ -57,18 +63,6 @@ fn ods_eyes_of_the_room_match_rays_cast_from_the_viewing_circle() {
         let mono = truth(&scene, &mono, 2);
         assert!(metrics::ws_psnr(&mono, &t) < ps - 3.0, "the eye looks like the centre view");
     }
-}
-
-/// One layer on the sphere of radius `r` around the centre, coloured by direction: `0.5 + 0.5·d`.
-fn sphere_layer(m: &AnyMapping, r: f32) -> LayerImage {
-    let (w, h) = (m.width(), m.height());
-    let mut img = LayerImage::new(w, h);
-    img.set_channel("Z", SampleType::F32, vec![r; w * h]);
-    for (k, c) in ["R", "G", "B"].iter().enumerate() {
-        let v = (0..w * h).map(|p| (0.5 + 0.5 * m.pixel_dir(p % w, p / w)[k]) as f32).collect();
-        img.set_channel(c, SampleType::F32, v);
-    }
-    img
 }
 
 /// Every pixel of both eyes against the analytic hit of its ray (from the viewing circle) on a
@@ -133,7 +127,7 @@ fn ods_of_a_sphere_is_exact_at_the_seam_the_poles_and_7_cm() {
             if let Some(pm) = merge {
                 // Above the merge the eyes are one: rows wholly above `to` are the same in both.
                 let (w, h) = (frames[0][0].width, frames[0][0].height);
-                let rows = ((PI / 2.0 - pm.to) / PI * h as f64).floor() as usize;
+                let rows = ((PI / 2.0 - pm.to()) / PI * h as f64).floor() as usize;
                 for k in 0..2 {
                     for y in (0..rows).chain(h - rows..h) {
                         for x in 0..w {
@@ -237,12 +231,7 @@ fn stereo_views_stack_the_eyes_left_first() {
 /// positions, both methods; the eyes see the scene from points `ipd` apart.
 #[test]
 fn vr180_eyes_of_the_room_match_ray_cast_truth() {
-    let scene = Scene::room();
-    let m = AnyMapping::new(MappingKind::Equirect, 1024, 512).unwrap();
-    let built =
-        layering::build(rgbd_input(&render_on(&scene, &m), m, true), &BuildOptions::default(), &|_| {})
-            .unwrap();
-    let layers: Vec<LayerImage> = built.layers.into_iter().map(|l| l.image).collect();
+    let (scene, m, layers) = room_layers();
     let forward = DVec3::new(1.0, 0.5, -0.2);
     // Each eye 512 × 512 over 180°: the layers' angular resolution.
     let s = StereoCamera::vr180(DVec3::ZERO, forward, DVec3::Z, 1024, 512, 0.064, StereoLayout::Sbs).unwrap();
@@ -258,5 +247,58 @@ fn vr180_eyes_of_the_room_match_ray_cast_truth() {
         assert!(sp.hole_ratio() < 1e-4 && me.hole_ratio() < 1e-4, "holes {} {}", sp.holes(), me.holes());
         assert!(ps > 30.0 && pm > 30.0, "WS-PSNR splat {ps} mesh {pm}");
         assert!((ps - pm).abs() < 1.5, "methods apart: splat {ps} mesh {pm}");
+    }
+}
+
+/// Cube maps, mono and stereo: every texel of each eye against the analytic hit on a sphere of
+/// the ray through it (from the eye, or from the ODS eye's viewing circle), both methods.
+#[test]
+fn cube_maps_of_a_sphere_match_the_analytic_hits() {
+    let m = AnyMapping::new(MappingKind::Equirect, 512, 256).unwrap();
+    let img = sphere_layer(&m, 2.0);
+    let manifest = Manifest {
+        version: "1".into(),
+        transforms: vec![],
+        mapping: MappingDecl { kind: MappingKind::Equirect },
+        freedom_radius: 0.5,
+        layers: vec![LayerDecl::native("layer0.exr")],
+    };
+    let face = 48;
+    let cube = AnyMapping::new(MappingKind::Cube3x2, 3 * face, 2 * face).unwrap();
+    let eye = DVec3::new(0.2, -0.1, 0.05);
+    for method in [RenderMethod::Splat, RenderMethod::Mesh] {
+        let renderer = Renderer::from_layers(&manifest, vec![img.clone()], method).unwrap();
+        let mono = CubeCamera::mono(eye, face, CubeLayout::Canonical).unwrap();
+        let stereo =
+            CubeCamera::ods(eye, face, 0.064, Some(PoleMerge::default()), CubeLayout::Canonical, Tb).unwrap();
+        for cam in [mono, stereo] {
+            let v = renderer.render_view(&ViewCamera::Cube(cam)).unwrap();
+            assert_eq!((v.frame.width, v.frame.height), cam.size());
+            assert_eq!(v.holes, 0);
+            let eyes: Vec<Camera> = std::iter::once(cam.left).chain(cam.right).collect();
+            let mut worst = 0.0f64;
+            for (k, e) in eyes.iter().enumerate() {
+                let (ew, eh) = (e.width() as f64, e.height() as f64);
+                for y in 0..2 * face {
+                    for x in 0..3 * face {
+                        let d = cube.pixel_dir(x, y).normalize();
+                        let mut phi = d.y.atan2(d.x);
+                        if phi < 0.0 {
+                            phi += TAU;
+                        }
+                        let o = e.origin(phi / TAU * ew, d.x.hypot(d.y).atan2(d.z) / PI * eh) + eye;
+                        let b = o.dot(d);
+                        let t = -b + (b * b - o.length_squared() + 4.0).sqrt();
+                        let dir = (o + d * t).normalize();
+                        let i = (k * 2 * face + y) * 3 * face + x;
+                        for c in 0..3 {
+                            worst = worst.max((v.frame.rgb[c][i] as f64 - (0.5 + 0.5 * dir[c])).abs());
+                        }
+                    }
+                }
+            }
+            eprintln!("cube {method:?} stereo={}: worst colour error {worst:.4}", cam.right.is_some());
+            assert!(worst < 0.02, "{method:?}: colour error {worst}");
+        }
     }
 }

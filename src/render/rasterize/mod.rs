@@ -310,6 +310,11 @@ fn compose(
             let mut depth = vec![OUTSIDE_DEPTH; w];
             let mut covered = vec![false; w];
             let mut inf = 0u64;
+            // Where this row's rays start (ODS eyes), from their directions.
+            let origin_scale = match camera {
+                Camera::Ods(c) => c.row_origin_scale(y as f64 + 0.5),
+                _ => 0.0,
+            };
             for x in 0..w {
                 let r = cam.ray(x, y);
                 let f = zbuf[y * w + x];
@@ -319,7 +324,8 @@ fn compose(
                         Cam::Persp { f: focal, .. } => f.z as f64 * r.length() / focal,
                         Cam::Equi { .. } => f.z as f64,
                     };
-                    let pc = camera.origin(x as f64 + 0.5, y as f64 + 0.5) + r.normalize() * dist;
+                    let origin = DVec3::new(-r.y, r.x, 0.0) * origin_scale;
+                    let pc = origin + r.normalize() * dist;
                     let local = cam_to_local.transform_point3(pc);
                     let ld = local.length();
                     let c = planes[k]

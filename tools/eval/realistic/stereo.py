@@ -31,6 +31,7 @@ import OpenEXR
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import scenes  # noqa: E402  (bpy scenes of the corpus)
+from run import read_rgb, srgb  # noqa: E402  (the corpus harness's scoring)
 
 import bpy  # noqa: E402
 
@@ -76,16 +77,6 @@ def render_truth(name, out, o, ipd, merge):
         rgb = rgb[..., ::-1].astype(np.float32)  # sorted: B, G, R
         scenes.write_rgb(os.path.join(out, f"ods_{eye}.exr"), to_pomc(rgb))
         os.remove(path)
-
-
-def read_rgb(path):
-    ch = OpenEXR.File(path, separate_channels=True).channels()
-    return np.stack([ch[k].pixels for k in "RGB"], -1).astype(np.float64)
-
-
-def srgb(x):
-    x = np.clip(np.nan_to_num(x, nan=0.0), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
 
 
 def scores(a, b):
