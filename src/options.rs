@@ -301,7 +301,8 @@ pub struct CameraArgs {
     #[arg(long, value_name = "LAYOUT", default_value_t = CubeLayout::Canonical)]
     pub cube_layout: CubeLayout,
     /// Columns of stereo panoramas: world (the axes of --camera equirect) or player (as 360° players
-    /// and headsets show them: centre column forward, moving right turns right; use it for videos).
+    /// and headsets show them: centre column towards --look-at, moving right turns right; use it
+    /// for videos).
     #[arg(long, value_enum, default_value = "world")]
     pub orientation: Orientation,
 }
@@ -341,7 +342,8 @@ impl CameraArgs {
                 });
                 let mut cam = StereoCamera::ods(eye, w, h, self.ipd, self.merge(), layout)?;
                 if self.orientation == Orientation::Player {
-                    cam.player_yaw = Some(look.y.atan2(look.x));
+                    let forward = look_at.map_or(look, |at| at - eye);
+                    cam.player_yaw = Some(forward.y.atan2(forward.x));
                 }
                 ViewCamera::Stereo(cam)
             }
@@ -362,7 +364,7 @@ impl CameraArgs {
                 })
             }
             CameraKind::Vr180 => {
-                let side = (panorama_width / 2).max(1);
+                let side = (panorama_width / 4 * 2).max(2);
                 let layout = self.stereo_layout.unwrap_or(StereoLayout::Sbs);
                 let (w, h) = self.size.unwrap_or(match layout {
                     StereoLayout::Tb => (side, 2 * side),

@@ -172,6 +172,7 @@ fn cameras_from_options() {
     assert!(e.to_string().contains("canonical cube map"), "{e}");
     assert!(cam(&[("camera", text("ods")), ("size", text("100x101"))]).is_err());
     assert!(cam(&[("camera", text("vr180")), ("size", text("300x100"))]).is_err());
+    assert!(cam(&[("camera", text("vr180")), ("size", text("302x151"))]).is_err(), "odd eyes");
     let bad: Result<CameraArgs, _> = from_keywords("render", &kw(&[("pole_merge", text("80,70"))]));
     assert!(bad.unwrap_err().contains("FROM < TO"));
 }

@@ -78,19 +78,18 @@ pub struct HalfEquirect {
 }
 
 impl HalfEquirect {
-    /// A half equirect of `side × side` pixels at `eye` looking along `forward` (horizontal part
-    /// used when `up` is `+Z`; any `up` not parallel to it).
+    /// A half equirect of `side × side` pixels (`side` even) at `eye` looking along `forward`
+    /// (`up` need not be orthogonal to it, as for [`Perspective::new`]).
     pub fn new(eye: DVec3, forward: DVec3, up: DVec3, side: usize) -> Result<Self, RenderError> {
-        check_size(side, side)?;
-        let p = Perspective::new(eye, eye + finite(forward, "look direction")?, up, 90.0, 1, 1)?;
-        Ok(HalfEquirect {
-            eye: p.eye,
-            right: p.right,
-            up: p.up,
-            forward: p.forward,
-            width: side,
-            height: side,
-        })
+        // Even, so that the mesh method's full equirect of twice the width has the half in whole
+        // columns; that full width must fit the limits too.
+        check_size(side.saturating_mul(2), side)?;
+        if side % 2 != 0 {
+            return Err(RenderError::BadSize { width: side, height: side });
+        }
+        let p = Perspective::new(DVec3::ZERO, finite(forward, "look direction")?, up, 90.0, 1, 1)?;
+        let eye = finite(eye, "eye")?;
+        Ok(HalfEquirect { eye, right: p.right, up: p.up, forward: p.forward, width: side, height: side })
     }
 
     /// World → camera rotation (rows: −forward, −right, up).
@@ -301,7 +300,8 @@ impl Camera {
         }
     }
 
-    /// World → camera space (rigid): camera space has the eye at the origin.
+    /// World → camera space: camera space has the eye at the origin; rigid, but a mirror for a
+    /// [`HalfEquirect`] (its axes are `−forward, −right, up`).
     pub fn to_camera(&self) -> DMat4 {
         match self {
             Camera::Perspective(c) => {

@@ -1,5 +1,5 @@
 //! Cube-map outputs (spec §9.2): each eye (one for mono, two for stereo) is rendered as an equirect
-//! at twice the cube's angular resolution — plain from the eye, or the ODS eye for stereo, whose
+//! at twice the cube's angular resolution (less for faces over 2048 pixels, within the size limits) — plain from the eye, or the ODS eye for stereo, whose
 //! rays are the same whatever the image they are stored in — and resampled (bicubic, depth-aware) to
 //! a cube map in any layout of spec §3.5; stereo eyes are then stacked as any stereo image.
 
@@ -31,10 +31,25 @@ pub struct CubeCamera {
 /// Equirect width rendered per face pixel: twice the cube's resolution at a face centre.
 const OVERSAMPLE: usize = 8;
 
+/// Width of the equirect each eye of a cube map of `face`-pixel faces is rendered at: 8 faces, less
+/// where that passes the size limits but never below 4 (the faces' own resolution at their centres).
+fn eye_width(face: usize) -> Result<usize, RenderError> {
+    let largest =
+        (((2 * super::camera::MAX_PIXELS) as f64).sqrt() as usize / 2 * 2).min(super::camera::MAX_SIDE);
+    let w = face.saturating_mul(OVERSAMPLE).min(largest);
+    if face == 0 || w < face.saturating_mul(4) {
+        return Err(RenderError::BadCamera(format!(
+            "cube faces of {face} pixels: each face must be 1 to {} pixels",
+            largest / 4
+        )));
+    }
+    Ok(w)
+}
+
 impl CubeCamera {
     /// A mono cube map of faces `face` pixels wide seen from `eye`.
     pub fn mono(eye: DVec3, face: usize, layout: CubeLayout) -> Result<CubeCamera, RenderError> {
-        let w = face.checked_mul(OVERSAMPLE).ok_or(RenderError::BadSize { width: face, height: face })?;
+        let w = eye_width(face)?;
         let left = Camera::Equirect(EquirectCamera::new(eye, w, w / 2)?);
         Ok(CubeCamera { left, right: None, face, layout, stereo: StereoLayout::Tb })
     }
@@ -48,7 +63,7 @@ impl CubeCamera {
         layout: CubeLayout,
         stereo: StereoLayout,
     ) -> Result<CubeCamera, RenderError> {
-        let w = face.checked_mul(OVERSAMPLE).ok_or(RenderError::BadSize { width: face, height: face })?;
+        let w = eye_width(face)?;
         let s = StereoCamera::ods(eye, w, w, ipd, pole_merge, StereoLayout::Tb)?;
         Ok(CubeCamera { left: s.left, right: Some(s.right), face, layout, stereo })
     }

@@ -178,7 +178,7 @@ impl OdsEye {
         if self.solve(p).is_some() {
             return Some(p);
         }
-        if !(p.z.abs() > o) {
+        if p.z.abs() <= o {
             return None;
         }
         let rho = rho2.sqrt();

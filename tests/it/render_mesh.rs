@@ -6,7 +6,7 @@
 use glam::{DMat4, DVec3};
 use pomc::layer::{LayerImage, SampleType};
 use pomc::layering::{self, BuildOptions};
-use pomc::mapping::{AnyMapping, Mapping, MappingKind};
+use pomc::mapping::{AnyMapping, MappingKind};
 use pomc::mesh::LayerMesh;
 use pomc::mesh::MeshOptions;
 use pomc::render::rasterize::{self, LayerGeometry, MeshRendered, RasterOptions};

@@ -128,12 +128,12 @@ fn ods_of_a_sphere_is_exact_at_the_seam_the_poles_and_7_cm() {
                 // Above the merge the eyes are one: rows wholly above `to` are the same in both.
                 let (w, h) = (frames[0][0].width, frames[0][0].height);
                 let rows = ((PI / 2.0 - pm.to()) / PI * h as f64).floor() as usize;
-                for k in 0..2 {
+                for (left, right) in frames[0].iter().zip(&frames[1]) {
                     for y in (0..rows).chain(h - rows..h) {
                         for x in 0..w {
                             let i = y * w + x;
                             for c in 0..3 {
-                                let (a, b) = (frames[0][k].rgb[c][i], frames[1][k].rgb[c][i]);
+                                let (a, b) = (left.rgb[c][i], right.rgb[c][i]);
                                 assert!((a - b).abs() < 2e-3, "pole row {y}: eyes differ {a} {b}");
                             }
                         }

@@ -324,8 +324,10 @@ fn compose(
                         Cam::Persp { f: focal, .. } => f.z as f64 * r.length() / focal,
                         Cam::Equi { .. } => f.z as f64,
                     };
-                    let origin = DVec3::new(-r.y, r.x, 0.0) * origin_scale;
-                    let pc = origin + r.normalize() * dist;
+                    let mut pc = r.normalize() * dist;
+                    if origin_scale != 0.0 {
+                        pc += DVec3::new(-r.y, r.x, 0.0) * origin_scale;
+                    }
                     let local = cam_to_local.transform_point3(pc);
                     let ld = local.length();
                     let c = planes[k]
