@@ -25,7 +25,6 @@ use pomc::mesh::MeshOptions;
 use pomc::options::{self, BuildArgs, CameraArgs, Keyword, MeshArgs};
 use pomc::panorama::{Panorama, SaveOptions};
 
-
 create_exception!(_pomc, PomcError, PyException, "A pomc failure; `.code` is its stable code.");
 
 fn fail(code: &str, message: String) -> PyErr {
