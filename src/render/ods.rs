@@ -207,15 +207,15 @@ impl OdsEye {
         if z2 >= m.tan2[1] * rho2 {
             return 0.0; // seen above it: the eyes have met
         }
-        if g(m.from) <= 0.0 {
+        let (mut a, mut b) = (m.from, m.to);
+        let (mut ga, mut gb) = (g(a), g(b));
+        if ga <= 0.0 {
             return self.offset;
         }
-        if g(m.to) >= 0.0 {
+        if gb >= 0.0 {
             return 0.0;
         }
         // Illinois false position: bracketing like bisection, superlinear like the secant.
-        let (mut a, mut b) = (m.from, m.to);
-        let (mut ga, mut gb) = (g(a), g(b));
         let mut last = 0i8;
         for _ in 0..MERGE_STEPS {
             let c = (a * gb - b * ga) / (gb - ga);

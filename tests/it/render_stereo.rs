@@ -47,17 +47,24 @@ fn room_layers() -> (Scene, AnyMapping, Vec<LayerImage>) {
     (scene, m, built.layers.into_iter().map(|l| l.image).collect())
 }
 
+/// One eye of the room by both methods against its ray-cast truth: no holes, above 30 dB, the
+/// methods within 1.5 dB. Returns the truth and the splat's WS-PSNR.
+fn score_eye(what: &str, scene: &Scene, layers: &[LayerImage], m: AnyMapping, cam: &Camera) -> (Frame, f64) {
+    let t = truth(scene, cam, 2);
+    let [s, f] = both(layers, m, cam);
+    let (ps, pm) = (metrics::ws_psnr(&s, &t), metrics::ws_psnr(&f, &t));
+    eprintln!("{what} eye: splat {ps:.2} dB, mesh {pm:.2} dB, holes {} / {}", s.holes(), f.holes());
+    assert!(s.hole_ratio() < 1e-4 && f.hole_ratio() < 1e-4, "holes {} {}", s.holes(), f.holes());
+    assert!(ps > 30.0 && pm > 30.0, "WS-PSNR splat {ps} mesh {pm}");
+    assert!((ps - pm).abs() < 1.5, "methods apart: splat {ps} mesh {pm}");
+    (t, ps)
+}
+
 #[test]
 fn ods_eyes_of_the_room_match_rays_cast_from_the_viewing_circle() {
     let (scene, m, layers) = room_layers();
     for cam in eyes(1024, Some(PoleMerge::default())) {
-        let t = truth(&scene, &cam, 2);
-        let [s, f] = both(&layers, m, &cam);
-        let (ps, pm) = (metrics::ws_psnr(&s, &t), metrics::ws_psnr(&f, &t));
-        eprintln!("ODS eye: splat {ps:.2} dB, mesh {pm:.2} dB, holes {} / {}", s.holes(), f.holes());
-        assert!(s.hole_ratio() < 1e-4 && f.hole_ratio() < 1e-4, "holes {} {}", s.holes(), f.holes());
-        assert!(ps > 30.0 && pm > 30.0, "WS-PSNR splat {ps} mesh {pm}");
-        assert!((ps - pm).abs() < 1.5, "methods apart: splat {ps} mesh {pm}");
+        let (t, ps) = score_eye("ODS", &scene, &layers, m, &cam);
         // The eyes differ from the centre view: this is stereo, not a copy of the mono panorama.
         let mono = Camera::Equirect(render::EquirectCamera::new(DVec3::ZERO, 1024, 512).unwrap());
         let mono = truth(&scene, &mono, 2);
@@ -191,17 +198,22 @@ fn disparity_is_the_ods_formula_within_a_quarter_pixel() {
     }
 }
 
-/// The job-level path: `Renderer::render_view` stacks the eyes in the layout, the left eye first.
-#[test]
-fn stereo_views_stack_the_eyes_left_first() {
-    let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
-    let manifest = Manifest {
+/// The manifest of one equirect layer at the centre.
+fn one_layer_manifest() -> Manifest {
+    Manifest {
         version: "1".into(),
         transforms: vec![],
         mapping: MappingDecl { kind: MappingKind::Equirect },
         freedom_radius: 0.5,
         layers: vec![LayerDecl::native("layer0.exr")],
-    };
+    }
+}
+
+/// The job-level path: `Renderer::render_view` stacks the eyes in the layout, the left eye first.
+#[test]
+fn stereo_views_stack_the_eyes_left_first() {
+    let m = AnyMapping::new(MappingKind::Equirect, 256, 128).unwrap();
+    let manifest = one_layer_manifest();
     let img = sphere_layer(&m, 1.0);
     for method in [RenderMethod::Splat, RenderMethod::Mesh] {
         let renderer = Renderer::from_layers(&manifest, vec![img.clone()], method).unwrap();
@@ -240,13 +252,7 @@ fn vr180_eyes_of_the_room_match_ray_cast_truth() {
     assert!(((l.eye - r.eye).length() - 0.064).abs() < 1e-12);
     assert!((l.eye - r.eye).dot(l.right) < 0.0, "the left eye is to the left");
     for cam in [s.left, s.right] {
-        let t = truth(&scene, &cam, 2);
-        let [sp, me] = both(&layers, m, &cam);
-        let (ps, pm) = (metrics::ws_psnr(&sp, &t), metrics::ws_psnr(&me, &t));
-        eprintln!("VR180 eye: splat {ps:.2} dB, mesh {pm:.2} dB, holes {} / {}", sp.holes(), me.holes());
-        assert!(sp.hole_ratio() < 1e-4 && me.hole_ratio() < 1e-4, "holes {} {}", sp.holes(), me.holes());
-        assert!(ps > 30.0 && pm > 30.0, "WS-PSNR splat {ps} mesh {pm}");
-        assert!((ps - pm).abs() < 1.5, "methods apart: splat {ps} mesh {pm}");
+        score_eye("VR180", &scene, &layers, m, &cam);
     }
 }
 
@@ -256,13 +262,7 @@ fn vr180_eyes_of_the_room_match_ray_cast_truth() {
 fn cube_maps_of_a_sphere_match_the_analytic_hits() {
     let m = AnyMapping::new(MappingKind::Equirect, 512, 256).unwrap();
     let img = sphere_layer(&m, 2.0);
-    let manifest = Manifest {
-        version: "1".into(),
-        transforms: vec![],
-        mapping: MappingDecl { kind: MappingKind::Equirect },
-        freedom_radius: 0.5,
-        layers: vec![LayerDecl::native("layer0.exr")],
-    };
+    let manifest = one_layer_manifest();
     let face = 48;
     let cube = AnyMapping::new(MappingKind::Cube3x2, 3 * face, 2 * face).unwrap();
     let eye = DVec3::new(0.2, -0.1, 0.05);
