@@ -431,21 +431,38 @@ impl Renderer {
         match camera {
             ViewCamera::Mono(c) => self.render(c),
             ViewCamera::Cube(c) => {
-                let mut l = self.render(&c.left)?;
-                l.frame = render::cube::to_cube(&l.frame, c.face, c.layout)?;
                 let Some(right) = &c.right else {
+                    let mut l = self.render(&c.left)?;
+                    l.frame = render::cube::to_cube(&l.frame, c.face, c.layout)?;
                     l.holes = l.frame.holes();
                     l.hole_ratio = l.frame.hole_ratio();
                     return Ok(l);
                 };
-                let mut r = self.render(right)?;
+                let (mut l, mut r) = self.render_eyes(&c.left, right)?;
+                l.frame = render::cube::to_cube(&l.frame, c.face, c.layout)?;
                 r.frame = render::cube::to_cube(&r.frame, c.face, c.layout)?;
                 Ok(stereo_view(l, r, |a, b| stereo::stack_eyes(a, b, c.stereo)))
             }
             ViewCamera::Stereo(s) => {
-                let (l, r) = (self.render(&s.left)?, self.render(&s.right)?);
+                let (l, r) = self.render_eyes(&s.left, &s.right)?;
                 Ok(stereo_view(l, r, |a, b| stereo::stack(a, b, s)))
             }
+        }
+    }
+
+    /// Render both eyes: the splat renders them in one pass where they share a camera space
+    /// ([`render::render_views`]), the mesh one after the other.
+    fn render_eyes(&self, left: &Camera, right: &Camera) -> crate::Result<(View, View)> {
+        if self.meshes.is_some() {
+            return Ok((self.render(left)?, self.render(right)?));
+        }
+        let refs = RenderLayer::all(&self.layers);
+        let cameras = [*left, *right];
+        let mut views =
+            render::render_views(&refs, self.local_to_world, &cameras, &SplatOptions::default())?.into_iter();
+        match (views.next(), views.next()) {
+            (Some(l), Some(r)) => Ok((view(l), view(r))),
+            _ => unreachable!("render_views gives one view per camera"),
         }
     }
 

@@ -240,6 +240,20 @@ pub fn render(
     camera: &Camera,
     o: &SplatOptions,
 ) -> Result<Rendered, RenderError> {
+    let mut views = render_views(layers, local_to_world, std::slice::from_ref(camera), o)?;
+    Ok(views.remove(0))
+}
+
+/// Render `layers` into each of `cameras`, as [`render`] does one. Cameras next to each other that
+/// share a camera space (the two eyes of an ODS camera) are splatted in one pass, which finds each
+/// layer pixel's surface and sub-samples once for both (and, for ODS eyes, solves each projection
+/// once); a shared pass's time is split evenly between its views.
+pub fn render_views(
+    layers: &[RenderLayer],
+    local_to_world: DMat4,
+    cameras: &[Camera],
+    o: &SplatOptions,
+) -> Result<Vec<Rendered>, RenderError> {
     check_options(o)?;
     check_local_to_world(local_to_world)?;
     check_layers(layers)?;
@@ -251,26 +265,37 @@ pub fn render(
                 .map_err(|channel| RenderError::LayerChannel { index, channel })
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let t = Instant::now();
-    let (acc, counts) = splat::splat_layers(&planes, local_to_world, camera, o);
-    let splat_s = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let frame = Frame::from_accum(&acc);
-    let holes = frame.holes();
-    let stats = RenderStats {
-        width: frame.width,
-        height: frame.height,
-        layers: layers.len(),
-        holes,
-        hole_ratio: frame.hole_ratio(),
-        counts,
-        options: *o,
-        stages: vec![
-            Stage { name: "splat", seconds: splat_s },
-            Stage { name: "resolve", seconds: t.elapsed().as_secs_f64() },
-        ],
-    };
-    Ok(Rendered { frame, stats })
+    let mut out = Vec::with_capacity(cameras.len());
+    let mut rest = cameras;
+    while let Some(first) = rest.first() {
+        let shared =
+            rest.iter().take(splat::MAX_VIEWS).take_while(|c| c.to_camera() == first.to_camera()).count();
+        let (pass, tail) = rest.split_at(shared);
+        rest = tail;
+        let t = Instant::now();
+        let (accs, counts) = splat::splat_layers(&planes, local_to_world, pass, o);
+        let splat_s = t.elapsed().as_secs_f64() / pass.len() as f64;
+        for (acc, counts) in accs.iter().zip(counts) {
+            let t = Instant::now();
+            let frame = Frame::from_accum(acc);
+            let holes = frame.holes();
+            let stats = RenderStats {
+                width: frame.width,
+                height: frame.height,
+                layers: layers.len(),
+                holes,
+                hole_ratio: frame.hole_ratio(),
+                counts,
+                options: *o,
+                stages: vec![
+                    Stage { name: "splat", seconds: splat_s },
+                    Stage { name: "resolve", seconds: t.elapsed().as_secs_f64() },
+                ],
+            };
+            out.push(Rendered { frame, stats });
+        }
+    }
+    Ok(out)
 }
 
 /// Read every layer of a panorama as full canvases with their mappings, in manifest order.

@@ -132,6 +132,15 @@ impl OdsEye {
     /// (`√(ρ² − s²)`); `None` when no ray does (see the module notes) or `p` is not finite.
     #[inline]
     fn solve(&self, p: DVec3) -> Option<(f64, f64)> {
+        let (alpha, turn, t_h) = self.solve_parts(p)?;
+        Some((alpha - turn, t_h))
+    }
+
+    /// [`OdsEye::solve`] in parts: the point's azimuth `α`, the turn `asin(s / ρ)` the ray's azimuth
+    /// is short of it, and the horizontal run. The mirror eye (offset `−s`) turns the other way by
+    /// the same angle along the same run.
+    #[inline]
+    fn solve_parts(&self, p: DVec3) -> Option<(f64, f64, f64)> {
         if !p.is_finite() {
             return None;
         }
@@ -144,9 +153,10 @@ impl OdsEye {
             return None;
         }
         let rho = rho2.sqrt();
-        let alpha = p.y.atan2(p.x);
-        let phi = if rho > 0.0 { alpha - (s / rho).asin() } else { 0.0 };
-        Some((phi, (rho2 - s * s).max(0.0).sqrt()))
+        if rho == 0.0 {
+            return Some((0.0, 0.0, 0.0));
+        }
+        Some((p.y.atan2(p.x), (s / rho).asin(), (rho2 - s * s).max(0.0).sqrt()))
     }
 
     /// The ray that sees eye-centred point `p`: its unit direction and the distance along it;
@@ -208,10 +218,26 @@ impl OdsEye {
             return 0.0; // seen above it: the eyes have met
         }
         let (mut a, mut b) = (m.from, m.to);
-        let (mut ga, mut gb) = (g(a), g(b));
+        let mut ga = g(a);
         if ga <= 0.0 {
             return self.offset;
         }
+        // The root is a fixed point of `e ↦ g(e) + e`, a map that moves little with `e` unless the
+        // point is near the axis: secant steps from its value at `from` converge in two or three
+        // evaluations. Where they stall or leave the bracket, the bracketed solve below decides.
+        let (mut x0, mut g0, mut x1) = (a, ga, a + ga);
+        for _ in 0..4 {
+            let g1 = g(x1);
+            if g1.abs() <= 1e-14 {
+                return self.offset * m.fade(x1);
+            }
+            let x2 = x1 - g1 * (x1 - x0) / (g1 - g0);
+            if !(x2 > a && x2 < b) {
+                break;
+            }
+            (x0, g0, x1) = (x1, g1, x2);
+        }
+        let mut gb = g(b);
         if gb >= 0.0 {
             return 0.0;
         }
@@ -251,9 +277,31 @@ impl OdsEye {
     pub fn project_and_distance(&self, p: DVec3) -> Option<(DVec2, f64)> {
         let q = self.edge(p)?;
         let (phi, t_h) = self.solve(q)?;
+        Some((self.pixel(phi, t_h.atan2(q.z)), t_h.hypot(q.z)))
+    }
+
+    /// This eye's mirror: the other eye of the same ODS camera (the opposite offset).
+    pub fn mirror(&self) -> OdsEye {
+        OdsEye { offset: -self.offset, ..*self }
+    }
+
+    /// [`OdsEye::project_and_distance`] of this eye and of its [`OdsEye::mirror`] in one solve: the
+    /// two rays that see a point share their elevation and run, and turn by opposite angles
+    /// (the same results as two calls, bit for bit).
+    #[inline]
+    pub fn project_pair(&self, p: DVec3) -> Option<([DVec2; 2], f64)> {
+        let q = self.edge(p)?;
+        let (alpha, turn, t_h) = self.solve_parts(q)?;
+        let polar = t_h.atan2(q.z);
+        Some(([self.pixel(alpha - turn, polar), self.pixel(alpha + turn, polar)], t_h.hypot(q.z)))
+    }
+
+    /// Continuous pixel coordinates of the ray of azimuth `phi` and polar angle `polar`.
+    #[inline]
+    fn pixel(&self, phi: f64, polar: f64) -> DVec2 {
         let (w, h) = (self.width as f64, self.height as f64);
         let x = (phi.rem_euclid(TAU) / TAU * w).min(w - 1e-9);
-        Some((DVec2::new(x.max(0.0), t_h.atan2(q.z) / PI * h), t_h.hypot(q.z)))
+        DVec2::new(x.max(0.0), polar / PI * h)
     }
 
     /// Distance from the start of the ray that sees `p` to `p` (its length when no ray does).
@@ -336,6 +384,26 @@ mod tests {
             let expect = 2.0 * (0.032f64 / rho).asin() / TAU * 4096.0;
             assert!((qr.x - ql.x - expect).abs() < 1e-9, "{rho}: {} vs {expect}", qr.x - ql.x);
             assert!((ql.y - 1024.0).abs() < 1e-9);
+        }
+    }
+
+    /// One solve for both eyes gives each eye's own projection, bit for bit.
+    #[test]
+    fn the_pair_projects_as_each_eye() {
+        for merge in [false, true] {
+            let l = eye(0.032, merge);
+            let r = l.mirror();
+            assert_eq!(r, eye(-0.032, merge));
+            for k in 0..2000 {
+                let t = k as f64 * 0.618;
+                let p = DVec3::new(t.cos() * (0.01 + k as f64 * 1e-3), t.sin(), (t * 1.7).sin() * 3.0);
+                let pair = l.project_pair(p);
+                let each = l.project_and_distance(p).zip(r.project_and_distance(p));
+                assert_eq!(pair.map(|(q, t)| (q[0], q[1], t)), each.map(|(a, b)| (a.0, b.0, a.1)), "{p}");
+                if let Some((_, b)) = each {
+                    assert_eq!(b.1, r.project_and_distance(p).unwrap().1);
+                }
+            }
         }
     }
 

@@ -72,6 +72,32 @@ fn ods_eyes_of_the_room_match_rays_cast_from_the_viewing_circle() {
     }
 }
 
+/// Both eyes splatted in one pass (shared surface points and sub-samples, one solve per point) are
+/// the eyes splatted alone: the same holes, and pictures apart only where a pixel's sub-sample grid
+/// (the finer of the two eyes') differs.
+#[test]
+fn one_pass_for_both_eyes_is_each_eye_alone() {
+    let (_, m, layers) = room_layers();
+    let refs: Vec<RenderLayer> = layers.iter().map(|image| RenderLayer { image, mapping: m }).collect();
+    let o = SplatOptions::default();
+    let pair = eyes(512, Some(PoleMerge::default()));
+    let both = render::render_views(&refs, DMat4::IDENTITY, &pair, &o).unwrap();
+    assert_eq!(both.len(), 2);
+    for (cam, joint) in pair.iter().zip(&both) {
+        let alone = render::render(&refs, DMat4::IDENTITY, cam, &o).unwrap();
+        assert_eq!(joint.frame.holes(), alone.frame.holes());
+        assert_eq!(joint.stats.counts.pixels, alone.stats.counts.pixels);
+        let p = metrics::ws_psnr(&joint.frame, &alone.frame);
+        eprintln!(
+            "one pass against alone: {p:.2} dB, samples {} / {}",
+            joint.stats.counts.samples, alone.stats.counts.samples
+        );
+        assert!(p > 50.0, "{p}");
+    }
+    // The eyes are not the same picture.
+    assert!(metrics::ws_psnr(&both[0].frame, &both[1].frame) < 40.0);
+}
+
 /// Every pixel of both eyes against the analytic hit of its ray (from the viewing circle) on a
 /// sphere around the centre: across the seam, at the poles (where the pole merge makes the eyes one)
 /// and for a sphere 7 cm away, just outside the viewing circle.

@@ -56,7 +56,7 @@ pub struct RasterOptions {
     pub near: f64,
     /// Sub-samples per output pixel along each axis (1–4): each pixel is the mean of the
     /// `supersample²` rays of a finer grid inside it that meet a surface. A camera integrates over
-    /// its pixels, and the splat method's filter spreads each sample over 0.65 of a pixel: one ray
+    /// its pixels, and the splat method's filter spreads each sample over half a pixel: one ray
     /// per pixel draws magnified texture and silhouettes sharper (and aliased) than either.
     pub supersample: usize,
 }

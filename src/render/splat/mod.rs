@@ -1,7 +1,8 @@
 //! Adaptive 8-neighbourhood point splatting (thesis 7.3.2, Alg. 10; spec §9.3).
 //!
-//! Every layer pixel is reprojected into the output camera. Its *spread* — the largest distance,
-//! in output pixels, to the reprojections of its 8 neighbours — says how many sub-samples the
+//! Every layer pixel is reprojected into the output camera (or the cameras of one pass, such as
+//! two stereo eyes: [`views`]). Its *spread* — the longest quad edge, in output pixels, between the
+//! reprojections of it and its 8 neighbours — says how many sub-samples the
 //! pixel needs so that consecutive samples land less than [`SplatOptions::spacing`] apart: the
 //! pixel is resampled on an `nx × ny` grid whose points are bilinear interpolations of the camera
 //! space points (and colours) of the pixel and its neighbours, i.e. of the piecewise-planar surface
@@ -14,11 +15,13 @@
 //! Work is split in tiles of layer pixels (never straddling a cube face) with a one-pixel apron
 //! resolved across the equirect seam, the poles and cube-face edges; tiles outside the camera's
 //! view cone are culled before any trigonometry. Tiles are dealt round-robin to one accumulation
-//! buffer per thread, merged at the end.
+//! buffer per thread and camera, merged at the end.
 
-use glam::{DMat3, DMat4, DVec2, DVec3};
+use glam::{DMat4, DVec2, DVec3};
 use rayon::prelude::*;
 use serde::Serialize;
+
+mod views;
 
 use super::accum::Accum;
 use super::camera::{Camera, AT_INFINITY};
@@ -26,18 +29,20 @@ use crate::continuity;
 use crate::layer::{classify, LayerImage, Sample};
 use crate::mapping::{AnyMapping, Mapping};
 use crate::mapping::{DirTable, Neighbours, OFFSETS};
+pub use views::MAX_VIEWS;
+use views::{Cull, PerView, Views};
 
 /// Tuning of the splatting renderer.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct SplatOptions {
-    /// Radius of the tent reconstruction filter, output pixels (thesis: 0.75; 0.65 is sharper and
-    /// nearer the truth on analytic and path-traced views, spec §9.3 step 5).
+    /// Radius of the tent reconstruction filter, output pixels (thesis: 0.75; 0.5, with samples as
+    /// far apart, blurs the layers' already filtered colour least, spec §9.3 step 5).
     pub radius: f64,
     /// Relative depth jump between 8-neighbours above which they are different surfaces.
     pub jump: f64,
     /// Relative camera-distance tolerance within which samples blend as one surface.
     pub tolerance: f64,
-    /// Target distance between consecutive sub-samples, output pixels (< 2 × radius leaves no gap).
+    /// Target distance between consecutive sub-samples, output pixels (≤ 2 × radius leaves no gap).
     pub spacing: f64,
     /// Cap on sub-samples per layer pixel along each axis (bounds the work for content very near
     /// the camera; beyond it a splat may show gaps).
@@ -46,7 +51,7 @@ pub struct SplatOptions {
 
 impl Default for SplatOptions {
     fn default() -> Self {
-        SplatOptions { radius: 0.65, jump: 0.1, tolerance: 0.01, spacing: 0.75, max_subsamples: 32 }
+        SplatOptions { radius: 0.5, jump: 0.1, tolerance: 0.01, spacing: 0.5, max_subsamples: 32 }
     }
 }
 
@@ -148,67 +153,24 @@ const fn offset_index(dx: i64, dy: i64) -> usize {
     }
 }
 
-/// Culling of tiles against the camera's view cone, in the panorama's local frame (valid when
-/// LocalToWorld is a similarity, which preserves angles).
-#[derive(Clone, Copy, Debug)]
-struct Cull {
-    axis: DVec3,
-    /// Half-angle of the view cone plus margins, radians.
-    half_angle: f64,
-    /// Distance of the eye from the panorama centre, local units.
-    offset: f64,
-}
-
-impl Cull {
-    fn new(camera: &Camera, local_to_world: DMat4) -> Option<Cull> {
-        let (axis_world, half) = camera.view_cone()?;
-        let lin = DMat3::from_mat4(local_to_world);
-        let m = lin.transpose() * lin;
-        let s2 = (m.x_axis.x + m.y_axis.y + m.z_axis.z) / 3.0;
-        let off = (m - DMat3::from_diagonal(DVec3::splat(s2)))
-            .to_cols_array()
-            .iter()
-            .fold(0.0f64, |a, v| a.max(v.abs()));
-        if s2.is_nan() || s2 <= 0.0 || off > 1e-9 * s2 {
-            return None;
-        }
-        let inv = local_to_world.inverse();
-        let axis = inv.transform_vector3(axis_world).try_normalize()?;
-        let eye = inv.transform_point3(camera.eye());
-        eye.is_finite().then_some(Cull { axis, half_angle: half + 0.02, offset: eye.length() })
-    }
-
-    /// Whether no point of a tile (directions within `spread` of `centre`, finite depths at least
-    /// `zmin`, or infinitely far) can be seen.
-    fn outside(&self, centre: DVec3, spread: f64, zmin: f64) -> bool {
-        let parallax = if zmin.is_infinite() {
-            0.0
-        } else if self.offset < zmin {
-            (self.offset / zmin).asin()
-        } else {
-            return false;
-        };
-        let angle = centre.dot(self.axis).clamp(-1.0, 1.0).acos();
-        angle - spread - parallax > self.half_angle
-    }
-}
-
 /// One reprojected layer pixel.
 #[derive(Clone, Copy, Debug, Default)]
 struct Pt {
     /// Camera-space point (a direction for infinity samples).
     cam: DVec3,
-    /// Output pixel coordinates, when projectable.
-    q: DVec2,
-    /// Camera distance (`+inf` for infinity samples).
-    dist: f32,
+    /// Output pixel coordinates in each view, where `vis`.
+    q: PerView<DVec2>,
+    /// Distance along each view's ray (`+inf` for infinity samples).
+    dist: PerView<f32>,
     /// Layer depth (for the continuity test).
     z: f32,
     rgb: [f32; 3],
     /// Inside the domain with a usable depth.
     ok: bool,
-    /// `q` is valid.
-    vis: bool,
+    /// An infinity sample.
+    far: bool,
+    /// `q` is valid, per view.
+    vis: PerView<bool>,
     /// Camera-space direction of the pixel's ray (set for every pixel of the canvas, inside the
     /// domain or not): a neighbour's ray at the centre pixel's own depth bounds its footprint.
     ray: DVec3,
@@ -221,16 +183,18 @@ struct LayerCtx<'a> {
     planes: LayerPlanes<'a>,
     dirs: DirTable,
     nb: Neighbours,
-    camera: &'a Camera,
-    /// [`Camera::x_scale`] of each output row's centre (no trigonometry in the inner loops).
-    scales: &'a [f64],
+    views: &'a Views<'a>,
     /// Panorama-local → camera space.
     to_cam: DMat4,
     /// The panorama centre in camera space.
     centre: DVec3,
-    cull: Option<Cull>,
+    /// Each view's view-cone culling, if it has one.
+    culls: PerView<Option<Cull>>,
     o: SplatOptions,
 }
+
+/// Samples filtered into each view.
+type Done = PerView<u64>;
 
 impl LayerCtx<'_> {
     #[inline]
@@ -242,23 +206,32 @@ impl LayerCtx<'_> {
         let w = self.planes.mapping.width();
         let (i, j) = (p % w, p / w);
         let ray = self.to_cam.transform_vector3(self.dirs.get(i, j));
-        let (cam, q, dist) = match self.sample(p) {
+        let (cam, proj, far) = match self.sample(p) {
             Sample::Surface(d) if d >= 0.0 && d.is_finite() => {
                 let c = self.centre + ray * d as f64;
-                let (q, dist) = self.camera.project_and_distance(c);
-                (c, q, dist as f32)
+                (c, self.views.project_and_distance(c), false)
             }
             Sample::Infinite => {
                 let c = ray * AT_INFINITY;
-                (c, self.camera.project(c), f32::INFINITY)
+                (c, self.views.project(c).map(|q| q.map(|q| (q, f64::INFINITY))), true)
             }
             _ => return Pt { ray, ..Pt::default() },
         };
         let rgb = [self.planes.rgb[0][p], self.planes.rgb[1][p], self.planes.rgb[2][p]];
-        Pt { cam, q: q.unwrap_or_default(), dist, z: self.planes.z[p], rgb, ok: true, vis: q.is_some(), ray }
+        Pt {
+            cam,
+            q: proj.map(|v| v.map_or(DVec2::ZERO, |v| v.0)),
+            dist: proj.map(|v| v.map_or(0.0, |v| v.1 as f32)),
+            z: self.planes.z[p],
+            rgb,
+            ok: true,
+            far,
+            vis: proj.map(|v| v.is_some()),
+            ray,
+        }
     }
 
-    /// Whether the tile may be skipped: nothing in the domain, or outside the view cone.
+    /// Whether the tile may be skipped: nothing in the domain, or outside every view's cone.
     fn skip(&self, t: &Tile) -> bool {
         let w = self.planes.mapping.width();
         let mut zmin = f64::INFINITY;
@@ -278,7 +251,9 @@ impl LayerCtx<'_> {
         if !any {
             return true;
         }
-        let Some(cull) = self.cull else { return false };
+        if self.culls[..self.views.n()].iter().any(Option::is_none) {
+            return false;
+        }
         let m = &self.planes.mapping;
         let (x0, y0, x1, y1) = (t.x0 as f64, t.y0 as f64, (t.x0 + t.w) as f64, (t.y0 + t.h) as f64);
         let centre = m.pixel_to_dir((x0 + x1) / 2.0, (y0 + y1) / 2.0);
@@ -297,7 +272,7 @@ impl LayerCtx<'_> {
         }
         // Two pixels of margin for the apron and sub-samples reaching into neighbouring tiles.
         let pixel = std::f64::consts::PI / m.height() as f64;
-        cull.outside(centre, spread + 2.0 * pixel, zmin)
+        self.culls[..self.views.n()].iter().flatten().all(|c| c.outside(centre, spread + 2.0 * pixel, zmin))
     }
 
     /// Layer pixel index of apron cell `(ax, ay)` (tile-relative, `-1 ..= w`), across edges.
@@ -312,10 +287,14 @@ impl LayerCtx<'_> {
         self.nb.get_at(x, y, offset_index(ax - bx, ay - by))
     }
 
-    fn splat_tile(&self, t: &Tile, buf: &mut Vec<Pt>, acc: &mut Accum, n: &mut SplatCounts) {
-        n.tiles += 1;
+    fn splat_tile(&self, t: &Tile, buf: &mut Vec<Pt>, accs: &mut [Accum], n: &mut [SplatCounts]) {
+        for n in n.iter_mut() {
+            n.tiles += 1;
+        }
         if self.skip(t) {
-            n.tiles_culled += 1;
+            for n in n.iter_mut() {
+                n.tiles_culled += 1;
+            }
             return;
         }
         let stride = t.w + 2;
@@ -330,19 +309,16 @@ impl LayerCtx<'_> {
                 let at =
                     |dx: i64, dy: i64| (ly as i64 + 1 + dy) as usize * stride + (lx as i64 + 1 + dx) as usize;
                 if buf[at(0, 0)].ok {
-                    n.pixels += 1;
                     let nbrs: [&Pt; 8] =
                         std::array::from_fn(|k| &buf[at(OFFSETS[k].0 as i64, OFFSETS[k].1 as i64)]);
-                    n.samples += self.splat_pixel(&buf[at(0, 0)], &nbrs, acc);
+                    let done = self.splat_pixel(&buf[at(0, 0)], &nbrs, accs);
+                    for (n, d) in n.iter_mut().zip(done) {
+                        n.pixels += 1;
+                        n.samples += d;
+                    }
                 }
             }
         }
-    }
-
-    /// Output-space distance between two projected points, with the equirect metric.
-    #[inline]
-    fn gap(&self, a: DVec2, b: DVec2) -> f64 {
-        self.delta(a, b).length()
     }
 
     /// Whether the centre pixel `c` and its neighbour `n` are one surface by the shared rule
@@ -353,10 +329,12 @@ impl LayerCtx<'_> {
         continuity::continuous(c as f64, n as f64, behind, None, self.o.jump, continuity::PLANAR)
     }
 
-    /// Splat one pixel and its sub-samples; returns the number of samples.
-    fn splat_pixel(&self, c: &Pt, nbrs: &[&Pt; 8], acc: &mut Accum) -> u64 {
-        if !c.vis {
-            return 0;
+    /// Splat one pixel and its sub-samples into every view that sees it; returns the number of
+    /// samples per view.
+    fn splat_pixel(&self, c: &Pt, nbrs: &[&Pt; 8], accs: &mut [Accum]) -> Done {
+        let mut done = [0; MAX_VIEWS];
+        if !c.vis.contains(&true) {
+            return done;
         }
         let Footprint { linked, own, sx, sy } = self.footprint(c, nbrs);
         let cap = self.o.max_subsamples.max(1);
@@ -364,99 +342,121 @@ impl LayerCtx<'_> {
             // Past the uniform grid's reach: the footprint is very large on screen (the surface is
             // near the eye, or near the camera plane where projection diverges). Refine it where
             // it lands on the output only, so work and sample size follow what is visible.
-            let mut done = 0;
             for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
                 let sq = Rect { x0: 0.0f64.min(sx * 0.5), y0: 0.0f64.min(sy * 0.5), w: 0.5, h: 0.5 };
-                done += self.refine(c, &linked, &own, sq, 1, acc);
+                self.refine(c, &linked, &own, sq, 1, c.vis, accs, &mut done);
             }
             return done;
         }
         let count = |s: f64| ((s / self.o.spacing).ceil() as usize).clamp(1, cap);
         let (nx, ny) = (count(sx), count(sy));
         let radius = self.o.radius;
-        if !self.camera.wraps() && self.off_screen(c.q, sx.max(sy) + radius) {
-            return 0;
+        let mut active = c.vis;
+        for (v, a) in active.iter_mut().enumerate().take(self.views.n()) {
+            *a = *a && !self.views.off_screen(v, c.q[v], sx.max(sy) + radius);
         }
-        // The footprint's area on the output, shared by its samples.
-        let area = self.footprint_area(c, &linked, &own).unwrap_or(sx * sy);
-        let cover = area / (nx * ny) as f64 / (radius * radius);
+        if !active.contains(&true) {
+            return done;
+        }
+        // The footprint's area on each output, shared by its samples.
+        let areas = self.footprint_area(c, &linked, &own);
+        let cover = areas.map(|a| a.unwrap_or(sx * sy) / (nx * ny) as f64 / (radius * radius));
         if nx == 1 && ny == 1 {
-            let one = Splat { q: c.q, dist: c.dist, rgb: c.rgb, layer: self.index, cover };
-            splat(self.camera, self.scales, radius, &one, acc);
-            return 1;
+            for v in 0..self.views.n() {
+                if active[v] {
+                    let one =
+                        Splat { q: c.q[v], dist: c.dist[v], rgb: c.rgb, layer: self.index, cover: cover[v] };
+                    splat(&self.views.cameras[v], &self.views.scales[v], radius, &one, &mut accs[v]);
+                    done[v] += 1;
+                }
+            }
+            return done;
         }
-        let mut done = 0;
         for b in 0..ny {
             let oy = (b as f64 + 0.5) / ny as f64 - 0.5;
             for a in 0..nx {
                 let ox = (a as f64 + 0.5) / nx as f64 - 0.5;
-                done += self.emit(c, &linked, &own, (ox, oy), radius, cover, acc);
+                self.emit(c, &linked, &own, (ox, oy), radius, cover, active, accs, &mut done);
             }
         }
         done
     }
 
     /// The neighbours `c` is linked to (one surface), where its footprint ends towards the others
-    /// (their rays at `c`'s depth), and its extent on the output along x and y.
+    /// (their rays at `c`'s depth), and its extent along x and y on the views that see it (the
+    /// largest).
     #[inline]
     fn footprint<'p>(&self, c: &Pt, nbrs: &[&'p Pt; 8]) -> Footprint<'p> {
         let mut linked: [Option<&'p Pt>; 8] = [None; 8];
         // Where a neighbour is not linked, the pixel still covers its own footprint: up to the
         // neighbour's ray at the pixel's own depth.
         let mut own: [Option<DVec3>; 8] = [None; 8];
-        let (mut sx, mut sy) = (0.0f64, 0.0f64);
+        let mut reach = [[None; MAX_VIEWS]; 8];
         for k in 0..8 {
             let nb = nbrs[k];
             let (dx, dy) = OFFSETS[k];
             let opposite = nbrs[offset_index(-dx as i64, -dy as i64)];
-            let reach = if nb.ok && self.continuous(c.z, nb.z, opposite) {
+            reach[k] = if nb.ok && self.continuous(c.z, nb.z, opposite) {
                 linked[k] = Some(nb);
-                nb.vis.then_some(nb.q)
+                std::array::from_fn(|v| nb.vis[v].then_some(nb.q[v]))
             } else if nb.ray != DVec3::ZERO {
-                let p = if c.dist.is_infinite() {
-                    nb.ray * AT_INFINITY
-                } else {
-                    self.centre + nb.ray * c.z as f64
-                };
+                let p = if c.far { nb.ray * AT_INFINITY } else { self.centre + nb.ray * c.z as f64 };
                 own[k] = Some(p);
-                self.camera.project(p)
+                self.views.project(p)
             } else {
-                None
+                [None; MAX_VIEWS]
             };
-            if let Some(q) = reach {
-                let g = self.gap(c.q, q);
-                if OFFSETS[k].0 != 0 {
-                    sx = sx.max(g);
+        }
+        // The sub-samples run in rows and columns across the four quads of the footprint: the
+        // longest quad edge along each direction bounds their spacing (the diagonals, √2 longer,
+        // would oversample by half as much again). An edge whose start does not project is
+        // measured from the pixel.
+        let (mut sx, mut sy) = (0.0f64, 0.0f64);
+        for v in (0..self.views.n()).filter(|&v| c.vis[v]) {
+            let at = |dx: i64, dy: i64| {
+                if (dx, dy) == (0, 0) {
+                    Some(c.q[v])
+                } else {
+                    reach[offset_index(dx, dy)][v]
                 }
-                if OFFSETS[k].1 != 0 {
-                    sy = sy.max(g);
+            };
+            let edge = |from: (i64, i64), to: (i64, i64)| match (at(from.0, from.1), at(to.0, to.1)) {
+                (Some(a), Some(b)) => self.views.gap(v, a, b),
+                (None, Some(b)) => self.views.gap(v, c.q[v], b),
+                _ => 0.0,
+            };
+            for d in [-1, 1] {
+                for e in [-1, 0, 1] {
+                    sx = sx.max(edge((0, e), (d, e)));
+                    sy = sy.max(edge((e, 0), (e, d)));
                 }
             }
         }
         Footprint { linked, own, sx, sy }
     }
 
-    /// Output-space vector from `a` to `b`, with the equirect metric (as [`Self::gap`]).
-    #[inline]
-    fn delta(&self, a: DVec2, b: DVec2) -> DVec2 {
-        let mut dx = b.x - a.x;
-        if self.camera.wraps() {
-            let w = self.camera.width() as f64;
-            dx -= w * (dx / w).round();
-        }
-        DVec2::new(dx * row_scale(self.scales, a.y), b.y - a.y)
-    }
-
-    /// Area on the output (equirect metric) of pixel `c`'s footprint, as its samples cover it:
+    /// Area on each output (equirect metric) of pixel `c`'s footprint, as its samples cover it:
     /// the parallelogram through the midpoints of its sides. `None` where one does not project.
-    fn footprint_area(&self, c: &Pt, linked: &[Option<&Pt>; 8], own: &[Option<DVec3>; 8]) -> Option<f64> {
-        let at = |ox: f64, oy: f64| self.camera.project(interpolate(c, linked, own, ox, oy).0);
-        let (u, v) = (self.delta(at(-0.5, 0.0)?, at(0.5, 0.0)?), self.delta(at(0.0, -0.5)?, at(0.0, 0.5)?));
-        Some(u.perp_dot(v).abs())
+    fn footprint_area(
+        &self,
+        c: &Pt,
+        linked: &[Option<&Pt>; 8],
+        own: &[Option<DVec3>; 8],
+    ) -> PerView<Option<f64>> {
+        let [l, r, t, b] = [(-0.5, 0.0), (0.5, 0.0), (0.0, -0.5), (0.0, 0.5)]
+            .map(|(ox, oy)| self.views.project(interpolate(c, linked, own, ox, oy).0));
+        std::array::from_fn(|v| {
+            if v >= self.views.n() {
+                return None;
+            }
+            let u = self.views.delta(v, l[v]?, r[v]?);
+            let w = self.views.delta(v, t[v]?, b[v]?);
+            Some(u.perp_dot(w).abs())
+        })
     }
 
-    /// Filter the footprint point at offset `o` into the output with coverage `cover` per unit of
-    /// filter weight; returns 1 if it projects.
+    /// Filter the footprint point at offset `o` into the `active` views with coverage `cover` per
+    /// unit of filter weight, counting the samples that project in `done`.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     fn emit(
@@ -466,22 +466,28 @@ impl LayerCtx<'_> {
         own: &[Option<DVec3>; 8],
         o: (f64, f64),
         radius: f64,
-        cover: f64,
-        acc: &mut Accum,
-    ) -> u64 {
+        cover: PerView<f64>,
+        active: PerView<bool>,
+        accs: &mut [Accum],
+        done: &mut Done,
+    ) {
         let (cam, rgb) = interpolate(c, linked, own, o.0, o.1);
-        let (q, dist) = self.camera.project_and_distance(cam);
-        let Some(q) = q else { return 0 };
-        let dist = if c.dist.is_infinite() { f32::INFINITY } else { dist as f32 };
-        splat(self.camera, self.scales, radius, &Splat { q, dist, rgb, layer: self.index, cover }, acc);
-        1
+        let proj = self.views.project_and_distance(cam);
+        for v in 0..self.views.n() {
+            let Some((q, dist)) = proj[v].filter(|_| active[v]) else { continue };
+            let dist = if c.far { f32::INFINITY } else { dist as f32 };
+            let s = Splat { q, dist, rgb, layer: self.index, cover: cover[v] };
+            splat(&self.views.cameras[v], &self.views.scales[v], radius, &s, &mut accs[v]);
+            done[v] += 1;
+        }
     }
 
     /// Adaptive resampling of one rectangle of a pixel's footprint (inside one quadrant, where the
     /// surface is one bilinear patch, inside the hull of its corners): a rectangle whose hull lies
-    /// outside the view frustum is dropped, one whose projected sides are at most
+    /// outside every view's frustum is dropped, one whose projected sides are at most
     /// [`SplatOptions::spacing`] long is one sample, any other is halved across each direction
     /// whose sides are longer (a grazing sliver L pixels long costs ~L samples, not L²).
+    #[allow(clippy::too_many_arguments)]
     fn refine(
         &self,
         c: &Pt,
@@ -489,58 +495,62 @@ impl LayerCtx<'_> {
         own: &[Option<DVec3>; 8],
         sq: Rect,
         depth: u32,
-        acc: &mut Accum,
-    ) -> u64 {
+        mut active: PerView<bool>,
+        accs: &mut [Accum],
+        done: &mut Done,
+    ) {
         let cams = sq.corners().map(|(ox, oy)| interpolate(c, linked, own, ox, oy).0);
-        if self.camera.hull_outside(&cams, self.o.radius + 1.0) {
-            return 0;
+        for (v, a) in active.iter_mut().enumerate().take(self.views.n()) {
+            *a = *a && !self.views.cameras[v].hull_outside(&cams, self.o.radius + 1.0);
+        }
+        if !active.contains(&true) {
+            return;
         }
         let (cx, cy) = (sq.x0 + sq.w / 2.0, sq.y0 + sq.h / 2.0);
-        let q = cams.map(|p| self.camera.project(p));
-        let (along_x, along_y) = match q {
-            [Some(a), Some(b), Some(d), Some(e)] => {
-                (self.gap(a, b).max(self.gap(e, d)), self.gap(b, d).max(self.gap(e, a)))
-            }
-            // Straddles the camera plane: split until what projects is sampled finely.
-            _ => (f64::INFINITY, f64::INFINITY),
-        };
+        let q = cams.map(|p| self.views.project(p));
+        let corners = |v: usize| [q[0][v], q[1][v], q[2][v], q[3][v]];
+        let (mut along_x, mut along_y) = (0.0f64, 0.0f64);
+        for v in (0..self.views.n()).filter(|&v| active[v]) {
+            let (x, y) = match corners(v) {
+                [Some(a), Some(b), Some(d), Some(e)] => {
+                    let g = |p, q| self.views.gap(v, p, q);
+                    (g(a, b).max(g(e, d)), g(b, d).max(g(e, a)))
+                }
+                // Straddles the camera plane: split until what projects is sampled finely.
+                _ => (f64::INFINITY, f64::INFINITY),
+            };
+            along_x = along_x.max(x);
+            along_y = along_y.max(y);
+        }
         let side = along_x.max(along_y);
-        // The rectangle's area on the output: its projected quad (shoelace).
-        let area = |q: &[Option<DVec2>; 4]| {
-            let [Some(a), Some(b), Some(d), Some(e)] = *q else { return None };
-            let (b, d, e) = (self.delta(a, b), self.delta(a, d), self.delta(a, e));
+        // The rectangle's area on view `v`: its projected quad (shoelace).
+        let area = |v: usize| {
+            let [Some(a), Some(b), Some(d), Some(e)] = corners(v) else { return None };
+            let (b, d, e) = (self.views.delta(v, a, b), self.views.delta(v, a, d), self.views.delta(v, a, e));
             Some((b.perp_dot(d) + d.perp_dot(e)).abs() / 2.0)
         };
+        let r = self.o.radius;
         if side <= self.o.spacing {
-            let r = self.o.radius;
-            let cover = area(&q).unwrap_or(side * side) / (r * r);
-            return self.emit(c, linked, own, (cx, cy), r, cover, acc);
+            let cover = std::array::from_fn(|v| area(v).unwrap_or(side * side) / (r * r));
+            return self.emit(c, linked, own, (cx, cy), r, cover, active, accs, done);
         }
         if depth >= MAX_REFINE {
             // Only a surface touching the eye gets here (one layer pixel wider than 2^16 samples
             // at the spacing); its samples grow so the footprint stays covered.
             let grow = if side.is_finite() { side / self.o.spacing } else { 1.0 };
-            let r = self.o.radius * grow;
-            let cover = area(&q).filter(|a| a.is_finite()).map_or(1.0, |a| a / (r * r));
-            return self.emit(c, linked, own, (cx, cy), r, cover, acc);
+            let r = r * grow;
+            let cover =
+                std::array::from_fn(|v| area(v).filter(|a| a.is_finite()).map_or(1.0, |a| a / (r * r)));
+            return self.emit(c, linked, own, (cx, cy), r, cover, active, accs, done);
         }
         let (nx, ny) = (1 + (along_x > self.o.spacing) as usize, 1 + (along_y > self.o.spacing) as usize);
         let (w, h) = (sq.w / nx as f64, sq.h / ny as f64);
-        let mut done = 0;
         for j in 0..ny {
             for i in 0..nx {
                 let child = Rect { x0: sq.x0 + i as f64 * w, y0: sq.y0 + j as f64 * h, w, h };
-                done += self.refine(c, linked, own, child, depth + 1, acc);
+                self.refine(c, linked, own, child, depth + 1, active, accs, done);
             }
         }
-        done
-    }
-
-    /// Whether a pixel's splat footprint (centre `q`, reach `reach` pixels) misses the output.
-    fn off_screen(&self, q: DVec2, reach: f64) -> bool {
-        let reach = reach + 1.0;
-        let (w, h) = (self.camera.width() as f64, self.camera.height() as f64);
-        q.x + reach < 0.0 || q.y + reach < 0.0 || q.x - reach > w || q.y - reach > h
     }
 }
 
@@ -670,16 +680,22 @@ fn splat(camera: &Camera, scales: &[f64], r: f64, s: &Splat, acc: &mut Accum) {
     }
 }
 
-/// Splat every layer into one accumulation buffer of the camera's size.
+/// Splat every layer into one accumulation buffer per camera, in one pass: 1 to [`MAX_VIEWS`]
+/// cameras sharing one camera space ([`Camera::to_camera`]; the caller checks), such as the eyes of
+/// an ODS camera. The tiles, pixels and sub-samples are found once for all of them.
 pub fn splat_layers(
     layers: &[LayerPlanes],
     local_to_world: DMat4,
-    camera: &Camera,
+    cameras: &[Camera],
     o: &SplatOptions,
-) -> (Accum, SplatCounts) {
-    let to_cam = camera.to_camera() * local_to_world;
-    let scales: Vec<f64> = (0..camera.height()).map(|y| camera.x_scale(y as f64 + 0.5)).collect();
-    let cull = Cull::new(camera, local_to_world);
+) -> (Vec<Accum>, Vec<SplatCounts>) {
+    assert!((1..=MAX_VIEWS).contains(&cameras.len()), "1 to {MAX_VIEWS} views a pass");
+    let views = Views::new(cameras);
+    let to_cam = cameras[0].to_camera() * local_to_world;
+    let mut culls = [None; MAX_VIEWS];
+    for (c, camera) in culls.iter_mut().zip(cameras) {
+        *c = Cull::new(camera, local_to_world);
+    }
     let ctxs: Vec<LayerCtx> = layers
         .iter()
         .enumerate()
@@ -688,11 +704,10 @@ pub fn splat_layers(
             planes,
             dirs: DirTable::new(planes.mapping),
             nb: Neighbours::new(planes.mapping),
-            camera,
-            scales: &scales,
+            views: &views,
             to_cam,
             centre: to_cam.transform_point3(DVec3::ZERO),
-            cull,
+            culls,
             o: *o,
         })
         .collect();
@@ -702,25 +717,31 @@ pub fn splat_layers(
         .flat_map(|(k, c)| tiles(&c.planes.mapping).into_iter().map(move |t| (k, t)))
         .collect();
     let groups = rayon::current_num_threads().max(1);
-    let parts: Vec<(Accum, SplatCounts)> = (0..groups)
+    let new_accs =
+        || -> Vec<Accum> { cameras.iter().map(|c| Accum::new(c.width(), c.height(), o.tolerance)).collect() };
+    let parts: Vec<(Vec<Accum>, Vec<SplatCounts>)> = (0..groups)
         .into_par_iter()
         .map(|g| {
-            let mut acc = Accum::new(camera.width(), camera.height(), o.tolerance);
-            let mut counts = SplatCounts::default();
+            let mut accs = new_accs();
+            let mut counts = vec![SplatCounts::default(); cameras.len()];
             let mut buf = Vec::with_capacity((TILE + 2) * (TILE + 2));
             for (k, t) in jobs.iter().skip(g).step_by(groups) {
-                ctxs[*k].splat_tile(t, &mut buf, &mut acc, &mut counts);
+                ctxs[*k].splat_tile(t, &mut buf, &mut accs, &mut counts);
             }
-            (acc, counts)
+            (accs, counts)
         })
         .collect();
     let mut parts = parts.into_iter();
-    let (mut acc, mut counts) = parts.next().expect("at least one group");
+    let (mut accs, mut counts) = parts.next().expect("at least one group");
     for (a, c) in parts {
-        acc.merge(&a);
-        counts = counts.add(c);
+        for (acc, a) in accs.iter_mut().zip(&a) {
+            acc.merge(a);
+        }
+        for (n, c) in counts.iter_mut().zip(c) {
+            *n = n.add(c);
+        }
     }
-    (acc, counts)
+    (accs, counts)
 }
 
 /// What [`LayerCtx::footprint`] finds of a pixel's footprint.
