@@ -36,6 +36,10 @@ pub struct FillPixel {
     pub rgb: [f32; 3],
     /// The seed whose surface it continues (its plane and normal).
     pub surface: usize,
+    /// Angle (radians) from the nearest seed of its layer that reached it: how far inside the
+    /// occluder it lies from where its layer shows ([`yield_to_farther`]); 0 on a floor or a
+    /// ceiling, whose plane ends at its own horizon.
+    pub angle: f32,
 }
 
 /// The fill of one layer: extra pixels, in breadth-first order from the occluders' borders.
@@ -156,7 +160,12 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
             let Some((s, d)) = pick_surface(cx, &surfaces, own, rival, q) else { continue };
             let mut pixel = |s: usize, depth: f32| {
                 let c = *colour_of_seed.entry(s).or_insert_with(|| interior_neighbour(cx, s, k));
-                FillPixel { pixel: q, depth, rgb: cx.colour(c).to_array(), surface: s }
+                // A level plane continued behind an occluder stops at its horizon by itself; a
+                // farther layer nearby must not take the pixels below it (the sky behind a sphere
+                // on the ground).
+                let level = surfaces.normal(cx, s).z.abs() > LEVEL_COS;
+                let angle = if level { 0.0 } else { angle_of[q] };
+                FillPixel { pixel: q, depth, rgb: cx.colour(c).to_array(), surface: s, angle }
             };
             fill.pixels.push(pixel(s, d));
             if s != own {
@@ -172,6 +181,10 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
 }
 
 const NONE: u32 = u32::MAX;
+
+/// `|n_z|` above which a plane is level (a floor, the ground, a ceiling): within 25° of horizontal
+/// (45° cut the room's views more and mended none).
+const LEVEL_COS: f32 = 0.906;
 
 /// Pixel `q` belongs to a layer nearer than `k`: what layer `k` fills behind.
 fn hidden(cx: &FillContext, k: u32, q: usize) -> bool {
@@ -264,6 +277,27 @@ fn claim_angle(
     (!refused).then_some(angle)
 }
 
+/// Behind an occluder, each hidden pixel goes to the layer that shows nearest to it: a pixel that a
+/// farther layer's fill reaches from a seed nearer (in angle) than its own layer's leaves that
+/// layer's fill. A wall seen beside a sky, both bordering a sphere in front, is continued behind the
+/// sphere by its plane, which has no end: without this rule it would cover, out to its band, what
+/// is sky beyond the wall's edge, and a camera moved aside would see the wall there. A level plane
+/// is not cut (its horizon ends it where the truth does; the nearest seed would not). The farther
+/// layer's fill keeps the pixel, so no hole opens. `fills[k]` is layer `k`'s (larger is nearer),
+/// before [`add_borders`].
+pub fn yield_to_farther(fills: &mut [Fill]) {
+    let mut nearest: HashMap<usize, f32> = HashMap::new();
+    for fill in fills.iter_mut() {
+        if !nearest.is_empty() {
+            fill.pixels.retain(|f| nearest.get(&f.pixel).map_or(true, |&a| a >= f.angle));
+        }
+        for f in &fill.pixels {
+            let a = nearest.entry(f.pixel).or_insert(f32::INFINITY);
+            *a = a.min(f.angle);
+        }
+    }
+}
+
 type Rivals = Vec<[u32; RIVALS]>;
 
 /// (2) The rival surfaces of layer `k` from its jump seeds: for each hidden pixel's slot, the
@@ -343,6 +377,7 @@ pub fn add_borders(cx: &FillContext, fills: &mut [Fill]) {
             depth: cx.depth[p],
             rgb: cx.colour(c).to_array(),
             surface: p,
+            angle: 0.0,
         });
         fill.border += 1;
     }
