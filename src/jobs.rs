@@ -425,7 +425,7 @@ impl Renderer {
         }
     }
 
-    /// Render the view through `camera`, mono or stereo (each eye rendered in turn, then stacked;
+    /// Render the view through `camera`, mono or stereo (the eyes rendered, then stacked;
     /// holes and counts are both eyes', stage times their sums).
     pub fn render_view(&self, camera: &ViewCamera) -> crate::Result<View> {
         match camera {
@@ -458,12 +458,12 @@ impl Renderer {
         }
         let refs = RenderLayer::all(&self.layers);
         let cameras = [*left, *right];
-        let mut views =
-            render::render_views(&refs, self.local_to_world, &cameras, &SplatOptions::default())?.into_iter();
-        match (views.next(), views.next()) {
-            (Some(l), Some(r)) => Ok((view(l), view(r))),
-            _ => unreachable!("render_views gives one view per camera"),
-        }
+        // One view per camera.
+        let [l, r]: [render::Rendered; 2] =
+            render::render_views(&refs, self.local_to_world, &cameras, &SplatOptions::default())?
+                .try_into()
+                .map_err(|_| render::RenderError::BadOptions("two eyes, two views".into()))?;
+        Ok((view(l), view(r)))
     }
 
     /// Render the view from `camera`.

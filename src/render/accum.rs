@@ -37,8 +37,8 @@ pub struct Cell {
 const EMPTY: Cell = Cell { z: f32::INFINITY, w: 0.0, wz: 0.0, rgb: [0.0; 3], layer: 0, cover: 0.0 };
 
 /// Coverage from which the nearest group shows alone; below it, it is blended over the group behind
-/// in proportion. Half, not all: the sums inside a surface ripple by −20 to +35 % (sample spacing and
-/// filter radius are not commensurate), and where a crease is judged a discontinuity the footprints
+/// in proportion. Half, not all: the sums inside a surface ripple (by −20 to +35 % with the tent of
+/// stop 17; sample spacing and filter radius are not commensurate), and where a crease is judged a discontinuity the footprints
 /// of its two sides leave a sliver between them; half covered, each side still hides what is behind.
 const COVER_FULL: f32 = 0.5;
 

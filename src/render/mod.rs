@@ -268,8 +268,12 @@ pub fn render_views(
     let mut out = Vec::with_capacity(cameras.len());
     let mut rest = cameras;
     while let Some(first) = rest.first() {
-        let shared =
-            rest.iter().take(splat::MAX_VIEWS).take_while(|c| c.to_camera() == first.to_camera()).count();
+        // The first camera always makes a pass (a NaN transform equals nothing, not even itself).
+        let shared = 1 + rest[1..]
+            .iter()
+            .take(splat::MAX_VIEWS - 1)
+            .take_while(|c| c.to_camera() == first.to_camera())
+            .count();
         let (pass, tail) = rest.split_at(shared);
         rest = tail;
         let t = Instant::now();

@@ -37,9 +37,11 @@ pub struct FillPixel {
     /// The seed whose surface it continues (its plane and normal).
     pub surface: usize,
     /// Angle (radians) from the nearest seed of its layer that reached it: how far inside the
-    /// occluder it lies from where its layer shows ([`yield_to_farther`]); 0 on a floor or a
-    /// ceiling, whose plane ends at its own horizon.
+    /// occluder it lies from where its layer shows ([`yield_to_farther`]).
     pub angle: f32,
+    /// On a level plane (a floor, the ground, a ceiling), which ends at its own horizon: it never
+    /// yields to a farther layer.
+    pub level: bool,
 }
 
 /// The fill of one layer: extra pixels, in breadth-first order from the occluders' borders.
@@ -164,8 +166,14 @@ pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
                 // farther layer nearby must not take the pixels below it (the sky behind a sphere
                 // on the ground).
                 let level = surfaces.normal(cx, s).z.abs() > LEVEL_COS;
-                let angle = if level { 0.0 } else { angle_of[q] };
-                FillPixel { pixel: q, depth, rgb: cx.colour(c).to_array(), surface: s, angle }
+                FillPixel {
+                    pixel: q,
+                    depth,
+                    rgb: cx.colour(c).to_array(),
+                    surface: s,
+                    angle: angle_of[q],
+                    level,
+                }
             };
             fill.pixels.push(pixel(s, d));
             if s != own {
@@ -289,7 +297,7 @@ pub fn yield_to_farther(fills: &mut [Fill]) {
     let mut nearest: HashMap<usize, f32> = HashMap::new();
     for fill in fills.iter_mut() {
         if !nearest.is_empty() {
-            fill.pixels.retain(|f| nearest.get(&f.pixel).map_or(true, |&a| a >= f.angle));
+            fill.pixels.retain(|f| f.level || nearest.get(&f.pixel).map_or(true, |&a| a >= f.angle));
         }
         for f in &fill.pixels {
             let a = nearest.entry(f.pixel).or_insert(f32::INFINITY);
@@ -378,6 +386,7 @@ pub fn add_borders(cx: &FillContext, fills: &mut [Fill]) {
             rgb: cx.colour(c).to_array(),
             surface: p,
             angle: 0.0,
+            level: false,
         });
         fill.border += 1;
     }

@@ -148,7 +148,14 @@ fn a_rival_plane_dropped_gives_back_the_nearest_seeds_plane_and_leaves_no_remnan
     let band = |p: usize| (24..32).contains(&(p % w)) && (10..12).contains(&(p / w));
     let island = |p: usize| (36..40).contains(&(p % w)) && (18..20).contains(&(p / w));
     let moat = |p: usize| (35..41).contains(&(p % w)) && (17..21).contains(&(p / w)) && !island(p);
-    let px = |p: usize, depth: f32| FillPixel { pixel: p, depth, rgb: [0.5; 3], surface: 0, angle: 0.0 };
+    let px = |p: usize, depth: f32| FillPixel {
+        pixel: p,
+        depth,
+        rgb: [0.5; 3],
+        surface: 0,
+        angle: 0.0,
+        level: false,
+    };
     let mut fill = Fill::default();
     let mut own_plane = HashMap::new();
     for p in (0..n).filter(|&p| hidden(p) && !moat(p)) {
@@ -277,7 +284,14 @@ fn a_crack_where_two_fronts_meet_is_closed() {
     let (cx, n, hidden, nb) = (b.cx(), b.depth.len(), in_block, &b.nb);
     let mut fill = Fill::default();
     for p in (0..n).filter(|&p| hidden(p)) {
-        fill.pixels.push(FillPixel { pixel: p, depth: wall(p), rgb: [0.5; 3], surface: 0, angle: 0.0 });
+        fill.pixels.push(FillPixel {
+            pixel: p,
+            depth: wall(p),
+            rgb: [0.5; 3],
+            surface: 0,
+            angle: 0.0,
+            level: false,
+        });
     }
     keep_continuous(&cx, 0, &mut fill, HashMap::new());
     let got: HashMap<usize, f32> = fill.pixels.iter().map(|f| (f.pixel, f.depth)).collect();
@@ -298,12 +312,22 @@ fn a_crack_where_two_fronts_meet_is_closed() {
 /// reaches from nearer than the farther one does (ties stay with it), and the farther keeps all.
 #[test]
 fn a_hidden_pixel_goes_to_the_layer_that_shows_nearest() {
-    let px = |pixel: usize, angle: f32| FillPixel { pixel, depth: 2.0, rgb: [0.5; 3], surface: 0, angle };
-    let sky = Fill { pixels: vec![px(1, 0.01), px(2, 0.03), px(3, 0.02)], ..Fill::default() };
-    let wall = Fill { pixels: vec![px(1, 0.02), px(2, 0.01), px(3, 0.02), px(4, 0.05)], ..Fill::default() };
+    let px = |pixel: usize, angle: f32| FillPixel {
+        pixel,
+        depth: 2.0,
+        rgb: [0.5; 3],
+        surface: 0,
+        angle,
+        level: false,
+    };
+    let sky = Fill { pixels: vec![px(1, 0.01), px(2, 0.03), px(3, 0.02), px(5, 0.01)], ..Fill::default() };
+    // Pixel 5 is on a level plane (ground below the horizon): it stays.
+    let ground = FillPixel { level: true, ..px(5, 0.04) };
+    let wall =
+        Fill { pixels: vec![px(1, 0.02), px(2, 0.01), px(3, 0.02), px(4, 0.05), ground], ..Fill::default() };
     let mut fills = [sky, wall];
     yield_to_farther(&mut fills);
     let kept = |f: &Fill| f.pixels.iter().map(|p| p.pixel).collect::<Vec<_>>();
-    assert_eq!(kept(&fills[0]), [1, 2, 3]);
-    assert_eq!(kept(&fills[1]), [2, 3, 4]);
+    assert_eq!(kept(&fills[0]), [1, 2, 3, 5]);
+    assert_eq!(kept(&fills[1]), [2, 3, 4, 5]);
 }

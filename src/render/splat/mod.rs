@@ -362,14 +362,8 @@ impl LayerCtx<'_> {
         let areas = self.footprint_area(c, &linked, &own);
         let cover = areas.map(|a| a.unwrap_or(sx * sy) / (nx * ny) as f64 / (radius * radius));
         if nx == 1 && ny == 1 {
-            for v in 0..self.views.n() {
-                if active[v] {
-                    let one =
-                        Splat { q: c.q[v], dist: c.dist[v], rgb: c.rgb, layer: self.index, cover: cover[v] };
-                    splat(&self.views.cameras[v], &self.views.scales[v], radius, &one, &mut accs[v]);
-                    done[v] += 1;
-                }
-            }
+            let proj = std::array::from_fn(|v| c.vis[v].then(|| (c.q[v], f64::from(c.dist[v]))));
+            self.filter(c, proj, c.rgb, radius, cover, active, accs, &mut done);
             return done;
         }
         for b in 0..ny {
@@ -473,6 +467,23 @@ impl LayerCtx<'_> {
     ) {
         let (cam, rgb) = interpolate(c, linked, own, o.0, o.1);
         let proj = self.views.project_and_distance(cam);
+        self.filter(c, proj, rgb, radius, cover, active, accs, done);
+    }
+
+    /// Filter a sample of pixel `c` (projected as `proj` into each view) into the `active` views.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn filter(
+        &self,
+        c: &Pt,
+        proj: PerView<Option<(DVec2, f64)>>,
+        rgb: [f32; 3],
+        radius: f64,
+        cover: PerView<f64>,
+        active: PerView<bool>,
+        accs: &mut [Accum],
+        done: &mut Done,
+    ) {
         for v in 0..self.views.n() {
             let Some((q, dist)) = proj[v].filter(|_| active[v]) else { continue };
             let dist = if c.far { f32::INFINITY } else { dist as f32 };
