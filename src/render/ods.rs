@@ -400,9 +400,8 @@ mod tests {
                 let pair = l.project_pair(p);
                 let each = l.project_and_distance(p).zip(r.project_and_distance(p));
                 assert_eq!(pair.map(|(q, t)| (q[0], q[1], t)), each.map(|(a, b)| (a.0, b.0, a.1)), "{p}");
-                if let Some((_, b)) = each {
-                    assert_eq!(b.1, r.project_and_distance(p).unwrap().1);
-                }
+                // The right eye's own distance is the pair's one distance too.
+                assert_eq!(pair.map(|(_, t)| t), each.map(|(_, b)| b.1), "{p}");
             }
         }
     }
