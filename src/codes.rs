@@ -167,6 +167,11 @@ declare_codes! {
     INPUT_BAD_OPTION, Error, "A build or preparation setting is out of its range, or settings contradict each other.";
     BUILD_BAD_RADIUS, Error, "The freedom radius is not positive and finite.";
     BUILD_SIZE_MISMATCH, Error, "A colour plane or the depth does not hold one sample per canvas pixel.";
+    SCENE_UNREADABLE, Error, "A scene file (glTF, GLB, OBJ) or one of its textures cannot be read or parsed.";
+    SCENE_UNSUPPORTED, Error, "The scene file's extension is not .gltf, .glb or .obj.";
+    SCENE_EMPTY, Error, "The scene has no triangles.";
+    SCENE_TOO_LARGE, Error, "The scene has more triangles than `--max-triangles`; refused before tracing.";
+    SCENE_BAD_OPTION, Error, "A scene setting is out of its range (width, samples, freedom radius, centre, sky map shape).";
     PACK_PADDING_TOO_LARGE, Error, "The packing padding is above its maximum.";
     LAYOUT_UNKNOWN, Error, "A cube layout name no layout has.";
     LAYOUT_BAD_SIZE, Error, "An image size that is not a cube of the layout (3:2 with square faces, or the layout's shape).";

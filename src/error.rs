@@ -39,6 +39,9 @@ pub enum Error {
     /// Rendering a view failed.
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
+    /// Reading a 3D scene or making its layers failed.
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
     /// Reading or writing a plain image (PNG, JPEG, EXR, HDR) failed.
     #[error(transparent)]
     Image(#[from] crate::image_io::ImageIoError),
@@ -57,7 +60,7 @@ crate::codes::error_codes! {
     Error:
         Io IO_ERROR;
         from Manifest.0, LayerIo.0, Pack.0, Resample.0, Convert.0, Panorama.0, Build.0, Input.0,
-            Prepare.0, Mesh.0, Render.0, Image.0
+            Prepare.0, Mesh.0, Render.0, Image.0, Scene.0
 }
 
 impl From<crate::fsutil::IoError> for Error {

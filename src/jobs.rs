@@ -260,6 +260,66 @@ fn prepare_stage(
     Ok((rgbd, prepare, t.elapsed().as_secs_f64()))
 }
 
+/// What [`scene_panorama`] wrote and measured.
+#[derive(Clone, Debug)]
+pub struct SceneSummary {
+    /// The manifest as written.
+    pub manifest: Manifest,
+    /// What making the layers did, stage by stage.
+    pub report: crate::scene::BakeReport,
+    /// Seconds spent reading the scene (geometry and textures).
+    pub read_s: f64,
+    /// Seconds spent writing the layer files and the manifest.
+    pub write_s: f64,
+}
+
+/// Every stage [`scene_panorama`] names, in order: `reading`, the tracing's
+/// ([`crate::scene::STAGES`]), `writing` (a progress bar's length).
+pub fn scene_stages() -> Vec<&'static str> {
+    let mut v = vec![READING_STAGE];
+    v.extend(crate::scene::STAGES);
+    v.push(WRITING_STAGE);
+    v
+}
+
+/// The name of the scene reading stage in progress.
+pub const READING_STAGE: &str = "reading";
+
+/// Make a layered panorama from a 3D scene (`.gltf`, `.glb`, `.obj`) by tracing every hit from the
+/// centre (thesis 6.3.2) and write it into `output`, as `pomc scene` does; `progress` is called
+/// with each stage's name as it starts.
+///
+/// ```no_run
+/// use pomc::prelude::*;
+/// let mut settings = BakeSettings::default();
+/// settings.center = glam::DVec3::new(0.0, 0.0, 1.6);
+/// let made = scene_panorama("room.glb".as_ref(), "room-pomc".as_ref(), &settings, &|_| {})?;
+/// println!("{} layers", made.manifest.layers.len());
+/// # Ok::<(), pomc::Error>(())
+/// ```
+pub fn scene_panorama(
+    input: &Path,
+    output: &Path,
+    s: &crate::scene::BakeSettings,
+    progress: &dyn Fn(&str),
+) -> crate::Result<SceneSummary> {
+    s.mapping()?;
+    progress(READING_STAGE);
+    let t = Instant::now();
+    let scene = crate::scene::load::read(input, s.center, s.max_triangles)?;
+    let read_s = t.elapsed().as_secs_f64();
+    let baked = crate::scene::bake(&scene, s, progress)?;
+    drop(scene);
+    progress(WRITING_STAGE);
+    let t = Instant::now();
+    let transforms =
+        if s.center == DVec3::ZERO { vec![] } else { vec![Transform::Translate(s.center.to_array())] };
+    let manifest = layering::layers_manifest(&baked.layers, s.mapping, s.freedom_radius, transforms);
+    let images: Vec<LayerImage> = baked.layers.into_iter().map(|l| l.image).collect();
+    let manifest = panorama::write_panorama(output, &manifest, &images, &s.save)?;
+    Ok(SceneSummary { manifest, report: baked.report, read_s, write_s: t.elapsed().as_secs_f64() })
+}
+
 /// How [`Renderer`] draws a view (`pomc render --method`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]

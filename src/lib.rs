@@ -16,6 +16,7 @@
 //! - [`validate`] and [`codes`]: the validator and its stable codes;
 //! - [`prepare`]: the depth people have to the depth layering needs (spec §7.1);
 //! - [`layering`]: layers from a plain RGB-D panorama (spec §7), the job `pomc build` runs;
+//! - [`scene`]: layers from a 3D scene (glTF, OBJ) by tracing every hit (thesis 6.3.2, `pomc scene`);
 //! - [`mesh`]: adaptive quadtree meshes and their export (spec §8);
 //! - [`render`]: views from a displaced camera, by point splatting or mesh rasterisation (spec §9);
 //! - [`viewer`]: the browser viewer's static site;
@@ -51,6 +52,7 @@ pub mod prepare;
 pub mod raster;
 pub mod render;
 pub mod resample;
+pub mod scene;
 pub mod validate;
 pub mod viewer;
 

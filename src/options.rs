@@ -14,12 +14,14 @@ use crate::layer_io::ReadLimits;
 use crate::layering::input::{Convention, Preset};
 use crate::layering::{BuildOptions, Classify, EdgeOptions, FillColour};
 use crate::mapping::layout::CubeLayout;
+use crate::mapping::MappingKind;
 use crate::mesh::{self, normals::NormalWeighting, simplify::SimplifyOptions, MeshOptions};
 use crate::prepare::{DepthKind, KnownDistance, Refine, UnknownDepth};
 use crate::render::stereo::Orientation;
 use crate::render::{
     Camera, CubeCamera, EquirectCamera, Perspective, PoleMerge, RenderError, StereoCamera, StereoLayout,
 };
+use crate::scene::BakeSettings;
 
 /// How the depth is read and prepared (`pomc build` and `pomc prepare`).
 #[derive(clap::Args, Clone, Debug)]
@@ -181,6 +183,71 @@ impl BuildArgs {
         let mut s = BuildSettings::default();
         self.depth.apply(&mut s);
         self.layering.apply(&mut s);
+        s
+    }
+}
+
+/// Every option of `pomc scene` besides its input and output paths.
+#[derive(clap::Args, Clone, Debug)]
+pub struct SceneArgs {
+    /// Position of the panorama centre in pomc's world (+Z up; glTF's x, −z, y), metres: x,y,z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0,0,0")]
+    pub center: DVec3,
+    /// Freedom radius (m): what no eye within it sees is left out.
+    #[arg(long, default_value_t = BakeSettings::default().freedom_radius, value_parser = Range::POSITIVE.parser())]
+    pub freedom_radius: f64,
+    /// Canvas width, pixels (equirect W × W/2, cube map W × 2W/3).
+    #[arg(long, default_value_t = BakeSettings::default().width as u64, value_parser = clap::value_parser!(u64).range(6..=98304))]
+    pub width: u64,
+    /// Mapping of the layers.
+    #[arg(long, value_enum, default_value = "equirect")]
+    pub mapping: MappingKind,
+    /// Rays per pixel for the colour (anti-aliasing); depth and normals come from the pixel centre.
+    #[arg(long, default_value_t = BakeSettings::default().samples, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub samples: u32,
+    /// Environment map for the sky: an equirect image (HDR, EXR, PNG, JPEG).
+    #[arg(long)]
+    pub sky: Option<PathBuf>,
+    /// Sky colour without --sky, linear R,G,B.
+    #[arg(long, value_name = "R,G,B", value_parser = parse_vec3, default_value = "0,0,0")]
+    pub sky_colour: DVec3,
+    /// Renders of the scene from the centre (equirect EXR, HDR, PNG, JPEG at the canvas width, e.g.
+    /// Cycles' panorama camera), repeated or comma-separated: the k-th colours each ray's k-th hit
+    /// (the first: what the centre sees; then renders with the surfaces before peeled away).
+    #[arg(long, value_name = "IMAGE", value_delimiter = ',')]
+    pub colour: Vec<PathBuf>,
+    /// Azimuth convention of the --sky map and the --colour renders (blender for Blender's).
+    #[arg(long, value_enum, default_value = "thesis", alias = "sky-convention")]
+    pub convention: Convention,
+    /// Do not write normals.
+    #[arg(long)]
+    pub no_normals: bool,
+    /// Largest scene accepted, triangles.
+    #[arg(long, default_value_t = BakeSettings::default().max_triangles as u64, value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_triangles: u64,
+    /// Store every layer as a full canvas (no patch packing).
+    #[arg(long)]
+    pub no_pack: bool,
+}
+
+impl SceneArgs {
+    /// The library settings these options stand for (no options: `BakeSettings::default()`).
+    pub fn settings(&self) -> BakeSettings {
+        let mut s = BakeSettings {
+            center: self.center,
+            freedom_radius: self.freedom_radius,
+            width: self.width as usize,
+            mapping: self.mapping,
+            samples: self.samples,
+            sky: self.sky.clone(),
+            sky_colour: self.sky_colour.as_vec3().to_array(),
+            colour: self.colour.clone(),
+            convention: self.convention,
+            normals: !self.no_normals,
+            max_triangles: usize::try_from(self.max_triangles).unwrap_or(usize::MAX),
+            ..BakeSettings::default()
+        };
+        s.save.pack = !self.no_pack;
         s
     }
 }

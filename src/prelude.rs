@@ -7,6 +7,7 @@
 //! | build | [`build_panorama`] with [`BuildSettings`] | `pomc build` |
 //! | validate | [`validate()`] with [`ValidateSettings`] | `pomc validate` |
 //! | mesh | [`mesh_panorama`] with [`SceneSettings`] (one layer: [`mesh_layer`] with [`MeshOptions`]) | `pomc mesh` |
+//! | layers from a 3D scene | [`scene_panorama`] with [`BakeSettings`] | `pomc scene` |
 //! | render | [`Renderer::render`] | `pomc render` |
 //! | convert | [`convert_file`] with [`ConvertSettings`] (or [`convert_layer`] in memory) | `pomc convert` |
 //! | view | [`viewer::site`] with [`SiteSettings`], then [`Site::write`] | `pomc view` |
@@ -43,6 +44,7 @@ pub use crate::jobs::{
     build_panorama, build_panorama_with_progress, prepare_depth_files, write_depth, BuildSettings,
     BuildSummary, RenderMethod, Renderer, View, ViewCamera,
 };
+pub use crate::jobs::{scene_panorama, SceneSummary};
 pub use crate::layer::{LayerImage, Sample};
 pub use crate::layer_io::ReadLimits;
 pub use crate::layering::input::{Convention, DepthEncoding, Preset};
@@ -57,6 +59,7 @@ pub use crate::render::{
     Camera, EquirectCamera, Frame, OdsEye, Perspective, PoleMerge, StereoCamera, StereoLayout,
 };
 pub use crate::resample::{convert_layer, Canvas, Filter, SampleOptions};
+pub use crate::scene::{BakeReport, BakeSettings};
 pub use crate::validate::{validate, Report, Severity, ValidateSettings};
 pub use crate::viewer::{self, Site, SiteSettings};
 pub use glam::DVec3;

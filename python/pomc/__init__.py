@@ -32,6 +32,8 @@ __all__ = [
     "PomcError",
     "BUILD_OPTIONS",
     "prepare_depth",
+    "scene",
+    "SCENE_OPTIONS",
     "MESH_OPTIONS",
     "RENDER_OPTIONS",
     "save_colour",
@@ -46,7 +48,10 @@ def _defaults(job: str) -> Dict[str, Any]:
     library declares them once; ``_pomc.option_defaults`` lists them)."""
     out: Dict[str, Any] = {}
     for key, text in _pomc.option_defaults(job):
-        if key in _NAMED or (job == "render" and key in ("eye", "look_at")):
+        # `scene` takes the convention of its maps as an ordinary option (build names it).
+        if (key in _NAMED and not (job == "scene" and key == "convention")) or (
+            job == "render" and key in ("eye", "look_at")
+        ):
             continue
         value: Any = text
         if text in ("true", "false"):
@@ -69,6 +74,9 @@ BUILD_OPTIONS: Dict[str, Any] = _defaults("build")
 #: ``pomc mesh`` uses by default (``simplify`` and ``greedy`` are the negations of
 #: ``--no-simplify`` and ``--no-greedy``; 0 turns ``max_error`` and ``max_angle`` off).
 MESH_OPTIONS: Dict[str, Any] = _defaults("mesh")
+
+#: Keyword options of :func:`scene`, with the values ``pomc scene`` uses by default.
+SCENE_OPTIONS: Dict[str, Any] = _defaults("scene")
 
 #: Camera keyword options of :meth:`Panorama.render`, with the values ``pomc render`` uses by
 #: default (``size`` is a (width, height) pair; ``eye`` and ``look_at`` are its arguments).
@@ -257,6 +265,26 @@ def build_files(
     ``{"layers", "read_s", "build_s", "write_s"}``."""
     opts = _build_options(freedom_radius, convention, center, options)
     return json.loads(_pomc.build_files(os.fspath(colour), os.fspath(depth), os.fspath(output), opts))
+
+
+def scene(
+    scene: "os.PathLike[str] | str",
+    output: "os.PathLike[str] | str",
+    *,
+    freedom_radius: float = 0.5,
+    center: Sequence[float] = (0.0, 0.0, 0.0),
+    **options: Any,
+) -> Dict[str, Any]:
+    """Make a layered panorama from a 3D scene (``.gltf``, ``.glb``, ``.obj``; +Y up) into
+    ``output``, exactly as ``pomc scene SCENE -o OUTPUT``: every surface along every ray from
+    ``center`` (pomc's +Z-up world: glTF's x, -z, y) that an eye within ``freedom_radius`` sees.
+    Keywords: :data:`SCENE_OPTIONS` (``width``, ``mapping``, ``samples``, ``sky``,
+    ``sky_colour``, ``colour``: a list of renders from the centre, the k-th colouring each ray's
+    k-th hit, ...). Returns the report (``layers``, ``occupancy``, ``stages``, ``hits``, ...)."""
+    opts: Dict[str, Any] = dict(options)
+    opts["freedom_radius"] = freedom_radius
+    opts["center"] = [float(c) for c in center]
+    return json.loads(_pomc.scene_files(os.fspath(scene), os.fspath(output), opts))
 
 
 def prepare_depth(

@@ -22,7 +22,7 @@ use pomc::layering::input::ColourSamples;
 use pomc::manifest::Manifest;
 use pomc::mesh::scene::{self, SceneSettings};
 use pomc::mesh::MeshOptions;
-use pomc::options::{self, BuildArgs, CameraArgs, Keyword, MeshArgs};
+use pomc::options::{self, BuildArgs, CameraArgs, Keyword, MeshArgs, SceneArgs};
 use pomc::panorama::{Panorama, SaveOptions};
 
 create_exception!(_pomc, PomcError, PyException, "A pomc failure; `.code` is its stable code.");
@@ -383,6 +383,25 @@ fn build_files(
     Ok(json.to_string())
 }
 
+/// Make a panorama from a 3D scene file (glTF, GLB, OBJ) into `output` as `pomc scene` does (the
+/// library reads the scene and writes the panorama atomically); returns the JSON report.
+#[pyfunction]
+fn scene_files(
+    py: Python<'_>,
+    scene: PathBuf,
+    output: PathBuf,
+    options: &Bound<'_, PyDict>,
+) -> PyResult<String> {
+    let args: SceneArgs = options::from_keywords("scene", &keywords(options)?).map_err(usage)?;
+    let settings = args.settings();
+    let made =
+        py.allow_threads(|| jobs::scene_panorama(&scene, &output, &settings, &|_| {})).map_err(to_py)?;
+    let mut report = serde_json::to_value(&made.report).map_err(|e| usage(e.to_string()))?;
+    report["read_s"] = serde_json::json!(made.read_s);
+    report["write_s"] = serde_json::json!(made.write_s);
+    Ok(report.to_string())
+}
+
 /// Read and prepare depth as `pomc prepare` does: the depth on the colour's grid (H×W float32,
 /// metres along the ray, `inf` far) and the JSON report.
 #[pyfunction]
@@ -477,7 +496,8 @@ fn option_defaults(job: &str) -> PyResult<Vec<(String, Option<String>)>> {
         "build" => Ok(options::keyword_defaults::<BuildArgs>()),
         "mesh" => Ok(options::keyword_defaults::<MeshArgs>()),
         "render" => Ok(options::keyword_defaults::<CameraArgs>()),
-        other => Err(usage(format!("no options of `{other}`: build, mesh or render"))),
+        "scene" => Ok(options::keyword_defaults::<SceneArgs>()),
+        other => Err(usage(format!("no options of `{other}`: build, mesh, render or scene"))),
     }
 }
 
@@ -490,6 +510,7 @@ fn _pomc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(build, m)?)?;
     m.add_function(wrap_pyfunction!(build_files, m)?)?;
     m.add_function(wrap_pyfunction!(prepare_files, m)?)?;
+    m.add_function(wrap_pyfunction!(scene_files, m)?)?;
     m.add_function(wrap_pyfunction!(option_defaults, m)?)?;
     Ok(())
 }

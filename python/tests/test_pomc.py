@@ -331,3 +331,51 @@ def test_keywords_take_numpy_values_and_none_as_plain_ones():
     with pytest.raises(pomc.PomcError) as e:
         pomc.build(colour, depth, no_such_option=None)
     assert e.value.code == "CLI_USAGE" and "no_such_option" in str(e.value)
+
+
+def test_scene_equals_the_command(tmp_path):
+    """A 3D scene (the analytic room as OBJ, written by pomc-fixtures' generator through the CLI's
+    twin): `pomc.scene` writes the same layers as `pomc scene`, and they validate."""
+    obj = tmp_path / "room.obj"
+    (tmp_path / "room.mtl").write_text("newmtl m0\nKd 0.6 0.6 0.55\n")
+    # A closed box room 6 x 4 x 3 m (OBJ, +Y up) around the centre and one box inside it.
+    verts, faces = [], []
+
+    def box(lo, hi, inward):
+        base = len(verts) + 1
+        for i in range(8):
+            verts.append(tuple(hi[k] if (i >> k) & 1 else lo[k] for k in range(3)))
+        quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+        for a, b, c, d in quads:
+            for t in ((a, b, c), (a, c, d)):
+                t = (t[0], t[2], t[1]) if inward else t
+                faces.append(tuple(base + i for i in t))
+
+    box((-3, -1.2, -2), (3, 1.8, 2), True)
+    box((1.0, -1.2, -0.4), (1.6, -0.4, 0.4), False)
+    obj.write_text("mtllib room.mtl\nusemtl m0\n" + "".join(f"v {x} {y} {z}\n" for x, y, z in verts)
+                   + "".join(f"f {a} {b} {c}\n" for a, b, c in faces))
+    # Two "renders" from the centre (first and second hit along each ray), given as a list.
+    renders = [tmp_path / "hit-0.exr", tmp_path / "hit-1.exr"]
+    ramp = np.linspace(0.1, 0.9, 128, dtype=np.float32)
+    pomc.save_colour(renders[0], np.stack([np.tile(ramp, (64, 1))] * 3, -1))
+    pomc.save_colour(renders[1], np.full((64, 128, 3), 0.25, np.float32))
+    report = pomc.scene(obj, tmp_path / "py", freedom_radius=0.4, width=128, samples=1, colour=renders)
+    assert [l["role"] for l in report["layers"]] == ["background", "object"], report["layers"]
+    assert 0.9 < report["occupancy"][0] < 1.0, "the floor under the box is left out"
+    cli("scene", str(obj), "-o", str(tmp_path / "cli"), "--freedom-radius", "0.4", "--width", "128", "--samples", "1",
+        "--colour", str(renders[0]), "--colour", str(renders[1]))
+    for name in ("background.exr", "objects-1.exr"):
+        a, b = exr_channels(tmp_path / "py" / name), exr_channels(tmp_path / "cli" / name)
+        assert a.keys() == b.keys()
+        for k in a:
+            np.testing.assert_array_equal(a[k], b[k])
+    assert pomc.open(tmp_path / "py").validate().valid
+    box = exr_channels(tmp_path / "py" / "objects-1.exr")
+    seen = box["R"][box["Z"] > 0]
+    assert seen.size and seen.std() > 0.01, "the box the centre sees takes the ramp render, not its flat material"
+    assert pomc.SCENE_OPTIONS["samples"] == 4.0 and pomc.SCENE_OPTIONS["mapping"] == "equirect"
+    assert pomc.SCENE_OPTIONS["convention"] == "thesis" and "freedom_radius" not in pomc.SCENE_OPTIONS
+    with pytest.raises(pomc.PomcError) as e:
+        pomc.scene(tmp_path / "nothing.obj", tmp_path / "x")
+    assert e.value.code == "SCENE_UNREADABLE"

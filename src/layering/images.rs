@@ -48,7 +48,7 @@ impl Layered {
     /// A manifest for these layers: one native EXR per layer named after it, painter's order,
     /// roles and depth ranges.
     pub fn manifest(&self, kind: MappingKind, freedom_radius: f64, transforms: Vec<Transform>) -> Manifest {
-        manifest_of(&self.heads, kind, freedom_radius, transforms)
+        layers_manifest(&self.heads, kind, freedom_radius, transforms)
     }
 
     /// Every layer's image made: the [`Built`] of [`build`].
@@ -194,10 +194,12 @@ pub fn manifest(
     freedom_radius: f64,
     transforms: Vec<Transform>,
 ) -> Manifest {
-    manifest_of(&built.layers, kind, freedom_radius, transforms)
+    layers_manifest(&built.layers, kind, freedom_radius, transforms)
 }
 
-fn manifest_of(
+/// A manifest for layers in painter's order: one native EXR per layer named after it, roles,
+/// orders and depth ranges (`pomc build` and `pomc scene`).
+pub fn layers_manifest(
     layers: &[BuiltLayer],
     kind: MappingKind,
     freedom_radius: f64,

@@ -29,7 +29,7 @@ use crate::mapping::{AnyMapping, Mapping, MappingKind, PixelDirs};
 pub use edges::EdgeOptions;
 use fill::{fill_layer, FillContext};
 use images::layer_heads;
-pub use images::{manifest, Layered};
+pub use images::{layers_manifest, manifest, Layered};
 use pieces::*;
 pub use segment::SegmentOptions;
 use segment::{segment, NO_SEGMENT};
@@ -225,7 +225,7 @@ pub struct LayerStats {
 }
 
 impl LayerStats {
-    fn of(l: &BuiltLayer) -> LayerStats {
+    pub(crate) fn of(l: &BuiltLayer) -> LayerStats {
         LayerStats {
             name: l.name.clone(),
             role: l.role.as_str(),

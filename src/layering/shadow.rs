@@ -392,7 +392,7 @@ fn search(
             let mut best: Option<Candidate> = None;
             let consider = |shift: (f32, f32), ks: &[usize], best: &mut Option<Candidate>| {
                 if let Some((sse, k)) = score(frame, &b, samples, shift, plane, &logs, ks) {
-                    if best.map_or(true, |c| sse < c.sse) {
+                    if best.is_none_or(|c| sse < c.sse) {
                         *best = Some(Candidate { sse, k, shift });
                     }
                 }

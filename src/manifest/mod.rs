@@ -22,6 +22,7 @@ use crate::pack::Patch;
 pub use codes::CODES;
 pub use diag::MAX_DIAGNOSTICS;
 pub use transform::centre;
+pub(crate) use transform::compose;
 pub use write::escape_attr;
 
 pub use crate::codes::Severity;

@@ -241,7 +241,7 @@ impl Grid {
                 for x in 0..w {
                     // `classify` gives a surface; meshing also needs it at a positive finite depth.
                     let d = zrow[x];
-                    if d > 0.0 && d.is_finite() && arow.map_or(true, |a| a[x] > 0.0) {
+                    if d > 0.0 && d.is_finite() && arow.is_none_or(|a| a[x] > 0.0) {
                         debug_assert!(matches!(classify(d, arow.map(|a| a[x])), Sample::Surface(_)));
                         drow[x] = d;
                         lrow[x] = (d as f64 / (1.0 + s2[x] + t2[y]).sqrt()) as f32;

@@ -52,7 +52,7 @@ pub fn pack(sizes: &[(u32, u32)]) -> Packing {
             vec![shelves(sizes, width)]
         };
         for p in tries {
-            if best.as_ref().map_or(true, |b| p.area() < b.area()) {
+            if best.as_ref().is_none_or(|b| p.area() < b.area()) {
                 best = Some(p);
             }
         }

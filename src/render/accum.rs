@@ -15,6 +15,11 @@
 //! pixel its samples cover. A nearest group that covers only part of the pixel (the filter of the
 //! samples at an object's silhouette reaching past it) is blended over the group behind by that
 //! share ([`Accum::resolve`]): silhouettes neither grow by the filter's radius nor alias.
+//!
+//! Samples that cover nothing (`cover` 0: the border strips of a footprint) go to a third group,
+//! the nearest *fill*, shown only where no other sample lands: they close cracks between two
+//! layers' edges that open onto nothing, without growing silhouettes or hiding what is behind them
+//! (a crack with a layer behind it still shows that layer).
 
 /// Filter sums of one output pixel.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,6 +58,8 @@ pub struct Accum {
     pub cells: Vec<Cell>,
     /// The nearest group behind each cell's (empty: `w = 0`).
     pub behind: Vec<Cell>,
+    /// The nearest group of samples that cover nothing, shown where `cells` is empty.
+    pub fill: Vec<Cell>,
     /// Relative depth tolerance of a surface group.
     tolerance: f32,
 }
@@ -86,15 +93,27 @@ impl Accum {
     /// 0.01 = 1 %) within which samples of one layer join a surface group.
     pub fn new(width: usize, height: usize, tolerance: f64) -> Self {
         let n = width * height;
-        Accum { width, height, cells: vec![EMPTY; n], behind: vec![EMPTY; n], tolerance: tolerance as f32 }
+        Accum {
+            width,
+            height,
+            cells: vec![EMPTY; n],
+            behind: vec![EMPTY; n],
+            fill: vec![EMPTY; n],
+            tolerance: tolerance as f32,
+        }
     }
 
     /// Add a sample of `layer` at camera distance `z` with filter weight `w > 0` and coverage
-    /// `cover` (see [`Cell::cover`]) at pixel index `i`.
+    /// `cover` (see [`Cell::cover`]) at pixel index `i`; a sample that covers nothing (`cover` 0)
+    /// only fills.
     #[inline]
     pub fn add(&mut self, i: usize, z: f32, w: f32, cover: f32, rgb: [f32; 3], layer: u32) {
         let sample = Cell { z, w, wz: w * z, rgb: [w * rgb[0], w * rgb[1], w * rgb[2]], layer, cover };
-        insert(&mut self.cells[i], &mut self.behind[i], &sample, self.tolerance);
+        if cover == 0.0 {
+            insert_fill(&mut self.fill[i], &sample, self.tolerance);
+        } else {
+            insert(&mut self.cells[i], &mut self.behind[i], &sample, self.tolerance);
+        }
     }
 
     /// Fold another buffer of the same size into this one with the same rule.
@@ -106,6 +125,9 @@ impl Accum {
                     insert(&mut self.cells[i], &mut self.behind[i], g, tol);
                 }
             }
+            if other.fill[i].w > 0.0 {
+                insert_fill(&mut self.fill[i], &other.fill[i], tol);
+            }
         }
     }
 
@@ -114,6 +136,9 @@ impl Accum {
     #[inline]
     pub fn resolve(&self, i: usize) -> (&Cell, Option<(&Cell, f32)>) {
         let (c, b) = (&self.cells[i], &self.behind[i]);
+        if c.w == 0.0 {
+            return (&self.fill[i], None);
+        }
         if b.w == 0.0 {
             return (c, None);
         }
@@ -147,6 +172,20 @@ fn insert(c: &mut Cell, b: &mut Cell, s: &Cell, tol: f32) {
             Rank::Same => join(b, s),
             Rank::Farther => {}
         },
+    }
+}
+
+/// Put group `s` into a pixel's fill group `f`: the nearest.
+#[inline]
+fn insert_fill(f: &mut Cell, s: &Cell, tol: f32) {
+    if f.w == 0.0 {
+        *f = *s;
+        return;
+    }
+    match rank(s, f, tol) {
+        Rank::Nearer => *f = *s,
+        Rank::Same => join(f, s),
+        Rank::Farther => {}
     }
 }
 
@@ -184,16 +223,39 @@ mod tests {
         assert!(a.resolve(0).1.is_none());
     }
 
+    /// Samples that cover nothing (a footprint's border strip) show only where nothing else lands,
+    /// the nearest of them; never over a group, nor in front of what is behind one.
+    #[test]
+    fn samples_covering_nothing_only_fill() {
+        let mut a = Accum::new(3, 1, 0.01);
+        a.add(0, 5.0, 1.0, 1.0, [0.0; 3], 0);
+        a.add(0, 2.0, 1.0, 0.0, [1.0; 3], 1);
+        a.add(1, 5.0, 1.0, 0.2, [0.0; 3], 0);
+        a.add(1, 9.0, 1.0, 1.0, [0.5; 3], 2);
+        a.add(1, 2.0, 1.0, 0.0, [1.0; 3], 1);
+        a.add(2, 3.0, 1.0, 0.0, [0.25; 3], 1);
+        a.add(2, 2.0, 1.0, 0.0, [1.0; 3], 1);
+        a.add(2, 4.0, 1.0, 0.0, [0.5; 3], 1);
+        let mut b = Accum::new(3, 1, 0.01);
+        b.merge(&a);
+        for acc in [&a, &b] {
+            assert_eq!((acc.resolve(0).0.z, acc.resolve(0).1.is_none()), (5.0, true));
+            let (c, behind) = acc.resolve(1);
+            assert!(c.z == 5.0 && behind.is_some_and(|(b, alpha)| b.z == 9.0 && (alpha - 0.4).abs() < 1e-6));
+            assert_eq!((acc.resolve(2).0.z, acc.resolve(2).0.rgb), (2.0, [1.0; 3]));
+        }
+    }
+
     /// An object's edge covering part of a pixel over a wall: the object's colour blends in by a
     /// share that grows with its coverage, all of it from ½.
     #[test]
     fn a_partly_covering_group_blends_over_the_one_behind() {
         let mut a = Accum::new(3, 1, 0.01);
-        for (i, cover) in [(0, 0.0f32), (1, 0.2), (2, 0.6)] {
+        for (i, cover) in [(0, 1e-3f32), (1, 0.2), (2, 0.6)] {
             a.add(i, 5.0, 1.0, 1.0, [0.0; 3], 0);
             a.add(i, 2.0, 0.3, cover, [1.0; 3], 1);
         }
-        assert_eq!(a.resolve(0).1.map(|(b, alpha)| (b.z, alpha)), Some((5.0, 0.0)));
+        assert_eq!(a.resolve(0).1.map(|(b, alpha)| (b.z, alpha)), Some((5.0, 2e-3)));
         let (_, blend) = a.resolve(1);
         assert!(blend.is_some_and(|(b, alpha)| b.z == 5.0 && (alpha - 0.4).abs() < 1e-6));
         assert!(a.resolve(2).1.is_none());

@@ -56,6 +56,12 @@ use crate::layer_io::ReadLimits;
 use crate::mapping::{AnyMapping, Mapping, MappingKind};
 use crate::panorama::Panorama;
 
+/// Half-size of a border pixel's footprint towards the border, layer pixels (a valid pixel cut
+/// from a neighbour: outside the layer or across a jump): over ½, so that the edges of two layers
+/// that meet (each sampled at pixel centres, extrapolated) overlap rather than leave a crack;
+/// silhouettes grow by ¼ layer pixel. Both methods (spec §9.3, §9.4).
+pub(crate) const BORDER_FOOTPRINT: f64 = 0.75;
+
 /// Errors of the renderer.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {

@@ -51,7 +51,7 @@ pub(super) fn blendable<T: Texel>(
 /// unknown) and, with a coverage channel `cov`, covered.
 #[inline]
 pub(super) fn tap_inside<T: Texel>(src: &[T], base: usize, z: usize, cov: Option<usize>) -> bool {
-    src[base + z].to_f32() >= 0.0 && cov.map_or(true, |a| src[base + a].to_f32() > 0.0)
+    src[base + z].to_f32() >= 0.0 && cov.is_none_or(|a| src[base + a].to_f32() > 0.0)
 }
 
 /// When the nearest texel is inside the layer but some weighted taps are not: the inside taps,

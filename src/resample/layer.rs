@@ -173,7 +173,7 @@ pub(super) fn layer_mapping(canvas: Canvas, w: usize, h: usize) -> Option<AnyMap
 /// Depth of pixel `i` of a layer's planes for the continuity rule: inside is depth > 0 and
 /// coverage > 0.
 pub(super) fn layer_depth(z: &[f32], cov: Option<&[f32]>, i: usize) -> Option<f64> {
-    (z[i] > 0.0 && cov.map_or(true, |a| a[i] > 0.0)).then_some(z[i] as f64)
+    (z[i] > 0.0 && cov.is_none_or(|a| a[i] > 0.0)).then_some(z[i] as f64)
 }
 
 /// Whether a layer's depth plane has a 4-neighbour pair that is not one surface

@@ -20,5 +20,6 @@ mod prepare_depth;
 mod render_mesh;
 mod render_room;
 mod render_stereo;
+mod scene_layers;
 mod source_layout;
 mod validate_codes;

@@ -14,6 +14,7 @@ mod cmd_mesh;
 mod cmd_pack;
 mod cmd_prepare;
 mod cmd_render;
+mod cmd_scene;
 mod cmd_validate;
 mod cmd_view;
 mod output;
@@ -28,7 +29,7 @@ use output::Output;
 #[command(
     name = "pomc",
     version,
-    about = "Layered omnidirectional RGB-D panoramas (POMC): build, validate, inspect, convert, pack, mesh, render, view"
+    about = "Layered omnidirectional RGB-D panoramas (POMC): build, scene, validate, inspect, convert, pack, mesh, render, view"
 )]
 struct Cli {
     /// Machine-readable JSON on stdout (no progress bars).
@@ -53,6 +54,8 @@ enum Command {
     Convert(cmd_convert::Args),
     /// Build a layered POMC from a plain RGB-D panorama (colour + depth).
     Build(cmd_build::Args),
+    /// Make a layered POMC from a 3D scene (glTF, OBJ) by tracing every surface along every ray.
+    Scene(cmd_scene::Args),
     /// Prepare a depth panorama as `build` does (kinds, resolution, holes, noise, soft edges) and
     /// write it as a float EXR on the colour's grid, to inspect.
     Prepare(cmd_prepare::Args),
@@ -117,6 +120,7 @@ fn main() -> ExitCode {
         Command::Convert(a) => cmd_convert::run(a, out),
         Command::Build(a) => cmd_build::run(a, out),
         Command::Prepare(a) => cmd_prepare::run(a, out),
+        Command::Scene(a) => cmd_scene::run(a, out),
         Command::Pack(a) => cmd_pack::run_pack(a, out),
         Command::Unpack(a) => cmd_pack::run_unpack(a, out),
         Command::Mesh(a) => cmd_mesh::run(a, out),

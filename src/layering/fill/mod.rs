@@ -297,7 +297,7 @@ pub fn yield_to_farther(fills: &mut [Fill]) {
     let mut nearest: HashMap<usize, f32> = HashMap::new();
     for fill in fills.iter_mut() {
         if !nearest.is_empty() {
-            fill.pixels.retain(|f| f.level || nearest.get(&f.pixel).map_or(true, |&a| a >= f.angle));
+            fill.pixels.retain(|f| f.level || nearest.get(&f.pixel).is_none_or(|&a| a >= f.angle));
         }
         for f in &fill.pixels {
             let a = nearest.entry(f.pixel).or_insert(f32::INFINITY);

@@ -25,7 +25,7 @@ pub(super) fn trusted_plane(cx: &FillContext, p: usize) -> bool {
         return true; // no plane: the seed's depth is kept, which needs no normal
     }
     (0..8).all(|j| {
-        cx.nb.get(p, j).map_or(true, |q| {
+        cx.nb.get(p, j).is_none_or(|q| {
             !cx.links.continuous(p, j)
                 || cx.surface[q] != cx.surface[p]
                 || cx.normals[q] == Vec3::ZERO

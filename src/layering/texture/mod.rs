@@ -332,7 +332,7 @@ fn clean_pixels(tx: &FillContext, k: u32) -> Vec<bool> {
         .into_par_iter()
         .map(|p| {
             let (x, y) = (p % w, p / w);
-            tx.layer_of[p] == k && (0..8).all(|j| tx.nb.get_at(x, y, j).map_or(true, |r| tx.layer_of[r] == k))
+            tx.layer_of[p] == k && (0..8).all(|j| tx.nb.get_at(x, y, j).is_none_or(|r| tx.layer_of[r] == k))
         })
         .collect()
 }

@@ -313,7 +313,7 @@ impl<'a> Mesher<'a> {
                         continue;
                     }
                     let dist = (x as f64 - cx).powi(2) + (y as f64 - cy).powi(2);
-                    if best.map_or(true, |(bd, _)| dist < bd) {
+                    if best.is_none_or(|(bd, _)| dist < bd) {
                         best = Some((dist, p));
                     }
                 }

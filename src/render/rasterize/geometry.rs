@@ -17,7 +17,7 @@ use crate::render::{RenderError, RenderLayer};
 
 use super::shade::Planes;
 use super::{check_options, mesh_error, RasterOptions};
-use crate::render::check_layers;
+use crate::render::{check_layers, BORDER_FOOTPRINT};
 
 /// Mesh every layer with `params` (layers in parallel; [`mesh::mesh_layer`]) and set up what the
 /// rasteriser draws of it ([`LayerGeometry`], with `o.jump`).
@@ -91,18 +91,13 @@ pub fn panorama_meshes(
     Ok((meshes, sources, warnings))
 }
 
-/// Half-size of the footprint quads of border pixels, layer pixels: the thesis's splat filter
-/// radius, over ½ so that the quads of neighbouring border pixels (whose extrapolated corners need
-/// not coincide) overlap; silhouettes grow by ¼ layer pixel.
-const FOOTPRINT: f64 = 0.75;
-
 /// What the rasteriser draws of one layer, in the panorama's local frame: the layer's mesh minus
 /// the triangles that cross a depth discontinuity, plus a **footprint quad** for every border
 /// pixel. A mesh joins pixel centres, so on its own it stops half a pixel short of the layer's
 /// border; the splat method lets each pixel cover its footprint `[−½, ½]²` instead, so that layers
 /// that abut without a jump (an object standing on the floor, build's fill meeting the object)
 /// leave no crack. The footprint quad of a valid pixel with a neighbour that is outside the layer or
-/// across a jump reproduces that: corners at `±FOOTPRINT` pixel around its centre, on the corner
+/// across a jump reproduces that: corners at `±BORDER_FOOTPRINT` pixel around its centre, on the corner
 /// rays, at the pixel's depth extrapolated along the depth gradient of its continuous neighbours
 /// (clamped within the jump), never reaching past a discontinuity by more than the footprint.
 #[derive(Clone, Debug, PartialEq)]
@@ -157,7 +152,8 @@ impl Lattice<'_> {
     /// row, a column or a diagonal, within one cube face, or across the equirect seam) run continuously
     /// by the splat's test: each step within `jump`, or on the plane through the pixels before or
     /// after it (inverse depth linear, spec §9.3). Ground seen at a grazing angle passes; a real
-    /// discontinuity does not. Edges that are not such lines (stitching, poles) are not walked.
+    /// discontinuity does not. Other edges within a face (the seam's stitch) walk a row and a
+    /// column; edges to a pole or across cube faces are not walked.
     fn continuous(&self, a: u32, b: u32) -> bool {
         let (w, h) = (self.mapping.width(), self.mapping.height());
         let (a, b) = (a as usize, b as usize);
@@ -178,8 +174,17 @@ impl Lattice<'_> {
             dx -= dx.signum() * w as i64;
         }
         let steps = dx.abs().max(dy.abs());
-        if steps == 0 || (dx != 0 && dy != 0 && dx.abs() != dy.abs()) {
+        if steps == 0 {
             return false;
+        }
+        if dx != 0 && dy != 0 && dx.abs() != dy.abs() {
+            // Not a lattice line (the seam's stitch joins rows of different quadtree leaves; a
+            // leaf one cell wide): continuous when a row then a column (or a column then a row) are.
+            let at = |x: i64, y: i64| (y * w as i64 + x.rem_euclid(w as i64)) as u32;
+            let (row_end, col_end) = (at(ax + dx, ay), at(ax, by));
+            let (a, b) = (a as u32, b as u32);
+            return (self.continuous(a, row_end) && self.continuous(row_end, b))
+                || (self.continuous(a, col_end) && self.continuous(col_end, b));
         }
         let (sx, sy) = (dx.signum(), dy.signum());
         let at = |k: i64| -> Option<f64> {
@@ -383,12 +388,12 @@ fn border_quad(lattice: &Lattice, nb: &Neighbours, x: usize, y: usize) -> Option
     // Across a line one pixel wide (both sides cut), the pixel's own footprint: there is no
     // neighbouring quad to overlap, and ¼ pixel more on each side would draw a thin pole or wire
     // half as wide again.
-    let cut = |k: usize| nb.get_at(x, y, k).map_or(true, |q| !lattice.continuous(p as u32, q as u32));
+    let cut = |k: usize| nb.get_at(x, y, k).is_none_or(|q| !lattice.continuous(p as u32, q as u32));
     let half = |plus: usize, minus: usize| {
         if nd[plus].is_none() && nd[minus].is_none() && cut(plus) && cut(minus) {
             0.5
         } else {
-            FOOTPRINT
+            BORDER_FOOTPRINT
         }
     };
     let (fx, fy) = (half(0, 1), half(2, 3));

@@ -138,7 +138,7 @@ pub(super) fn nearest_vertex_colour(p: &Planes, m: &LayerGeometry, tri: u32, loc
             continue;
         }
         let cos = m.positions[v as usize].normalize_or_zero().dot(d);
-        if best.map_or(true, |(b, _)| cos > b) {
+        if best.is_none_or(|(b, _)| cos > b) {
             best = Some((cos, src));
         }
     }

@@ -21,6 +21,7 @@ use glam::{DMat4, DVec2, DVec3};
 use rayon::prelude::*;
 use serde::Serialize;
 
+mod footprint;
 mod views;
 
 use super::accum::Accum;
@@ -29,6 +30,7 @@ use crate::continuity;
 use crate::layer::{classify, LayerImage, Sample};
 use crate::mapping::{AnyMapping, Mapping};
 use crate::mapping::{DirTable, Neighbours, OFFSETS};
+use footprint::{extent, fills_only, interpolate, Footprint, Rect};
 pub use views::MAX_VIEWS;
 use views::{Cull, PerView, Views};
 
@@ -337,14 +339,21 @@ impl LayerCtx<'_> {
             return done;
         }
         let Footprint { linked, own, sx, sy } = self.footprint(c, nbrs);
+        let ([x_lo, x_hi], [y_lo, y_hi]) = (extent(&linked, 0, 1), extent(&linked, 2, 3));
         let cap = self.o.max_subsamples.max(1);
         if sx.max(sy) > self.o.spacing * cap as f64 {
             // Past the uniform grid's reach: the footprint is very large on screen (the surface is
             // near the eye, or near the camera plane where projection diverges). Refine it where
             // it lands on the output only, so work and sample size follow what is visible.
-            for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
-                let sq = Rect { x0: 0.0f64.min(sx * 0.5), y0: 0.0f64.min(sy * 0.5), w: 0.5, h: 0.5 };
-                self.refine(c, &linked, &own, sq, 1, c.vis, accs, &mut done);
+            // Quadrants of one bilinear patch each, the border strips apart (they fill only).
+            let pieces = |lo: f64, hi: f64| {
+                [(lo, -0.5), (-0.5, 0.0), (0.0, 0.5), (0.5, hi)].into_iter().filter(|(a, b)| b > a)
+            };
+            for (x0, x1) in pieces(x_lo, x_hi) {
+                for (y0, y1) in pieces(y_lo, y_hi) {
+                    let sq = Rect { x0, y0, w: x1 - x0, h: y1 - y0 };
+                    self.refine(c, &linked, &own, sq, 1, c.vis, accs, &mut done);
+                }
             }
             return done;
         }
@@ -364,13 +373,38 @@ impl LayerCtx<'_> {
         if nx == 1 && ny == 1 {
             let proj = std::array::from_fn(|v| c.vis[v].then(|| (c.q[v], f64::from(c.dist[v]))));
             self.filter(c, proj, c.rgb, radius, cover, active, accs, &mut done);
-            return done;
+        } else {
+            for b in 0..ny {
+                let oy = (b as f64 + 0.5) / ny as f64 - 0.5;
+                for a in 0..nx {
+                    let ox = (a as f64 + 0.5) / nx as f64 - 0.5;
+                    self.emit(c, &linked, &own, (ox, oy), radius, cover, active, accs, &mut done);
+                }
+            }
         }
-        for b in 0..ny {
-            let oy = (b as f64 + 0.5) / ny as f64 - 0.5;
-            for a in 0..nx {
-                let ox = (a as f64 + 0.5) / nx as f64 - 0.5;
-                self.emit(c, &linked, &own, (ox, oy), radius, cover, active, accs, &mut done);
+        // The border strips: the grid over the whole extent at the same spacing, its samples past
+        // `[−½, ½]²` only (they cover nothing: they fill).
+        let (span_x, span_y) = (x_hi - x_lo, y_hi - y_lo);
+        if span_x > 1.0 || span_y > 1.0 {
+            let (ex, ey) = (count(sx * span_x), count(sy * span_y));
+            for b in 0..ey {
+                let oy = y_lo + (b as f64 + 0.5) / ey as f64 * span_y;
+                for a in 0..ex {
+                    let ox = x_lo + (a as f64 + 0.5) / ex as f64 * span_x;
+                    if fills_only(ox, oy) {
+                        self.emit(
+                            c,
+                            &linked,
+                            &own,
+                            (ox, oy),
+                            radius,
+                            [0.0; MAX_VIEWS],
+                            active,
+                            accs,
+                            &mut done,
+                        );
+                    }
+                }
             }
         }
         done
@@ -541,8 +575,10 @@ impl LayerCtx<'_> {
             Some((b.perp_dot(d) + d.perp_dot(e)).abs() / 2.0)
         };
         let r = self.o.radius;
+        let fills = fills_only(cx, cy);
         if side <= self.o.spacing {
-            let cover = std::array::from_fn(|v| area(v).unwrap_or(side * side) / (r * r));
+            let cover =
+                std::array::from_fn(|v| if fills { 0.0 } else { area(v).unwrap_or(side * side) / (r * r) });
             return self.emit(c, linked, own, (cx, cy), r, cover, active, accs, done);
         }
         if depth >= MAX_REFINE {
@@ -550,8 +586,13 @@ impl LayerCtx<'_> {
             // at the spacing); its samples grow so the footprint stays covered.
             let grow = if side.is_finite() { side / self.o.spacing } else { 1.0 };
             let r = r * grow;
-            let cover =
-                std::array::from_fn(|v| area(v).filter(|a| a.is_finite()).map_or(1.0, |a| a / (r * r)));
+            let cover = std::array::from_fn(|v| {
+                if fills {
+                    0.0
+                } else {
+                    area(v).filter(|a| a.is_finite()).map_or(1.0, |a| a / (r * r))
+                }
+            });
             return self.emit(c, linked, own, (cx, cy), r, cover, active, accs, done);
         }
         let (nx, ny) = (1 + (along_x > self.o.spacing) as usize, 1 + (along_y > self.o.spacing) as usize);
@@ -562,66 +603,6 @@ impl LayerCtx<'_> {
                 self.refine(c, linked, own, child, depth + 1, active, accs, done);
             }
         }
-    }
-}
-
-/// The surface point and colour at offset `(ox, oy)` ∈ (-½, ½)² from the pixel centre: bilinear
-/// over the quad towards the neighbours on that side. A neighbour across a discontinuity (or
-/// outside the layer) is replaced by the mirror image of the opposite neighbour (`2c − n`), or by
-/// the pixel itself: the pixel still covers its whole footprint — so layers that abut without a
-/// depth jump (an object standing on the floor) leave no crack between them — but never reaches
-/// into the next pixel across a discontinuity. Synthesised corners take the pixel's colour.
-#[inline]
-fn interpolate(
-    c: &Pt,
-    linked: &[Option<&Pt>; 8],
-    own: &[Option<DVec3>; 8],
-    ox: f64,
-    oy: f64,
-) -> (DVec3, [f32; 3]) {
-    let (sx, sy) = (if ox >= 0.0 { 1 } else { -1 }, if oy >= 0.0 { 1 } else { -1 });
-    let side = |dx: i64, dy: i64| -> (DVec3, [f32; 3]) {
-        let k = offset_index(dx, dy);
-        match (linked[k], linked[offset_index(-dx, -dy)]) {
-            (Some(n), _) => (n.cam, n.rgb),
-            (None, Some(m)) => (c.cam * 2.0 - m.cam, c.rgb),
-            (None, None) => (own[k].unwrap_or(c.cam), c.rgb),
-        }
-    };
-    let h = side(sx, 0);
-    let v = side(0, sy);
-    let d = match linked[offset_index(sx, sy)] {
-        Some(n) => (n.cam, n.rgb),
-        None => (h.0 + v.0 - c.cam, c.rgb),
-    };
-    let (wx, wy) = (ox.abs(), oy.abs());
-    let w = [(1.0 - wx) * (1.0 - wy), wx * (1.0 - wy), (1.0 - wx) * wy, wx * wy];
-    let pts = [(c.cam, c.rgb), h, v, d];
-    let mut cam = DVec3::ZERO;
-    let mut rgb = [0.0f32; 3];
-    for (p, &wk) in pts.iter().zip(&w) {
-        cam += p.0 * wk;
-        for (out, v) in rgb.iter_mut().zip(p.1) {
-            *out += v * wk as f32;
-        }
-    }
-    (cam, rgb)
-}
-
-/// A rectangle `[x0, x0 + w] × [y0, y0 + h]` of a pixel's footprint, in offsets from its centre.
-#[derive(Clone, Copy, Debug)]
-struct Rect {
-    x0: f64,
-    y0: f64,
-    w: f64,
-    h: f64,
-}
-
-impl Rect {
-    /// Corners in cyclic order.
-    fn corners(&self) -> [(f64, f64); 4] {
-        let (x1, y1) = (self.x0 + self.w, self.y0 + self.h);
-        [(self.x0, self.y0), (x1, self.y0), (x1, y1), (self.x0, y1)]
     }
 }
 
@@ -753,14 +734,6 @@ pub fn splat_layers(
         }
     }
     (accs, counts)
-}
-
-/// What [`LayerCtx::footprint`] finds of a pixel's footprint.
-struct Footprint<'p> {
-    linked: [Option<&'p Pt>; 8],
-    own: [Option<DVec3>; 8],
-    sx: f64,
-    sy: f64,
 }
 
 #[cfg(test)]
