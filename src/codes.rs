@@ -164,6 +164,8 @@ declare_codes! {
     INPUT_DEPTH_RELATIVE, Error, "Relative depth (inverse, nearness) without a way to its scale: give a range, the camera height or a known distance.";
     INPUT_NO_FLOOR, Error, "`--camera-height` was given but no floor was found below the camera.";
     INPUT_PRESET_MISMATCH, Error, "The dataset preset does not match the file (a float EXR under an integer-unit preset).";
+    INPUT_DEPTH_EMPTY, Error, "The depth has no valid pixel, or too few (under 0.1 %) to complete the rest from; `--unknown-depth sky` when the unknown depth is the sky.";
+    INPUT_DEPTH_NOT_POSITIVE, Error, "Every metric depth value is zero or negative (depth stored negated, or another kind).";
     INPUT_BAD_OPTION, Error, "A build or preparation setting is out of its range, or settings contradict each other.";
     BUILD_BAD_RADIUS, Error, "The freedom radius is not positive and finite.";
     BUILD_SIZE_MISMATCH, Error, "A colour plane or the depth does not hold one sample per canvas pixel.";

@@ -136,6 +136,8 @@ pub struct PrepareReport {
     pub resized: bool,
     /// Share of the colour grid's pixels without depth (after resizing).
     pub unknown_share: f64,
+    /// Pixels of the depth file whose metric depth is zero or negative: unknown depth.
+    pub non_positive_pixels: usize,
     /// Pixels whose depth was completed.
     pub completed_pixels: usize,
     /// Unknown pixels made the sky (`--unknown-depth sky`).
@@ -253,6 +255,36 @@ pub enum PrepareError {
         /// The colour's mapping.
         kind: &'static str,
     },
+    /// No depth to build from; `INPUT_DEPTH_EMPTY`.
+    #[error(
+        "{path}: {known} of {total} depth pixels are valid ({share:.3} %), too few to complete the rest \
+         from; give the depth map that goes with the colour (a --preset's or --depth-invalid's value that is \
+         real depth in this file makes it unknown), or --unknown-depth sky when the unknown pixels are the sky"
+    )]
+    EmptyDepth {
+        /// The depth file.
+        path: PathBuf,
+        /// Valid pixels (finite and positive, or infinitely far).
+        known: usize,
+        /// Pixels of the depth file.
+        total: usize,
+        /// `known / total`, per cent.
+        share: f64,
+    },
+    /// Metric depth that is zero or negative everywhere; `INPUT_DEPTH_NOT_POSITIVE`.
+    #[error(
+        "{path}: every depth value is zero or negative (from {min} to {max}), and a distance is positive; \
+         if the map stores depth negated (a camera looking along -Z) negate it, if brighter or larger is \
+         nearer give --depth-kind nearness or inverse"
+    )]
+    NotPositive {
+        /// The depth file.
+        path: PathBuf,
+        /// The smallest stored value.
+        min: f32,
+        /// The largest stored value.
+        max: f32,
+    },
     /// A setting out of its range; `INPUT_BAD_OPTION`.
     #[error("{option}: {why}")]
     BadOption {
@@ -273,6 +305,8 @@ crate::codes::error_codes! {
         NoFloor INPUT_NO_FLOOR,
         PresetMismatch INPUT_PRESET_MISMATCH,
         Shape INPUT_SIZE_MISMATCH,
+        EmptyDepth INPUT_DEPTH_EMPTY,
+        NotPositive INPUT_DEPTH_NOT_POSITIVE,
         BadOption INPUT_BAD_OPTION
 }
 
@@ -321,6 +355,12 @@ pub fn prepare_depth(
         }
         decode::z_to_ray(&source, &mut depth);
     }
+    let non_positive = if matches!(enc.kind, DepthKind::Ray | DepthKind::Z) {
+        samples.values.iter().filter(|&&v| v <= 0.0).count()
+    } else {
+        0
+    };
+    let all_sky = check_known(path, samples, &mut depth, non_positive, s.unknown)?;
     // The colour guide of the resize, the snap and the specks, made once when one needs it.
     let guide_cell = std::cell::OnceCell::new();
     let guide = || guide_cell.get_or_init(|| refine::guide(rgb)).as_slice();
@@ -333,6 +373,10 @@ pub fn prepare_depth(
     let unknown_count = unknown.iter().filter(|&&u| u).count();
     let unknown_share = unknown_count as f64 / n.max(1) as f64;
     let mut report = PrepareReport::new((sw, sh), resized, unknown_share, metric, warnings);
+    report.non_positive_pixels = non_positive;
+    if all_sky {
+        report.sky_pixels = n;
+    }
     // Nothing known at all: the build makes such a canvas one layer at infinity.
     if unknown_count == n {
         return Ok(PreparedDepth { width: mapping.width(), height: mapping.height(), depth, report });
@@ -361,6 +405,42 @@ pub fn prepare_depth(
     refine_depth(&nb, &guide, &mut depth, &unknown, s, &mut report);
     Ok(PreparedDepth { width: mapping.width(), height: mapping.height(), depth, report })
 }
+
+/// Refuse depth with too little known to build from: every metric value zero or negative, or
+/// fewer than [`MIN_KNOWN`] of the pixels valid. Unknown depth that the user says is the sky is
+/// the sky everywhere (returns true).
+fn check_known(
+    path: &Path,
+    samples: &DepthSamples,
+    depth: &mut [f32],
+    non_positive: usize,
+    unknown: UnknownDepth,
+) -> Result<bool, PrepareError> {
+    let total = depth.len();
+    let known = depth.iter().filter(|d| !d.is_nan()).count();
+    if known == 0 && non_positive == total {
+        let (min, max) = samples
+            .values
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        // All zero is no depth at all (and a preset's "invalid"); negative depth is another convention.
+        if min < 0.0 {
+            return Err(PrepareError::NotPositive { path: path.into(), min, max });
+        }
+    }
+    if (known as f64) < MIN_KNOWN * total as f64 || known == 0 {
+        if unknown == UnknownDepth::Sky && known == 0 {
+            depth.fill(f32::INFINITY);
+            return Ok(true);
+        }
+        let share = 100.0 * known as f64 / total.max(1) as f64;
+        return Err(PrepareError::EmptyDepth { path: path.into(), known, total, share });
+    }
+    Ok(false)
+}
+
+/// The least share of valid depth pixels a panorama is completed from.
+const MIN_KNOWN: f64 = 0.001;
 
 /// The depth's own canvas: the colour's mapping at the depth's size (any size of that shape).
 fn depth_canvas(path: &Path, mapping: &AnyMapping, sw: usize, sh: usize) -> Result<AnyMapping, PrepareError> {
@@ -418,6 +498,7 @@ impl PrepareReport {
             source_size,
             resized,
             unknown_share,
+            non_positive_pixels: 0,
             completed_pixels: 0,
             sky_pixels: 0,
             edges: EdgeScan::default(),

@@ -389,3 +389,60 @@ fn layers_from_soft_depth_validate_clean() {
         assert!(report.issues.is_empty(), "{:?}", report.issues);
     }
 }
+
+/// Depth that cannot be built from is refused with a code, never made an empty panorama: no valid
+/// pixel (all NaN; a 16-bit map all at its preset's invalid value), every value negative, too few
+/// valid pixels; unknown depth the user calls the sky is the sky; some negative values are unknown
+/// depth, counted in the report.
+#[test]
+fn depth_with_nothing_to_build_from_is_refused() {
+    use pomc::prepare::{PrepareError, Preset};
+    let (_, _, input) = room();
+    let n = W * W / 2;
+    let err = |values: Vec<f32>, format, enc: &DepthEncoding, unknown| {
+        let settings = PrepareOptions { unknown, ..PrepareOptions::default() };
+        prepare_depth(
+            "depth".as_ref(),
+            &input.mapping,
+            &input.rgb,
+            &samples(W, values, format),
+            enc,
+            &settings,
+        )
+        .err()
+        .map(|e: PrepareError| e.code())
+    };
+    let metric = DepthEncoding::default();
+    assert_eq!(
+        err(vec![f32::NAN; n], SampleFormat::F32, &metric, UnknownDepth::Complete),
+        Some("INPUT_DEPTH_EMPTY")
+    );
+    let stanford = Preset::Stanford2d3ds.encoding();
+    assert_eq!(
+        err(vec![65535.0; n], SampleFormat::U16, &stanford, UnknownDepth::Complete),
+        Some("INPUT_DEPTH_EMPTY")
+    );
+    assert_eq!(
+        err(vec![-2.0; n], SampleFormat::F32, &metric, UnknownDepth::Complete),
+        Some("INPUT_DEPTH_NOT_POSITIVE")
+    );
+    assert_eq!(
+        err(vec![0.0; n], SampleFormat::F32, &metric, UnknownDepth::Complete),
+        Some("INPUT_DEPTH_EMPTY")
+    );
+    // 100 valid pixels of 131 072: under the 0.1 % completion needs.
+    let mut few = vec![f32::NAN; n];
+    few[..100].copy_from_slice(&input.depth[..100]);
+    assert_eq!(err(few, SampleFormat::F32, &metric, UnknownDepth::Complete), Some("INPUT_DEPTH_EMPTY"));
+    // Said to be the sky, nothing known is the sky everywhere.
+    let settings = PrepareOptions { unknown: UnknownDepth::Sky, ..PrepareOptions::default() };
+    let sky = prepare(&input, samples(W, vec![f32::NAN; n], SampleFormat::F32), &metric, &settings);
+    assert!(sky.depth.iter().all(|d| d.is_infinite()) && sky.report.sky_pixels == n, "{:?}", sky.report);
+    // A quarter negative: unknown depth, counted, completed.
+    let mut part: Vec<f32> = input.depth.clone();
+    part[..n / 4].iter_mut().for_each(|d| *d = -*d);
+    let p = prepare(&input, samples(W, part, SampleFormat::F32), &metric, &PrepareOptions::default());
+    assert_eq!(p.report.non_positive_pixels, n / 4);
+    assert_eq!(p.report.completed_pixels, n / 4);
+    assert!(p.depth.iter().all(|d| d.is_finite() && *d > 0.0));
+}
