@@ -190,7 +190,7 @@ declare_codes! {
     MESH_EXPORT_FAILED, Error, "Writing PLY, OBJ or glTF failed: no triangles, unknown extension, too large, or encoding.";
     MESH_NO_DEPTH, Error, "The layer has no depth channel `Z` to mesh.";
     MESH_PARAMS_INVALID, Error, "A mesh parameter or the sky radius is non-finite or out of range.";
-    RENDER_BAD_CAMERA, Error, "A camera input is non-finite, the field of view is outside (0, 180)°, the look-at point is the eye, or the transform is not invertible.";
+    RENDER_BAD_CAMERA, Error, "A camera input is non-finite, the field of view is outside (0, 180)°, the look-at point is the eye, the transform is not invertible, or stereo eyes sit beyond the freedom radius (`--ipd` over twice it).";
     RENDER_BAD_OPTIONS, Error, "A splat or mesh render option is out of range, or meshes and layers differ in number.";
     RENDER_BAD_SIZE, Error, "The output size is zero or too large, or an equirect output is not 2:1.";
     RENDER_LAYER_CHANNEL, Error, "A layer lacks one of the channels rendering needs (R, G, B, Z).";

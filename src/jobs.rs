@@ -386,6 +386,7 @@ pub struct View {
 pub struct Renderer {
     layers: Vec<(LayerImage, AnyMapping)>,
     local_to_world: DMat4,
+    freedom_radius: f64,
     meshes: Option<rasterize::PanoramaMeshes>,
     read_s: f64,
     mesh_s: Option<f64>,
@@ -412,7 +413,8 @@ impl Renderer {
             }
         };
         let mesh_s = meshes.is_some().then(|| t.elapsed().as_secs_f64());
-        Ok(Renderer { layers, local_to_world: pano.manifest.local_to_world(), meshes, read_s, mesh_s })
+        let (local_to_world, freedom_radius) = (pano.manifest.local_to_world(), pano.manifest.freedom_radius);
+        Ok(Renderer { layers, local_to_world, freedom_radius, meshes, read_s, mesh_s })
     }
 
     /// A renderer over layers already in memory (full canvases, in manifest order) placed by
@@ -448,7 +450,8 @@ impl Renderer {
             }
         };
         let mesh_s = meshes.is_some().then(|| t.elapsed().as_secs_f64());
-        Ok(Renderer { layers, local_to_world: manifest.local_to_world(), meshes, read_s: 0.0, mesh_s })
+        let (local_to_world, freedom_radius) = (manifest.local_to_world(), manifest.freedom_radius);
+        Ok(Renderer { layers, local_to_world, freedom_radius, meshes, read_s: 0.0, mesh_s })
     }
 
     /// Number of layers drawn.
@@ -488,6 +491,14 @@ impl Renderer {
     /// Render the view through `camera`, mono or stereo (the eyes rendered, then stacked;
     /// holes and counts are both eyes', stage times their sums).
     pub fn render_view(&self, camera: &ViewCamera) -> crate::Result<View> {
+        let eyes = match camera {
+            ViewCamera::Mono(_) | ViewCamera::Cube(CubeCamera { right: None, .. }) => None,
+            ViewCamera::Stereo(s) => Some((&s.left, &s.right)),
+            ViewCamera::Cube(CubeCamera { left, right: Some(right), .. }) => Some((left, right)),
+        };
+        if let Some((left, right)) = eyes {
+            self.check_eyes(left, right)?;
+        }
         match camera {
             ViewCamera::Mono(c) => self.render(c),
             ViewCamera::Cube(c) => {
@@ -508,6 +519,28 @@ impl Renderer {
                 Ok(stereo_view(l, r, |a, b| stereo::stack(a, b, s)))
             }
         }
+    }
+
+    /// Stereo eyes must sit inside the freedom radius around their view's centre: beyond it nothing
+    /// was kept for them to see, and an ODS viewing circle wider than the scene puts every surface
+    /// inside the viewer's head, where the projection's solve and the splat's footprints grow
+    /// without bound (an IPD of 100 m took minutes for a 256 × 256 image).
+    fn check_eyes(&self, left: &Camera, right: &Camera) -> crate::Result<()> {
+        let half = match left {
+            Camera::Ods(e) => e.offset.abs(),
+            _ => (left.eye() - right.eye()).length() / 2.0,
+        };
+        let r = self.freedom_radius;
+        if half <= r * (1.0 + 1e-9) {
+            return Ok(());
+        }
+        Err(render::RenderError::BadCamera(format!(
+            "--ipd {} m puts each eye {half} m from the view's centre, beyond the panorama's freedom radius \
+             {r} m, where nothing was kept for it to see; give --ipd at most {} m",
+            2.0 * half,
+            2.0 * r
+        ))
+        .into())
     }
 
     /// Render both eyes: the splat renders them in one pass where they share a camera space

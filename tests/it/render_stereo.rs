@@ -328,3 +328,30 @@ fn cube_maps_of_a_sphere_match_the_analytic_hits() {
         }
     }
 }
+
+/// Stereo eyes beyond the freedom radius are refused before rendering (issue 52: an IPD of 100 m
+/// put the whole room inside the ODS viewer's head and ran for minutes); at the radius they render.
+#[test]
+fn eyes_beyond_the_freedom_radius_are_refused() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/data/room-equirect");
+    let pano = pomc::panorama::Panorama::open(&root).unwrap();
+    let r = pano.manifest.freedom_radius;
+    let renderer = Renderer::new(&pano, RenderMethod::Splat).unwrap();
+    let eye = renderer.centre();
+    let ods = |ipd: f64| ViewCamera::Stereo(StereoCamera::ods(eye, 64, 64, ipd, None, Tb).unwrap());
+    let vr180 = |ipd: f64| {
+        ViewCamera::Stereo(
+            StereoCamera::vr180(eye, DVec3::X, DVec3::Z, 64, 32, ipd, StereoLayout::Sbs).unwrap(),
+        )
+    };
+    let cube =
+        |ipd: f64| ViewCamera::Cube(CubeCamera::ods(eye, 8, ipd, None, CubeLayout::Canonical, Tb).unwrap());
+    for (name, cam) in [("ods", &ods as &dyn Fn(f64) -> ViewCamera), ("vr180", &vr180), ("cube", &cube)] {
+        for ipd in [100.0, 2.0 * r * 1.01] {
+            let e =
+                renderer.render_view(&cam(ipd)).err().unwrap_or_else(|| panic!("{name} ipd {ipd} rendered"));
+            assert_eq!(e.code(), "RENDER_BAD_CAMERA", "{name}: {e}");
+        }
+    }
+    assert!(renderer.render_view(&ods(2.0 * r)).is_ok(), "at the radius");
+}
