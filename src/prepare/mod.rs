@@ -407,8 +407,8 @@ pub fn prepare_depth(
 }
 
 /// Refuse depth with too little known to build from: every metric value zero or negative, or
-/// fewer than [`MIN_KNOWN`] of the pixels valid. Unknown depth that the user says is the sky is
-/// the sky everywhere (returns true).
+/// fewer than [`MIN_KNOWN`] of the pixels valid, unless the user says unknown depth is the sky
+/// (nothing known at all is then the sky everywhere: returns true).
 fn check_known(
     path: &Path,
     samples: &DepthSamples,
@@ -428,11 +428,14 @@ fn check_known(
             return Err(PrepareError::NotPositive { path: path.into(), min, max });
         }
     }
-    if (known as f64) < MIN_KNOWN * total as f64 || known == 0 {
-        if unknown == UnknownDepth::Sky && known == 0 {
+    if unknown == UnknownDepth::Sky {
+        // What is unknown is the sky: little or no depth is still a panorama.
+        if known == 0 {
             depth.fill(f32::INFINITY);
-            return Ok(true);
         }
+        return Ok(known == 0);
+    }
+    if (known as f64) < MIN_KNOWN * total as f64 {
         let share = 100.0 * known as f64 / total.max(1) as f64;
         return Err(PrepareError::EmptyDepth { path: path.into(), known, total, share });
     }

@@ -433,7 +433,11 @@ fn depth_with_nothing_to_build_from_is_refused() {
     // 100 valid pixels of 131 072: under the 0.1 % completion needs.
     let mut few = vec![f32::NAN; n];
     few[..100].copy_from_slice(&input.depth[..100]);
-    assert_eq!(err(few, SampleFormat::F32, &metric, UnknownDepth::Complete), Some("INPUT_DEPTH_EMPTY"));
+    assert_eq!(
+        err(few.clone(), SampleFormat::F32, &metric, UnknownDepth::Complete),
+        Some("INPUT_DEPTH_EMPTY")
+    );
+    assert_eq!(err(few, SampleFormat::F32, &metric, UnknownDepth::Sky), None, "the rest is the sky");
     // Said to be the sky, nothing known is the sky everywhere.
     let settings = PrepareOptions { unknown: UnknownDepth::Sky, ..PrepareOptions::default() };
     let sky = prepare(&input, samples(W, vec![f32::NAN; n], SampleFormat::F32), &metric, &settings);
