@@ -6,7 +6,7 @@
 //! for content at infinity) to continuous output pixel coordinates. [`Camera::ray`] is the inverse
 //! used by ground-truth ray casting, so both sides of an evaluation use the same pixel centres.
 
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use glam::{DMat4, DVec2, DVec3};
 
@@ -249,8 +249,15 @@ impl Camera {
 
     /// Whether every camera-space point lies outside one side of the view frustum widened by
     /// `margin` output pixels — then so does their convex hull, which is never seen (points behind
-    /// the eye included). Always `false` for equirect outputs, which see every direction.
+    /// the eye included). Always `false` for equirect outputs, which see every direction; for a
+    /// half equirect, whether every point lies behind it beyond the margin's angle (a cone of
+    /// half-angle under 90° is convex, so it holds the hull).
     pub fn hull_outside(&self, pts: &[DVec3], margin: f64) -> bool {
+        if let Camera::HalfEquirect(c) = self {
+            let beyond = (margin * PI / c.height as f64).min(FRAC_PI_2).sin();
+            // Camera space x is −forward: behind is x > 0.
+            return pts.iter().all(|p| p.x > beyond * p.length());
+        }
         let Camera::Perspective(c) = self else { return false };
         let (hw, hh) = (c.width as f64 / 2.0 + margin, c.height as f64 / 2.0 + margin);
         let all = |f: &dyn Fn(DVec3) -> f64| pts.iter().all(|&p| f(p) > 0.0);
@@ -422,6 +429,22 @@ mod tests {
 
     fn cam(eye: DVec3, at: DVec3, up: DVec3) -> Camera {
         Camera::Perspective(Perspective::new(eye, at, up, 60.0, 96, 54).unwrap())
+    }
+
+    /// A half equirect sees the front hemisphere: hulls wholly behind it beyond the margin are
+    /// outside, hulls across its edge or the poles are not.
+    #[test]
+    fn half_equirect_hulls_behind_are_outside() {
+        let c = Camera::HalfEquirect(HalfEquirect::new(DVec3::ZERO, DVec3::X, DVec3::Z, 64).unwrap());
+        let to = |p: DVec3| c.to_camera().transform_point3(p);
+        let behind = [DVec3::new(-1.0, -1.0, 0.2), DVec3::new(-1.0, 1.0, 0.2), DVec3::new(-2.0, 0.0, -1.0)];
+        let edge = [DVec3::new(-0.01, 1.0, 0.0), DVec3::new(-0.01, 1.0, 0.1), DVec3::new(-0.02, 1.0, 0.0)];
+        let pole = [DVec3::new(-0.5, 0.0, 1.0), DVec3::new(0.5, 0.0, 1.0), DVec3::new(0.0, 0.5, 1.0)];
+        assert!(c.hull_outside(&behind.map(to), 1.0));
+        // 0.01 rad behind the edge: within a margin of one pixel (π / 64 rad).
+        assert!(!c.hull_outside(&edge.map(to), 1.0));
+        assert!(c.hull_outside(&edge.map(to), 0.0));
+        assert!(!c.hull_outside(&pole.map(to), 1.0));
     }
 
     #[test]
