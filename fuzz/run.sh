@@ -17,7 +17,7 @@ fi
 work="${CARGO_TARGET_DIR:-target}/fuzz-work"
 rm -rf "$work" && mkdir -p "$work"
 tar xzf corpus.tar.gz -C "$work"
-targets=(manifest layer_exr)
+targets=(manifest layer_exr prepare)
 cargo fuzz build --sanitizer none
 for t in "${targets[@]}"; do
     echo "== fuzz $t for ${secs}s"

@@ -198,10 +198,13 @@ pub(crate) fn to_metres(
         .values
         .iter()
         .map(|&v| {
-            if is_invalid(enc, v) || v <= 0.0 || (sentinel && f64::from(v) * scale >= SENTINEL_M) {
+            let m = (f64::from(v) * scale) as f32;
+            // A finite value whose metres f32 cannot hold (under- or overflow) is no depth either.
+            let lost = v.is_finite() && !(m > 0.0 && m.is_finite());
+            if is_invalid(enc, v) || v <= 0.0 || lost || (sentinel && f64::from(v) * scale >= SENTINEL_M) {
                 f32::NAN
             } else {
-                (f64::from(v) * scale) as f32
+                m
             }
         })
         .collect();
@@ -283,15 +286,14 @@ fn relative_to_metres(
                 return f32::NAN;
             }
             let t = fit.a * v + fit.b;
-            if inverse {
+            if inverse && t <= 0.0 {
                 // 1/depth at or below 0: beyond any finite distance.
-                if t <= 0.0 {
-                    f32::INFINITY
-                } else {
-                    (1.0 / t) as f32
-                }
-            } else if t > 0.0 {
-                t as f32
+                return f32::INFINITY;
+            }
+            let m = if inverse { (1.0 / t) as f32 } else { t as f32 };
+            // At or below 0, or metres f32 cannot hold (under- or overflow): no depth.
+            if m > 0.0 && m.is_finite() {
+                m
             } else {
                 f32::NAN
             }

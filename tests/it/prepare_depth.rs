@@ -450,3 +450,55 @@ fn depth_with_nothing_to_build_from_is_refused() {
     assert_eq!(p.report.completed_pixels, n / 4);
     assert!(p.depth.iter().all(|d| d.is_finite() && *d > 0.0));
 }
+
+/// Stored values whose metres an f32 cannot hold (a denormal times a scale under 1, a huge value
+/// times a scale over 1) are unknown depth, completed, never a zero or infinite distance that
+/// turns into NaN further on (found by fuzz/fuzz_targets/prepare.rs).
+#[test]
+fn depth_beyond_what_metres_can_hold_is_unknown() {
+    let (_, _, input) = room();
+    let n = W * W / 2;
+    for (value, scale) in [(1e-45_f32, 0.5), (3e38, 4.0)] {
+        let mut values: Vec<f32> = input.depth.iter().map(|d| (f64::from(*d) / scale) as f32).collect();
+        values[n / 3..n / 3 + 50].iter_mut().for_each(|d| *d = value);
+        let enc = DepthEncoding { scale: Some(scale), ..DepthEncoding::default() };
+        let p = prepare(&input, samples(W, values, SampleFormat::F32), &enc, &PrepareOptions::default());
+        assert!(p.depth.iter().all(|d| d.is_finite() && *d > 0.0), "{value} × {scale}");
+        assert_eq!(p.report.completed_pixels, 50, "{value} × {scale}");
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 256, ..Default::default() })]
+
+    /// The fuzz target's contract (fuzz/fuzz_targets/prepare.rs) on stable Rust: any stored float
+    /// values (any bit pattern: NaN, infinities, negatives, denormals) with any scale and kind are
+    /// refused with a code or prepared into depth that is positive or infinitely far everywhere.
+    #[test]
+    fn any_float_depth_is_refused_or_positive(
+        bits in proptest::collection::vec(proptest::prelude::any::<u32>(), 64 * 32),
+        scale in proptest::prelude::any::<f64>(),
+        kind in 0usize..4,
+        refine in 0usize..3,
+        sky in proptest::prelude::any::<bool>(),
+    ) {
+        use pomc::prepare::Refine;
+        let m = AnyMapping::new(MappingKind::Equirect, 64, 32).unwrap();
+        let rgb: [Vec<f32>; 3] =
+            std::array::from_fn(|c| (0..64 * 32).map(|i| ((i % 64 / 5 + i / 640 + c) % 4) as f32 / 3.0).collect());
+        let enc = DepthEncoding {
+            scale: Some(scale),
+            kind: [DepthKind::Ray, DepthKind::Z, DepthKind::Inverse, DepthKind::Nearness][kind],
+            ..DepthEncoding::default()
+        };
+        let s = PrepareOptions {
+            refine: [Refine::Auto, Refine::On, Refine::Off][refine],
+            unknown: if sky { UnknownDepth::Sky } else { UnknownDepth::Complete },
+        };
+        let values = bits.into_iter().map(f32::from_bits).collect();
+        let samples = DepthSamples { width: 64, height: 32, values, format: SampleFormat::F32, colour_channels: false };
+        if let Ok(p) = prepare_depth("depth".as_ref(), &m, &rgb, &samples, &enc, &s) {
+            proptest::prop_assert!(p.depth.iter().all(|d| *d > 0.0));
+        }
+    }
+}
