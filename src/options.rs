@@ -419,8 +419,14 @@ impl CameraArgs {
                 let face = match self.size {
                     None => (panorama_width / 4).max(1),
                     Some((w, h)) => {
-                        let (w, h) =
-                            if self.stereo { layout.eye_size(w, h).unwrap_or((0, 0)) } else { (w, h) };
+                        let need =
+                            "a stereo cube map is two cube maps stacked top-bottom (--stereo-layout tb) \
+                                    or side by side";
+                        let (w, h) = if self.stereo {
+                            layout.eye_size(w, h).ok_or(RenderError::BadSize { width: w, height: h, need })?
+                        } else {
+                            (w, h)
+                        };
                         self.cube_layout.face_size(w, h).map_err(|e| RenderError::BadCamera(e.to_string()))?
                     }
                 };

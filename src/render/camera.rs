@@ -85,7 +85,7 @@ impl HalfEquirect {
         // columns; that full width must fit the limits too.
         check_size(side.saturating_mul(2), side)?;
         if side % 2 != 0 {
-            return Err(RenderError::BadSize { width: side, height: side });
+            return Err(RenderError::BadSize { width: side, height: side, need: VR180 });
         }
         let p = Perspective::new(DVec3::ZERO, finite(forward, "look direction")?, up, 90.0, 1, 1)?;
         let eye = finite(eye, "eye")?;
@@ -117,6 +117,14 @@ pub enum Camera {
     HalfEquirect(HalfEquirect),
 }
 
+/// What every output size needs.
+const SIDES: &str = "sides 1..=32768, at most 2^27 pixels";
+/// What an equirect output needs.
+pub(super) const EQUIRECT: &str = "an equirect output is 2:1 (e.g. 2048x1024)";
+/// What a VR180 image needs.
+pub(super) const VR180: &str = "VR180 eyes are square with an even side: side by side 2:1 (e.g. 4096x2048), \
+     top-bottom 1:2 (--stereo-layout tb)";
+
 pub(super) fn check_size(width: usize, height: usize) -> Result<(), RenderError> {
     let ok = width > 0
         && height > 0
@@ -126,7 +134,7 @@ pub(super) fn check_size(width: usize, height: usize) -> Result<(), RenderError>
     if ok {
         Ok(())
     } else {
-        Err(RenderError::BadSize { width, height })
+        Err(RenderError::BadSize { width, height, need: SIDES })
     }
 }
 
@@ -195,7 +203,7 @@ impl EquirectCamera {
     pub fn new(eye: DVec3, width: usize, height: usize) -> Result<Self, RenderError> {
         check_size(width, height)?;
         if width != 2 * height {
-            return Err(RenderError::BadSize { width, height });
+            return Err(RenderError::BadSize { width, height, need: EQUIRECT });
         }
         Ok(EquirectCamera { eye: finite(eye, "eye")?, width, height })
     }

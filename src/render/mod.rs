@@ -69,14 +69,16 @@ pub enum RenderError {
     /// point is the eye, or LocalToWorld is not an invertible finite transform.
     #[error("bad camera: {0}")]
     BadCamera(String),
-    /// The output size is zero, over [`camera::MAX_SIDE`] or [`camera::MAX_PIXELS`], or an equirect
-    /// output is not 2:1.
-    #[error("bad output size {width}x{height}: sides 1..={max}, equirect outputs 2:1", max = camera::MAX_SIDE)]
+    /// The output size is zero, over [`camera::MAX_SIDE`] or [`camera::MAX_PIXELS`], or not the
+    /// shape the camera makes (`need` says which).
+    #[error("bad output size {width}x{height}: {need}")]
     BadSize {
-        /// Requested width, pixels.
+        /// Requested width, pixels (the whole image).
         width: usize,
         /// Requested height, pixels.
         height: usize,
+        /// What the camera needs.
+        need: &'static str,
     },
     /// A splat or mesh render option or mesh parameter is out of range, or meshes and layers differ
     /// in number.

@@ -102,7 +102,7 @@ impl OdsEye {
     ) -> Result<Self, RenderError> {
         check_size(width, height)?;
         if width != 2 * height {
-            return Err(RenderError::BadSize { width, height });
+            return Err(RenderError::BadSize { width, height, need: super::camera::EQUIRECT });
         }
         if !offset.is_finite() {
             return Err(RenderError::BadCamera(format!("eye offset {offset} is not finite")));

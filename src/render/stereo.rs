@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 
-use super::camera::{finite, Camera, HalfEquirect, OdsEye, PoleMerge};
+use super::camera::{finite, Camera, HalfEquirect, OdsEye, PoleMerge, VR180};
 use super::frame::Frame;
 use super::RenderError;
 
@@ -66,7 +66,11 @@ impl StereoCamera {
         layout: StereoLayout,
     ) -> Result<StereoCamera, RenderError> {
         check_ipd(ipd)?;
-        let (w, h) = layout.eye_size(width, height).ok_or(RenderError::BadSize { width, height })?;
+        let bad = RenderError::BadSize { width, height, need: ODS };
+        let (w, h) = layout.eye_size(width, height).ok_or(bad)?;
+        if w != 2 * h {
+            return Err(RenderError::BadSize { width, height, need: ODS });
+        }
         let eye_cam = |offset| OdsEye::new(eye, w, h, offset, pole_merge).map(Camera::Ods);
         Ok(StereoCamera { left: eye_cam(ipd / 2.0)?, right: eye_cam(-ipd / 2.0)?, layout, player_yaw: None })
     }
@@ -84,9 +88,10 @@ impl StereoCamera {
         layout: StereoLayout,
     ) -> Result<StereoCamera, RenderError> {
         check_ipd(ipd)?;
-        let (w, h) = layout.eye_size(width, height).ok_or(RenderError::BadSize { width, height })?;
-        if w != h {
-            return Err(RenderError::BadSize { width, height });
+        let bad = || RenderError::BadSize { width, height, need: VR180 };
+        let (w, h) = layout.eye_size(width, height).ok_or_else(bad)?;
+        if w != h || w % 2 != 0 {
+            return Err(bad());
         }
         let centre = HalfEquirect::new(eye, forward, up, w)?;
         let eye_cam = |offset: f64| {
@@ -105,6 +110,10 @@ impl StereoCamera {
         }
     }
 }
+
+/// What an ODS image needs.
+const ODS: &str =
+    "ODS eyes are 2:1 each: top-bottom 1:1 (e.g. 2048x2048), side by side 4:1 (--stereo-layout sbs)";
 
 fn check_ipd(ipd: f64) -> Result<(), RenderError> {
     if ipd >= 0.0 && ipd.is_finite() {

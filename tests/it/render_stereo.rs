@@ -365,3 +365,27 @@ fn eyes_beyond_the_freedom_radius_are_refused() {
     }
     assert!(renderer.render_view(&ods(2.0 * r)).is_ok(), "at the radius");
 }
+
+/// Sizes a stereo camera cannot make are refused before any work with RENDER_BAD_SIZE, and the
+/// message names the shape that camera needs (not an equirect's 2:1 for a VR180 or ODS image).
+#[test]
+fn stereo_sizes_are_refused_naming_the_shape_needed() {
+    use pomc::render::RenderError;
+    let ods = |w, h, l| StereoCamera::ods(DVec3::ZERO, w, h, 0.064, None, l).err();
+    let vr180 = |w, h, l| StereoCamera::vr180(DVec3::ZERO, DVec3::X, DVec3::Z, w, h, 0.064, l).err();
+    let cases: [(Option<RenderError>, &str); 6] = [
+        (ods(64, 63, Tb), "ODS"),
+        (ods(64, 48, Tb), "ODS"),
+        (ods(128, 64, StereoLayout::Sbs), "ODS"),
+        (vr180(64, 64, StereoLayout::Sbs), "VR180"),
+        (vr180(66, 33, StereoLayout::Sbs), "VR180"),
+        (vr180(64, 64, Tb), "VR180"),
+    ];
+    for (e, name) in cases {
+        let e = e.expect("refused");
+        assert_eq!(e.code(), "RENDER_BAD_SIZE");
+        assert!(e.to_string().contains(name), "{e}");
+    }
+    assert!(ods(128, 128, Tb).is_none() && ods(256, 64, StereoLayout::Sbs).is_none());
+    assert!(vr180(68, 34, StereoLayout::Sbs).is_none() && vr180(34, 68, Tb).is_none());
+}
