@@ -1,0 +1,177 @@
+#!/usr/bin/env python3
+"""Try a depth snap on prepared depth in numpy and score it with depth_quality.py's flying share,
+before any of it is written in Rust (issue 51, figure 2).
+
+Reads `prepared-KIND.exr` of an earlier `depth_quality.py --tag TAG` run, applies the snap named by
+`--method`, and prints the flying share (%) before and after per scene and kind, with the share of
+pixels the snap moved and, on exact depth, how many it moved at all.
+
+    python3 tools/eval/snap_trial.py --from default --method minmax --radius 6
+    python3 tools/eval/snap_trial.py --from default --method minmax --radius 12 --kinds mono,relinv
+
+Methods:
+- `minmax`: grey erosion and dilation of log depth over a (2R+1)² window give each pixel a near and
+  a far candidate (the sides' own values); a pixel in a step (the two more than JUMP apart) and more
+  than TOL from both goes to the side whose colour (3 × 3 mean at the window's nearest or farthest
+  pixel) is closer to its own.
+"""
+
+import argparse
+import os
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(HERE, "realistic"))
+
+import numpy as np  # noqa: E402
+from scipy import ndimage  # noqa: E402
+
+import depth_quality as dq  # noqa: E402
+import run as realistic  # noqa: E402
+
+SKY_LOG = np.log(1e4)
+SLOPE = float(os.environ.get("SNAP_SLOPE", "0.5"))
+SETTLE_BY = os.environ.get("SETTLE_BY", "colour")
+
+
+def colour_of(src, work, kind):
+    path = os.path.join(work, f"input-{kind}-colour.exr")
+    if not os.path.exists(path):
+        path = os.path.join(src, "colour.exr")
+    c = realistic.read_channels(path)
+    rgb = np.stack([c["R"], c["G"], c["B"]], axis=-1)
+    # Perceptual-ish: the square root of linear light, 3 × 3 mean against noise.
+    rgb = np.sqrt(np.clip(rgb, 0, None))
+    return ndimage.uniform_filter(rgb, size=(3, 3, 1), mode=("nearest", "wrap", "nearest"))
+
+
+def minmax(d, rgb, radius, jump, tol):
+    L = np.where(np.isinf(d), SKY_LOG, np.log(np.where(d > 0, d, np.nan)))
+    L = np.where(np.isnan(L), SKY_LOG, L)
+    lo, hi = L.copy(), L.copy()
+    c_lo, c_hi = rgb.copy(), rgb.copy()
+    for dy in range(-radius, radius + 1):
+        for dx in range(-radius, radius + 1):
+            if dx * dx + dy * dy > radius * radius:
+                continue
+            s = dq.shifted(L, dy, dx)
+            cs = None
+            m = s < lo
+            if m.any():
+                cs = np.stack([dq.shifted(rgb[..., k], dy, dx) for k in range(3)], axis=-1)
+                lo = np.where(m, s, lo)
+                c_lo = np.where(m[..., None], cs, c_lo)
+            m = s > hi
+            if m.any():
+                if cs is None:
+                    cs = np.stack([dq.shifted(rgb[..., k], dy, dx) for k in range(3)], axis=-1)
+                hi = np.where(m, s, hi)
+                c_hi = np.where(m[..., None], cs, c_hi)
+    band = (hi - lo > np.log(1 + jump)) & (L - lo > np.log(1 + tol)) & (hi - L > np.log(1 + tol))
+    # A step, not a slope: across a slope the window spans 2R times the local gradient; across a
+    # blurred step far less (its sides are flat next to its ramp).
+    g = np.maximum(np.abs(dq.shifted(L, 0, -1) - dq.shifted(L, 0, 1)),
+                   np.abs(dq.shifted(L, -1, 0) - dq.shifted(L, 1, 0))) / 2
+    band &= hi - lo < SLOPE * 2 * radius * g
+    dn = np.linalg.norm(rgb - c_lo, axis=-1)
+    df = np.linalg.norm(rgb - c_hi, axis=-1)
+    out = np.where(band & (dn <= df), lo, np.where(band & (dn > df), hi, L))
+    res = np.where(out >= SKY_LOG - 1e-6, np.inf, np.exp(out))
+    return np.where(np.isnan(d), np.nan, np.where(band, res, d)), band
+
+
+def settle(d, rgb, radius, tol, moved):
+    """The pixels the median snap `moved` that it left in between: to the nearer in colour of the
+    nearest and farthest depth within `radius` (the sides, snapped)."""
+    L = np.where(np.isinf(d), SKY_LOG, np.log(np.where(d > 0, d, np.nan)))
+    L = np.where(np.isnan(L), SKY_LOG, L)
+    lo, hi = L.copy(), L.copy()
+    c_lo, c_hi = rgb.copy(), rgb.copy()
+    for dy in range(-radius, radius + 1):
+        for dx in range(-radius, radius + 1):
+            s = dq.shifted(L, dy, dx)
+            cs = np.stack([dq.shifted(rgb[..., k], dy, dx) for k in range(3)], axis=-1)
+            m = s < lo
+            lo = np.where(m, s, lo)
+            c_lo = np.where(m[..., None], cs, c_lo)
+            m = s > hi
+            hi = np.where(m, s, hi)
+            c_hi = np.where(m[..., None], cs, c_hi)
+    if os.environ.get("SETTLE_ALL"):
+        moved = hi - lo > np.log(1.1)
+    band = moved & (L - lo > np.log(1 + tol)) & (hi - L > np.log(1 + tol))
+    if SETTLE_BY == "far":
+        near = np.zeros(L.shape, bool)
+    elif SETTLE_BY == "depth":
+        near = (L - lo) <= (hi - L)
+    else:
+        near = np.linalg.norm(rgb - c_lo, axis=-1) <= np.linalg.norm(rgb - c_hi, axis=-1)
+    out = np.where(band & near, lo, np.where(band, hi, L))
+    res = np.where(out >= SKY_LOG - 1e-6, np.inf, np.exp(out))
+    return np.where(band, res, d), band
+
+
+def where(prep, truth):
+    """Where the flying pixels are: shares by distance to the nearest exact occlusion edge (< 1, 1–2,
+    2–5, 5–20 px and more), and the share whose truth is the sky."""
+    fly = dq.flying(prep, truth)[0]
+    far = np.where(np.isnan(truth), 0, np.where(np.isinf(truth), 1e6, truth))
+    edge = np.zeros(truth.shape, bool)
+    for dy, dx in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        s = dq.shifted(far, dy, dx)
+        edge |= (s > dq.EDGE_RATIO * far) | (far > dq.EDGE_RATIO * s)
+    dist = ndimage.distance_transform_edt(~edge)[fly]
+    n = max(int(fly.sum()), 1)
+    shares = np.histogram(dist, [0, 1, 2, 5, 20, np.inf])[0] / n * 100
+    sky = np.isinf(truth[fly]).sum() / n * 100
+    return f"{fly.mean() * 100:.2f} % flying: " + " / ".join(f"{v:.0f}" for v in shares) + f" %; sky {sky:.0f} %"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--from", dest="tag", default="default", help="the depth_quality.py run to start from")
+    ap.add_argument("--scenes", default="room,outdoor,extreme")
+    ap.add_argument("--kinds", default=",".join(dq.KINDS))
+    ap.add_argument("--method", default="minmax", help="minmax; settle (needs --base: the run before the snap); where (no snap: where the flying pixels are)")
+    ap.add_argument("--base", default="default", help="settle: the run without the snap (what it moved)")
+    ap.add_argument("--radius", type=int, default=6)
+    ap.add_argument("--jump", type=float, default=0.1)
+    ap.add_argument("--tol", type=float, default=0.03)
+    ap.add_argument("--work", default=os.path.join(realistic.TARGET, "depth-quality"))
+    ap.add_argument("--corpus", default="85b5eb16750c")
+    a = ap.parse_args()
+    corpus = os.path.join(realistic.TARGET, "realistic-corpus", a.corpus)
+    print(f"| kind | {' | '.join(a.scenes.split(','))} |  (flying % before → after, moved %)")
+    for kind in a.kinds.split(","):
+        cells = []
+        for scene in a.scenes.split(","):
+            src, work = os.path.join(corpus, scene), os.path.join(a.work, a.corpus, a.tag, scene)
+            prep = realistic.read_channels(os.path.join(work, f"prepared-{kind}.exr"))["Z"]
+            truth = realistic.read_channels(os.path.join(src, "depth.exr"))["Z"]
+            if truth.shape != prep.shape:
+                truth = dq.nearest_up(truth, prep.shape)
+            rgb = colour_of(src, work, kind)
+            if rgb.shape[:2] != prep.shape:
+                rgb = np.stack([dq.nearest_up(rgb[..., k], prep.shape) for k in range(3)], axis=-1)
+            t0 = time.time()
+            if a.method == "where":
+                cells.append(where(prep, truth))
+                continue
+            if a.method == "settle":
+                base = realistic.read_channels(
+                    os.path.join(a.work, a.corpus, a.base, scene, f"prepared-{kind}.exr"))["Z"]
+                changed = ~((prep == base) | (np.isnan(prep) & np.isnan(base)))
+                out, moved = settle(prep, rgb, a.radius, a.tol, changed)
+            else:
+                out, moved = minmax(prep, rgb, a.radius, a.jump, a.tol)
+            dt = time.time() - t0
+            before = dq.flying(prep, truth)[0].mean() * 100
+            after = dq.flying(out, truth)[0].mean() * 100
+            cells.append(f"{before:.2f} → **{after:.2f}** ({moved.mean() * 100:.2f}, {dt:.1f} s)")
+        print(f"| `{kind}` | {' | '.join(cells)} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
