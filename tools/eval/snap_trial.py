@@ -34,6 +34,7 @@ import run as realistic  # noqa: E402
 SKY_LOG = np.log(1e4)
 SLOPE = float(os.environ.get("SNAP_SLOPE", "0.5"))
 SETTLE_BY = os.environ.get("SETTLE_BY", "colour")
+CUT_SMOOTH = float(os.environ.get("CUT_SMOOTH", "0.3"))
 
 
 def colour_of(src, work, kind):
@@ -113,6 +114,74 @@ def settle(d, rgb, radius, tol, moved):
     return np.where(band, res, d), band
 
 
+def cut(d, rgb, radius, tol, moved):
+    """Two labels, near and far, for the pixels of a step (those the median snap `moved`, 1 px
+    around, and more than `tol` from both sides): each side's depth is the nearest or farthest
+    within `radius`; each side's colour the mean over its plateau in the window (pixels within `tol`
+    of it); a graph cut (PyMaxflow) with a colour data term, a Potts term weighted by colour
+    likeness between band pixels, and a pull towards the side of each neighbour outside the band."""
+    import maxflow
+    L = np.where(np.isinf(d), SKY_LOG, np.log(np.where(d > 0, d, np.nan)))
+    L = np.where(np.isnan(L), SKY_LOG, L)
+    offs = [(dy, dx) for dy in range(-radius, radius + 1) for dx in range(-radius, radius + 1)]
+    lo, hi = L.copy(), L.copy()
+    for dy, dx in offs:
+        s = dq.shifted(L, dy, dx)
+        lo, hi = np.minimum(lo, s), np.maximum(hi, s)
+    t = np.log(1 + tol)
+    sum_lo, sum_hi = np.zeros(rgb.shape), np.zeros(rgb.shape)
+    n_lo, n_hi = np.zeros(L.shape), np.zeros(L.shape)
+    for dy, dx in offs:
+        s = dq.shifted(L, dy, dx)
+        cs = np.stack([dq.shifted(rgb[..., k], dy, dx) for k in range(3)], axis=-1)
+        m = s <= lo + t
+        sum_lo += cs * m[..., None]
+        n_lo += m
+        m = s >= hi - t
+        sum_hi += cs * m[..., None]
+        n_hi += m
+    c_lo, c_hi = sum_lo / np.maximum(n_lo, 1)[..., None], sum_hi / np.maximum(n_hi, 1)[..., None]
+    grown = moved.copy()
+    for dy, dx in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        grown |= dq.shifted(moved, dy, dx)
+    band = grown & (hi - lo > np.log(1.1)) & (L - lo > t) & (hi - L > t)
+    idx = -np.ones(L.shape, int)
+    ys, xs = np.nonzero(band)
+    idx[ys, xs] = np.arange(len(ys))
+    if len(ys) == 0:
+        return d, band
+    g = maxflow.Graph[float]()
+    g.add_nodes(len(ys))
+    dn = np.linalg.norm(rgb - c_lo, axis=-1)[ys, xs]
+    df = np.linalg.norm(rgb - c_hi, axis=-1)[ys, xs]
+    # Source side = near: the cost of near goes on the sink edge.
+    cost_near, cost_far = dn.copy(), df.copy()
+    h, w = L.shape
+    sigma2 = 0.01
+    for dy, dx in ((0, 1), (1, 0), (0, -1), (-1, 0)):
+        qy, qx = np.clip(ys + dy, 0, h - 1), (xs + dx) % w
+        qi = idx[qy, qx]
+        like = CUT_SMOOTH * np.exp(-np.sum((rgb[ys, xs] - rgb[qy, qx]) ** 2, axis=-1) / sigma2)
+        inside = qi >= 0
+        if dy >= 0 and dx >= 0:
+            for a, b, c in zip(np.arange(len(ys))[inside], qi[inside], like[inside]):
+                g.add_edge(int(a), int(b), float(c), float(c))
+        # A neighbour outside the band pulls towards the side its depth is on.
+        out = ~inside
+        lq = L[qy, qx]
+        to_near = np.abs(lq - lo[ys, xs]) < np.abs(lq - hi[ys, xs])
+        cost_far += np.where(out & to_near, like, 0)
+        cost_near += np.where(out & ~to_near, like, 0)
+    for i in range(len(ys)):
+        g.add_tedge(i, float(cost_far[i]), float(cost_near[i]))
+    g.maxflow()
+    seg = np.array([g.get_segment(i) for i in range(len(ys))])  # 0: source (near)
+    out = L.copy()
+    out[ys, xs] = np.where(seg == 0, lo[ys, xs], hi[ys, xs])
+    res = np.where(out >= SKY_LOG - 1e-6, np.inf, np.exp(out))
+    return np.where(band, res, d), band
+
+
 def where(prep, truth):
     """Where the flying pixels are: shares by distance to the nearest exact occlusion edge (< 1, 1–2,
     2–5, 5–20 px and more), and the share whose truth is the sky."""
@@ -159,7 +228,12 @@ def main():
             if a.method == "where":
                 cells.append(where(prep, truth))
                 continue
-            if a.method == "settle":
+            if a.method == "cut":
+                base = realistic.read_channels(
+                    os.path.join(a.work, a.corpus, a.base, scene, f"prepared-{kind}.exr"))["Z"]
+                changed = ~((prep == base) | (np.isnan(prep) & np.isnan(base)))
+                out, moved = cut(prep, rgb, a.radius, a.tol, changed)
+            elif a.method == "settle":
                 base = realistic.read_channels(
                     os.path.join(a.work, a.corpus, a.base, scene, f"prepared-{kind}.exr"))["Z"]
                 changed = ~((prep == base) | (np.isnan(prep) & np.isnan(base)))
