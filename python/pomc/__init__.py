@@ -31,8 +31,10 @@ __all__ = [
     "Issue",
     "PomcError",
     "BUILD_OPTIONS",
+    "pack",
     "prepare_depth",
     "scene",
+    "unpack",
     "SCENE_OPTIONS",
     "MESH_OPTIONS",
     "RENDER_OPTIONS",
@@ -285,6 +287,26 @@ def scene(
     opts["freedom_radius"] = freedom_radius
     opts["center"] = [float(c) for c in center]
     return json.loads(_pomc.scene_files(os.fspath(scene), os.fspath(output), opts))
+
+
+def pack(
+    input: "os.PathLike[str] | str",
+    output: "os.PathLike[str] | str",
+    *,
+    threshold: float = 0.5,
+    padding: int = 0,
+) -> Dict[str, Any]:
+    """Write the panorama ``input`` again into ``output`` (which may be its own directory) with
+    each sparse layer patch-packed when its atlas is at most ``threshold`` of its canvas, exactly as
+    ``pomc pack INPUT -o OUTPUT``; ``padding`` pixels of guard band around each patch. Returns the
+    report (``layers``: name, packed, canvas, atlas, patches, occupancy, ...; ``timings_s``)."""
+    return json.loads(_pomc.repack_files(os.fspath(input), os.fspath(output), True, float(threshold), int(padding)))
+
+
+def unpack(input: "os.PathLike[str] | str", output: "os.PathLike[str] | str") -> Dict[str, Any]:
+    """Write the panorama ``input`` again into ``output`` with every layer on its full canvas,
+    exactly as ``pomc unpack INPUT -o OUTPUT``; returns the report as :func:`pack` does."""
+    return json.loads(_pomc.repack_files(os.fspath(input), os.fspath(output), False, 0.5, 0))
 
 
 def prepare_depth(

@@ -402,6 +402,27 @@ fn scene_files(
     Ok(report.to_string())
 }
 
+/// Write the panorama `input` again into `output` (may be the same directory) with its sparse
+/// layers patch-packed (`pack`) or every layer on its full canvas, as `pomc pack` / `pomc unpack`
+/// do; returns the JSON report (`layers`, `output`, `timings_s`).
+#[pyfunction]
+fn repack_files(
+    py: Python<'_>,
+    input: PathBuf,
+    output: PathBuf,
+    pack: bool,
+    threshold: f64,
+    padding: u32,
+) -> PyResult<String> {
+    if !(threshold > 0.0 && threshold <= 1.0) {
+        return Err(usage(format!("threshold {threshold} must lie in (0, 1]")));
+    }
+    let s = jobs::RepackSettings { pack, threshold, padding, ..jobs::RepackSettings::default() };
+    let report =
+        py.allow_threads(|| jobs::repack_panorama(&input, &output, &s, &|_, _| {})).map_err(to_py)?;
+    serde_json::to_string(&report).map_err(|e| usage(e.to_string()))
+}
+
 /// Read and prepare depth as `pomc prepare` does: the depth on the colour's grid (H×W float32,
 /// metres along the ray, `inf` far) and the JSON report.
 #[pyfunction]
@@ -511,6 +532,7 @@ fn _pomc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(build_files, m)?)?;
     m.add_function(wrap_pyfunction!(prepare_files, m)?)?;
     m.add_function(wrap_pyfunction!(scene_files, m)?)?;
+    m.add_function(wrap_pyfunction!(repack_files, m)?)?;
     m.add_function(wrap_pyfunction!(option_defaults, m)?)?;
     Ok(())
 }

@@ -1,5 +1,6 @@
 """The Python package against the command line and independent readers (OpenEXR, Pillow)."""
 
+import json
 import os
 import subprocess
 import threading
@@ -379,3 +380,25 @@ def test_scene_equals_the_command(tmp_path):
     with pytest.raises(pomc.PomcError) as e:
         pomc.scene(tmp_path / "nothing.obj", tmp_path / "x")
     assert e.value.code == "SCENE_UNREADABLE"
+
+
+def test_pack_and_unpack_equal_the_commands(built, tmp_path):
+    """`pomc.pack` / `pomc.unpack` write the files `pomc pack` / `pomc unpack` write, byte for byte,
+    and return the command's `--json` report (timings aside); unpacking restores full canvases."""
+    src = built / "cli"
+    py = pomc.pack(src, tmp_path / "py", padding=2)
+    cli("pack", str(src), "-o", str(tmp_path / "cli"), "--padding", "2")
+    names = sorted(p.name for p in (tmp_path / "cli").iterdir())
+    assert names == sorted(p.name for p in (tmp_path / "py").iterdir())
+    for name in names:
+        assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
+    out = subprocess.run([pomc_bin(), "--json", "pack", str(src), "-o", str(tmp_path / "json"), "--padding", "2"],
+                         check=True, capture_output=True, text=True).stdout
+    report = json.loads(out)
+    assert py["layers"] == report["layers"] and set(py) == set(report) == {"layers", "output", "timings_s"}
+    assert any(l["packed"] for l in py["layers"]), "the room's object layer is sparse"
+    full = pomc.unpack(tmp_path / "py", tmp_path / "full")
+    assert not any(l["packed"] for l in full["layers"])
+    assert all(l["atlas"] == l["canvas"] for l in full["layers"])
+    with pytest.raises(pomc.PomcError):
+        pomc.pack(src, tmp_path / "bad", threshold=1.5)

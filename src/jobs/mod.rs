@@ -1,6 +1,10 @@
 //! The main jobs, one call each, with the command line's defaults: every settings struct's
 //! `Default` is what the `pomc` command does without options. [`crate::prelude`] re-exports them.
 
+mod pack;
+
+pub use pack::{repack_panorama, RepackReport, RepackSettings, RepackTimings, RepackedLayer};
+
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
