@@ -7,7 +7,8 @@ Reads `prepared-KIND.exr` of an earlier `depth_quality.py --tag TAG` run, applie
 pixels the snap moved and, on exact depth, how many it moved at all.
 
     python3 tools/eval/snap_trial.py --from default --method minmax --radius 6
-    python3 tools/eval/snap_trial.py --from default --method minmax --radius 12 --kinds mono,relinv
+    SNAP_SLOPE=0.5 python3 tools/eval/snap_trial.py --from default --method minmax --radius 8
+    python3 tools/eval/snap_trial.py --from on --method where     # where the flying pixels are
 
 Methods:
 - `minmax`: grey erosion and dilation of log depth over a (2R+1)² window give each pixel a near and
@@ -32,7 +33,7 @@ import depth_quality as dq  # noqa: E402
 import run as realistic  # noqa: E402
 
 SKY_LOG = np.log(1e4)
-SLOPE = float(os.environ.get("SNAP_SLOPE", "0.5"))
+SLOPE = float(os.environ.get("SNAP_SLOPE", "0"))  # 0: no slope test
 SETTLE_BY = os.environ.get("SETTLE_BY", "colour")
 CUT_SMOOTH = float(os.environ.get("CUT_SMOOTH", "0.3"))
 
@@ -48,34 +49,39 @@ def colour_of(src, work, kind):
     return ndimage.uniform_filter(rgb, size=(3, 3, 1), mode=("nearest", "wrap", "nearest"))
 
 
-def minmax(d, rgb, radius, jump, tol):
+def log_depth(d):
+    """Log depth with the sky (and unknown depth) at SKY_LOG."""
     L = np.where(np.isinf(d), SKY_LOG, np.log(np.where(d > 0, d, np.nan)))
-    L = np.where(np.isnan(L), SKY_LOG, L)
+    return np.where(np.isnan(L), SKY_LOG, L)
+
+
+def extremes(L, rgb, radius, disc):
+    """The nearest and farthest log depth within `radius` (a disc or a square) and the colour there."""
     lo, hi = L.copy(), L.copy()
     c_lo, c_hi = rgb.copy(), rgb.copy()
     for dy in range(-radius, radius + 1):
         for dx in range(-radius, radius + 1):
-            if dx * dx + dy * dy > radius * radius:
+            if disc and dx * dx + dy * dy > radius * radius:
                 continue
             s = dq.shifted(L, dy, dx)
-            cs = None
+            cs = np.stack([dq.shifted(rgb[..., k], dy, dx) for k in range(3)], axis=-1)
             m = s < lo
-            if m.any():
-                cs = np.stack([dq.shifted(rgb[..., k], dy, dx) for k in range(3)], axis=-1)
-                lo = np.where(m, s, lo)
-                c_lo = np.where(m[..., None], cs, c_lo)
+            lo, c_lo = np.where(m, s, lo), np.where(m[..., None], cs, c_lo)
             m = s > hi
-            if m.any():
-                if cs is None:
-                    cs = np.stack([dq.shifted(rgb[..., k], dy, dx) for k in range(3)], axis=-1)
-                hi = np.where(m, s, hi)
-                c_hi = np.where(m[..., None], cs, c_hi)
+            hi, c_hi = np.where(m, s, hi), np.where(m[..., None], cs, c_hi)
+    return lo, hi, c_lo, c_hi
+
+
+def minmax(d, rgb, radius, jump, tol):
+    L = log_depth(d)
+    lo, hi, c_lo, c_hi = extremes(L, rgb, radius, disc=True)
     band = (hi - lo > np.log(1 + jump)) & (L - lo > np.log(1 + tol)) & (hi - L > np.log(1 + tol))
     # A step, not a slope: across a slope the window spans 2R times the local gradient; across a
     # blurred step far less (its sides are flat next to its ramp).
     g = np.maximum(np.abs(dq.shifted(L, 0, -1) - dq.shifted(L, 0, 1)),
                    np.abs(dq.shifted(L, -1, 0) - dq.shifted(L, 1, 0))) / 2
-    band &= hi - lo < SLOPE * 2 * radius * g
+    if SLOPE > 0:
+        band &= hi - lo < SLOPE * 2 * radius * g
     dn = np.linalg.norm(rgb - c_lo, axis=-1)
     df = np.linalg.norm(rgb - c_hi, axis=-1)
     out = np.where(band & (dn <= df), lo, np.where(band & (dn > df), hi, L))
@@ -86,20 +92,8 @@ def minmax(d, rgb, radius, jump, tol):
 def settle(d, rgb, radius, tol, moved):
     """The pixels the median snap `moved` that it left in between: to the nearer in colour of the
     nearest and farthest depth within `radius` (the sides, snapped)."""
-    L = np.where(np.isinf(d), SKY_LOG, np.log(np.where(d > 0, d, np.nan)))
-    L = np.where(np.isnan(L), SKY_LOG, L)
-    lo, hi = L.copy(), L.copy()
-    c_lo, c_hi = rgb.copy(), rgb.copy()
-    for dy in range(-radius, radius + 1):
-        for dx in range(-radius, radius + 1):
-            s = dq.shifted(L, dy, dx)
-            cs = np.stack([dq.shifted(rgb[..., k], dy, dx) for k in range(3)], axis=-1)
-            m = s < lo
-            lo = np.where(m, s, lo)
-            c_lo = np.where(m[..., None], cs, c_lo)
-            m = s > hi
-            hi = np.where(m, s, hi)
-            c_hi = np.where(m[..., None], cs, c_hi)
+    L = log_depth(d)
+    lo, hi, c_lo, c_hi = extremes(L, rgb, radius, disc=False)
     if os.environ.get("SETTLE_ALL"):
         moved = hi - lo > np.log(1.1)
     band = moved & (L - lo > np.log(1 + tol)) & (hi - L > np.log(1 + tol))
@@ -121,8 +115,7 @@ def cut(d, rgb, radius, tol, moved):
     of it); a graph cut (PyMaxflow) with a colour data term, a Potts term weighted by colour
     likeness between band pixels, and a pull towards the side of each neighbour outside the band."""
     import maxflow
-    L = np.where(np.isinf(d), SKY_LOG, np.log(np.where(d > 0, d, np.nan)))
-    L = np.where(np.isnan(L), SKY_LOG, L)
+    L = log_depth(d)
     offs = [(dy, dx) for dy in range(-radius, radius + 1) for dx in range(-radius, radius + 1)]
     lo, hi = L.copy(), L.copy()
     for dy, dx in offs:
