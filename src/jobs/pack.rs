@@ -89,6 +89,7 @@ pub fn repack_panorama(
     let start = Instant::now();
     let pano = Panorama::open(input)?;
     let n = pano.manifest.layers.len();
+    progress(0, n);
     let mut images = Vec::with_capacity(n);
     for k in 0..n {
         images.push(pano.read_layer(k, &s.limits)?);

@@ -201,7 +201,9 @@ pub(crate) fn to_metres(
             let m = (f64::from(v) * scale) as f32;
             // A finite value whose metres f32 cannot hold (under- or overflow) is no depth either.
             let lost = v.is_finite() && !(m > 0.0 && m.is_finite());
-            if is_invalid(enc, v) || v <= 0.0 || lost || (sentinel && f64::from(v) * scale >= SENTINEL_M) {
+            // Sentinels are finite; a stored +inf is the sky, as the sentinel warning advises.
+            let far_sentinel = sentinel && v.is_finite() && f64::from(v) * scale >= SENTINEL_M;
+            if is_invalid(enc, v) || v <= 0.0 || lost || far_sentinel {
                 f32::NAN
             } else {
                 m
@@ -286,8 +288,9 @@ fn relative_to_metres(
                 return f32::NAN;
             }
             let t = fit.a * v + fit.b;
-            if inverse && t <= 0.0 {
-                // 1/depth at or below 0: beyond any finite distance.
+            if inverse && (t <= 0.0 || 1.0 / t > f64::from(f32::MAX)) {
+                // 1/depth at or below 0 (or so small f32 cannot hold the distance): beyond any
+                // finite distance.
                 return f32::INFINITY;
             }
             let m = if inverse { (1.0 / t) as f32 } else { t as f32 };

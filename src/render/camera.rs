@@ -262,7 +262,9 @@ impl Camera {
     /// half-angle under 90° is convex, so it holds the hull).
     pub fn hull_outside(&self, pts: &[DVec3], margin: f64) -> bool {
         if let Camera::HalfEquirect(c) = self {
-            let beyond = (margin * PI / c.height as f64).min(FRAC_PI_2).sin();
+            // Twice the margin's angle: near the poles a splat's columns widen by 1 / sin θ, so it
+            // reaches farther in azimuth than its radius in rows.
+            let beyond = (2.0 * margin * PI / c.height as f64).min(FRAC_PI_2).sin();
             // Camera space x is −forward: behind is x > 0.
             return pts.iter().all(|p| p.x > beyond * p.length());
         }
@@ -449,7 +451,7 @@ mod tests {
         let edge = [DVec3::new(-0.01, 1.0, 0.0), DVec3::new(-0.01, 1.0, 0.1), DVec3::new(-0.02, 1.0, 0.0)];
         let pole = [DVec3::new(-0.5, 0.0, 1.0), DVec3::new(0.5, 0.0, 1.0), DVec3::new(0.0, 0.5, 1.0)];
         assert!(c.hull_outside(&behind.map(to), 1.0));
-        // 0.01 rad behind the edge: within a margin of one pixel (π / 64 rad).
+        // 0.01–0.02 rad behind the edge: within a margin of one pixel (culled beyond 2π / 64 rad).
         assert!(!c.hull_outside(&edge.map(to), 1.0));
         assert!(c.hull_outside(&edge.map(to), 0.0));
         assert!(!c.hull_outside(&pole.map(to), 1.0));

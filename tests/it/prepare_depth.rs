@@ -328,10 +328,13 @@ fn sentinels_are_unknown_with_a_warning() {
     let (_, _, input) = room();
     let mut d = input.depth.clone();
     d[W * 100 + 17] = 1e10;
+    // The sky stored as +inf, as the warning advises, stays the sky beside a sentinel.
+    d[5] = f32::INFINITY;
     let p = prepare(&input, samples(W, d, SampleFormat::F32), &DepthEncoding::default(), &Default::default());
     let w = p.report.warnings.iter().find(|w| w.code == "INPUT_DEPTH_SENTINEL").expect("a sentinel warning");
     assert!(w.message.contains("--depth-invalid"), "{}", w.message);
     assert!(p.depth[W * 100 + 17] < 10.0 && p.report.completed_pixels == 1);
+    assert_eq!(p.depth[5], f32::INFINITY);
 }
 
 /// Log depth blurred along rows and columns (a Gaussian of `sigma` pixels, the seam wrapped): the
