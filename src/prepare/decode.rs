@@ -198,11 +198,12 @@ pub(crate) fn to_metres(
         .values
         .iter()
         .map(|&v| {
-            let m = (f64::from(v) * scale) as f32;
+            let metres = f64::from(v) * scale;
+            let m = metres as f32;
             // A finite value whose metres f32 cannot hold (under- or overflow) is no depth either.
             let lost = v.is_finite() && !(m > 0.0 && m.is_finite());
             // Sentinels are finite; a stored +inf is the sky, as the sentinel warning advises.
-            let far_sentinel = sentinel && v.is_finite() && f64::from(v) * scale >= SENTINEL_M;
+            let far_sentinel = sentinel && v.is_finite() && metres >= SENTINEL_M;
             if is_invalid(enc, v) || v <= 0.0 || lost || far_sentinel {
                 f32::NAN
             } else {

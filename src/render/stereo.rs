@@ -66,10 +66,10 @@ impl StereoCamera {
         layout: StereoLayout,
     ) -> Result<StereoCamera, RenderError> {
         check_ipd(ipd)?;
-        let bad = RenderError::BadSize { width, height, need: ODS };
-        let (w, h) = layout.eye_size(width, height).ok_or(bad)?;
+        let bad = || RenderError::BadSize { width, height, need: ODS };
+        let (w, h) = layout.eye_size(width, height).ok_or_else(bad)?;
         if w != 2 * h {
-            return Err(RenderError::BadSize { width, height, need: ODS });
+            return Err(bad());
         }
         let eye_cam = |offset| OdsEye::new(eye, w, h, offset, pole_merge).map(Camera::Ods);
         Ok(StereoCamera { left: eye_cam(ipd / 2.0)?, right: eye_cam(-ipd / 2.0)?, layout, player_yaw: None })
