@@ -15,6 +15,8 @@ Methods:
   a far candidate (the sides' own values); a pixel in a step (the two more than JUMP apart) and more
   than TOL from both goes to the side whose colour (3 × 3 mean at the window's nearest or farthest
   pixel) is closer to its own.
+- `segplane`: colour superpixels, a plane in disparity per superpixel from its settled pixels, the
+  in-between pixels near steps take their superpixel's plane (see `segplane`; needs scikit-image).
 """
 
 import argparse
@@ -175,6 +177,97 @@ def cut(d, rgb, radius, tol, moved):
     return np.where(band, res, d), band
 
 
+SEG_PX = int(os.environ.get("SEG_PX", "64"))  # segplane: mean superpixel size, px
+SEG_C = float(os.environ.get("SEG_C", "10"))  # segplane: SLIC compactness
+SEG_GRAD = float(os.environ.get("SEG_GRAD", "0.01"))  # segplane: settled below this log-depth step
+
+
+def rays(h, w):
+    """Unit ray per pixel of an equirect canvas (any right-handed frame will do for plane fits)."""
+    th = (np.arange(h) + 0.5) / h * np.pi
+    ph = (np.arange(w) + 0.5) / w * 2 * np.pi
+    st = np.sin(th)[:, None]
+    return np.stack([st * np.cos(ph)[None, :], np.repeat(np.cos(th)[:, None], w, 1), st * np.sin(ph)[None, :]], -1)
+
+
+def plane_fits(labels, n, r, disp, use):
+    """Least-squares disparity = a · ray per label over the pixels `use`, reweighted twice (Tukey)
+    against ramps inside a segment; NaN rows where a label has under 6 such pixels."""
+    lab, rr, dd = labels[use], r[use], disp[use]
+    wgt = np.ones(len(dd))
+    coef = np.full((n, 3), np.nan)
+    for _ in range(3):
+        A = np.zeros((n, 3, 3))
+        b = np.zeros((n, 3))
+        for i in range(3):
+            b[:, i] = np.bincount(lab, wgt * rr[:, i] * dd, n)
+            for j in range(3):
+                A[:, i, j] = np.bincount(lab, wgt * rr[:, i] * rr[:, j], n)
+        cnt = np.bincount(lab, wgt > 0, n)
+        ok = (cnt >= 6) & (np.abs(np.linalg.det(A)) > 1e-12 * np.maximum(A[:, 0, 0] + A[:, 1, 1] + A[:, 2, 2], 1e-30) ** 3)
+        coef[:] = np.nan
+        coef[ok] = np.linalg.solve(A[ok], b[ok][..., None])[..., 0]
+        pred = np.einsum("ij,ij->i", rr, np.nan_to_num(coef[lab]))
+        res = np.abs(pred - dd) / np.maximum(np.abs(dd), 1e-6)
+        scale = 0.05
+        wgt = np.where(res < scale, (1 - (res / scale) ** 2) ** 2, 0.0)
+    return coef
+
+
+def segplane(d, rgb, jump, tol, radius):
+    """Colour superpixels (SLIC), a plane in disparity fitted to each from its settled pixels (log
+    depth steps under SEG_GRAD), superpixels without enough taking the plane of the adjacent one of
+    nearest mean colour; pixels within `radius` of a step (window range over `jump`) take their
+    superpixel's plane where it lies within the window's range."""
+    from skimage.segmentation import slic
+    h, w = d.shape
+    L = log_depth(d)
+    disp = np.where(np.isinf(d), 0.0, 1.0 / np.where(d > 0, d, np.nan))
+    labels = slic(rgb, n_segments=max(h * w // SEG_PX, 1), compactness=SEG_C, start_label=0,
+                  channel_axis=-1, enforce_connectivity=True)
+    n = labels.max() + 1
+    g = np.zeros(L.shape)
+    for dy, dx in ((0, 1), (1, 0)):
+        g = np.maximum(g, np.abs(dq.shifted(L, -dy, -dx) - dq.shifted(L, dy, dx)) / 2)
+    r = rays(h, w)
+    use = (g < SEG_GRAD) & np.isfinite(disp)
+    coef = plane_fits(labels, n, r, disp, use)
+    # Mean colour per label, and adjacency, to hand planes to superpixels without one.
+    mean = np.stack([np.bincount(labels.ravel(), rgb[..., k].ravel(), n) for k in range(3)], -1)
+    mean /= np.maximum(np.bincount(labels.ravel(), None, n), 1)[:, None]
+    pairs = set()
+    for dy, dx in ((0, 1), (1, 0)):
+        a, b = labels, dq.shifted(labels, -dy, -dx)
+        m = a != b
+        pairs |= set(zip(a[m].tolist(), b[m].tolist()))
+    adj = [[] for _ in range(n)]
+    for a, b in pairs:
+        adj[a].append(b)
+        adj[b].append(a)
+    for _ in range(8):
+        missing = np.nonzero(np.isnan(coef[:, 0]))[0]
+        if len(missing) == 0:
+            break
+        new = coef.copy()
+        for s in missing:
+            cands = [t for t in adj[s] if not np.isnan(coef[t, 0])]
+            if cands:
+                t = min(cands, key=lambda t: np.sum((mean[s] - mean[t]) ** 2))
+                new[s] = coef[t]
+        coef = new
+    pred = np.einsum("hwi,hwi->hw", r, np.nan_to_num(coef[labels], nan=np.nan))
+    lo, hi, _, _ = extremes(L, rgb, radius, disc=False)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pl = np.where(pred <= 1e-6, SKY_LOG, -np.log(pred))
+    t = np.log(1 + tol)
+    band = (hi - lo > np.log(1 + jump)) & np.isfinite(pl) & (pl >= lo - t) & (pl <= hi + t) & ~np.isnan(d)
+    band &= np.abs(pl - L) > 1e-6
+    if not os.environ.get("SEG_ALL"):
+        band &= (L - lo > t) & (hi - L > t)  # only what lies between the window's sides
+    res = np.where(pl >= SKY_LOG - 1e-6, np.inf, np.exp(pl))
+    return np.where(band, res, d), band
+
+
 def where(prep, truth):
     """Where the flying pixels are: shares by distance to the nearest exact occlusion edge (< 1, 1–2,
     2–5, 5–20 px and more), and the share whose truth is the sky."""
@@ -231,6 +324,8 @@ def main():
                     os.path.join(a.work, a.corpus, a.base, scene, f"prepared-{kind}.exr"))["Z"]
                 changed = ~((prep == base) | (np.isnan(prep) & np.isnan(base)))
                 out, moved = settle(prep, rgb, a.radius, a.tol, changed)
+            elif a.method == "segplane":
+                out, moved = segplane(prep, rgb, a.jump, a.tol, a.radius)
             else:
                 out, moved = minmax(prep, rgb, a.radius, a.jump, a.tol)
             dt = time.time() - t0
