@@ -103,6 +103,21 @@ def settle(d, rgb, radius, tol, moved):
         near = np.zeros(L.shape, bool)
     elif SETTLE_BY == "depth":
         near = (L - lo) <= (hi - L)
+    elif SETTLE_BY == "nearest-colour":
+        # Each side's pixels within the window (within tol of its depth); the side holding the pixel
+        # of nearest colour wins (a textured side's mean colour matches neither side).
+        t = np.log(1 + tol)
+        dn, df = np.full(L.shape, np.inf), np.full(L.shape, np.inf)
+        for dy in range(-radius, radius + 1):
+            for dx in range(-radius, radius + 1):
+                if dy == 0 and dx == 0:
+                    continue
+                s = dq.shifted(L, dy, dx)
+                cs = np.stack([dq.shifted(rgb[..., k], dy, dx) for k in range(3)], axis=-1)
+                dist = np.linalg.norm(rgb - cs, axis=-1)
+                dn = np.where(s <= lo + t, np.minimum(dn, dist), dn)
+                df = np.where(s >= hi - t, np.minimum(df, dist), df)
+        near = dn <= df
     else:
         near = np.linalg.norm(rgb - c_lo, axis=-1) <= np.linalg.norm(rgb - c_hi, axis=-1)
     out = np.where(band & near, lo, np.where(band, hi, L))
@@ -268,6 +283,32 @@ def segplane(d, rgb, jump, tol, radius):
     return np.where(band, res, d), band
 
 
+def oracle(prep, truth, rgb, radius, tol):
+    """The bound of any side decision over the window's extremes: each flying pixel takes whichever of
+    the nearest and farthest depth within `radius` is nearer the truth. Also the share of flying
+    pixels where the nearest-colour rule (SETTLE_BY=nearest-colour, window 7 × 7) picks that side."""
+    L, T = log_depth(prep), log_depth(truth)
+    lo, hi, _, _ = extremes(L, rgb, radius, disc=False)
+    fly = dq.flying(prep, truth)[0]
+    near = np.abs(lo - T) < np.abs(hi - T)
+    best = np.where(near, lo, hi)
+    out = prep.copy()
+    out[fly] = np.where(best[fly] >= SKY_LOG - 1e-6, np.inf, np.exp(best[fly]))
+    t = np.log(1 + tol)
+    dn, df = np.full(L.shape, np.inf), np.full(L.shape, np.inf)
+    for dy in range(-3, 4):
+        for dx in range(-3, 4):
+            if dy or dx:
+                s = dq.shifted(L, dy, dx)
+                cs = np.stack([dq.shifted(rgb[..., k], dy, dx) for k in range(3)], axis=-1)
+                dist = np.linalg.norm(rgb - cs, axis=-1)
+                dn = np.where(s <= lo + t, np.minimum(dn, dist), dn)
+                df = np.where(s >= hi - t, np.minimum(df, dist), df)
+    agree = ((dn <= df) == near)[fly].mean() * 100 if fly.any() else 100.0
+    return (f"{fly.mean() * 100:.2f} → oracle {dq.flying(out, truth)[0].mean() * 100:.2f}; "
+            f"colour picks the oracle's side for {agree:.0f} %")
+
+
 def where(prep, truth):
     """Where the flying pixels are: shares by distance to the nearest exact occlusion edge (< 1, 1–2,
     2–5, 5–20 px and more), and the share whose truth is the sky."""
@@ -313,6 +354,9 @@ def main():
             t0 = time.time()
             if a.method == "where":
                 cells.append(where(prep, truth))
+                continue
+            if a.method == "oracle":
+                cells.append(oracle(prep, truth, rgb, a.radius, a.tol))
                 continue
             if a.method == "cut":
                 base = realistic.read_channels(
