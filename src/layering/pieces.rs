@@ -95,13 +95,12 @@ pub(super) fn breaks<G: PartialEq + Copy>(
                 for k in 0..4 {
                     let Some(q) = nb.get_at(x, y, k).filter(|&q| q > p) else { continue };
                     let Some(b) = at(q) else { continue };
-                    let behind = nb.get_at(x, y, opposite(k)).and_then(at);
-                    let beyond = nb.get2_at(x, y, k).and_then(at);
-                    if !continuity::continuous(
+                    // The plane test's pixels only when the step alone does not decide (most pairs).
+                    if !continuity::continuous_with(
                         a,
                         b,
-                        behind,
-                        beyond,
+                        || nb.get_at(x, y, opposite(k)).and_then(at),
+                        || nb.get2_at(x, y, k).and_then(at),
                         continuity::LAYER_JUMP,
                         continuity::PLANAR,
                     ) {

@@ -24,6 +24,9 @@ pub struct Neighbours {
     /// Columns / rows whose 8 neighbours are plain offsets (not at the canvas or a face edge).
     interior_col: Vec<bool>,
     interior_row: Vec<bool>,
+    /// Columns / rows two steps from any such edge (two steps along any offset are plain too).
+    interior2_col: Vec<bool>,
+    interior2_row: Vec<bool>,
 }
 
 impl Neighbours {
@@ -34,9 +37,18 @@ impl Neighbours {
             AnyMapping::Equirect(_) => width.max(height),
             AnyMapping::Cube(_) => height / 2,
         };
-        let interior =
-            |len: usize| (0..len).map(|i| i % tile >= 1 && i % tile + 1 < tile && i + 1 < len).collect();
-        Neighbours { mapping, width, height, interior_col: interior(width), interior_row: interior(height) }
+        let interior = |len: usize, r: usize| -> Vec<bool> {
+            (0..len).map(|i| i % tile >= r && i % tile + r < tile && i + r < len).collect()
+        };
+        Neighbours {
+            mapping,
+            width,
+            height,
+            interior_col: interior(width, 1),
+            interior_row: interior(height, 1),
+            interior2_col: interior(width, 2),
+            interior2_row: interior(height, 2),
+        }
     }
 
     /// Canvas width, pixels.
@@ -96,6 +108,11 @@ impl Neighbours {
     #[inline]
     pub fn get2_at(&self, x: usize, y: usize, k: usize) -> Option<usize> {
         let (dx, dy) = OFFSETS[k];
+        if self.interior2_col[x] && self.interior2_row[y] {
+            let nx = (x as isize + 2 * dx as isize) as usize;
+            let ny = (y as isize + 2 * dy as isize) as usize;
+            return Some(ny * self.width + nx);
+        }
         let q = self.get_at(x, y, k)?;
         if self.interior_col[x] && self.interior_row[y] {
             let (qx, qy) = ((x as isize + dx as isize) as usize, (y as isize + dy as isize) as usize);
@@ -162,5 +179,28 @@ fn face_dir(face: usize, s: f64, t: f64) -> DVec3 {
         3 => DVec3::new(-1.0, s, -t),
         4 => DVec3::new(-s, -1.0, -t),
         _ => DVec3::new(s, -t, -1.0),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mapping::MappingKind;
+
+    /// Two steps along an offset are the neighbour of the neighbour, on every pixel of both
+    /// mappings (the plain-offset fast path agrees with stepping over seams, poles and face edges).
+    #[test]
+    fn two_steps_are_one_step_twice() {
+        for (kind, w, h) in [(MappingKind::Equirect, 24, 12), (MappingKind::Cube3x2, 36, 24)] {
+            let nb = Neighbours::new(AnyMapping::new(kind, w, h).unwrap());
+            for y in 0..h {
+                for x in 0..w {
+                    for k in 0..8 {
+                        let twice = nb.get_at(x, y, k).and_then(|q| nb.get(q, k));
+                        assert_eq!(nb.get2_at(x, y, k), twice, "{kind:?} ({x}, {y}) k {k}");
+                    }
+                }
+            }
+        }
     }
 }
