@@ -251,62 +251,82 @@ pub fn estimate_normals(nb: &Neighbours, links: &Links, dirs: &PixelDirs, depth:
         .into_par_iter()
         .map(|p| if depth[p] > 0.0 && depth[p].is_finite() { dirs.at(p) * depth[p] } else { Vec3::NAN })
         .collect();
-    (0..nb.len())
-        .into_par_iter()
-        .map(|p| {
-            let (x, y) = (p % nb.width(), p / nb.width());
-            // The neighbour `k` of `p`, and the one after it, when they lie on the same surface.
-            let step = |k: usize| -> Option<(usize, Vec3)> {
-                let q = nb.get_at(x, y, k).filter(|_| links.continuous(p, k))?;
-                points[q].is_finite().then_some((q, points[q]))
+    let w = nb.width();
+    let mut out = vec![Vec3::ZERO; nb.len()];
+    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, n) in row.iter_mut().enumerate() {
+            let p = y * w + x;
+            // Most pixels: both steps along every offset are plain index steps.
+            *n = if nb.is_interior2(x, y) {
+                let at = |k: usize, steps: isize| Some(p.wrapping_add_signed(steps * nb.offset(k)));
+                normal_at(&points, links, p, |k| at(k, 1), |k| at(k, 2))
+            } else {
+                normal_at(&points, links, p, |k| nb.get_at(x, y, k), |k| nb.get2_at(x, y, k))
             };
-            let step2 = |q: usize, k: usize| -> Option<Vec3> {
-                let r = nb.get2_at(x, y, k).filter(|_| links.continuous(q, k))?;
-                points[r].is_finite().then_some(points[r])
-            };
-            let c = points[p];
-            if !c.is_finite() {
-                return Vec3::ZERO;
-            }
-            let tangent = |fwd: usize, bwd: usize| -> Option<Vec3> {
-                let one_sided = |k: usize| -> Option<(Vec3, f32)> {
-                    let (q, pq) = step(k)?;
-                    let t = pq - c;
-                    // Cosine of the turn between this step and the next (one square root).
-                    let straight = match step2(q, k) {
-                        Some(pr) => {
-                            let u = pr - pq;
-                            let l2 = t.length_squared() * u.length_squared();
-                            if l2 > 0.0 {
-                                t.dot(u) / l2.sqrt()
-                            } else {
-                                0.0
-                            }
-                        }
-                        None => 0.0,
-                    };
-                    Some((if k == fwd { t } else { -t }, straight))
-                };
-                match (one_sided(fwd), one_sided(bwd)) {
-                    (Some((f, sf)), Some((b, sb))) => Some(if sf >= sb { f } else { b }),
-                    (Some((f, _)), None) => Some(f),
-                    (None, Some((b, _))) => Some(b),
-                    (None, None) => None,
-                }
-            };
-            match (tangent(0, 1), tangent(2, 3)) {
-                (Some(tx), Some(ty)) => {
-                    let n = tx.cross(ty).normalize_or_zero();
-                    if n.dot(c) > 0.0 {
-                        -n
+        }
+    });
+    out
+}
+
+/// [`estimate_normals`] at pixel `p`, whose neighbour `k` is `one(k)` and the one after it `two(k)`.
+#[inline(always)]
+fn normal_at(
+    points: &[Vec3],
+    links: &Links,
+    p: usize,
+    one: impl Fn(usize) -> Option<usize>,
+    two: impl Fn(usize) -> Option<usize>,
+) -> Vec3 {
+    // The neighbour `k` of `p`, and the one after it, when they lie on the same surface.
+    let step = |k: usize| -> Option<(usize, Vec3)> {
+        let q = one(k).filter(|_| links.continuous(p, k))?;
+        points[q].is_finite().then_some((q, points[q]))
+    };
+    let step2 = |q: usize, k: usize| -> Option<Vec3> {
+        let r = two(k).filter(|_| links.continuous(q, k))?;
+        points[r].is_finite().then_some(points[r])
+    };
+    let c = points[p];
+    if !c.is_finite() {
+        return Vec3::ZERO;
+    }
+    let tangent = |fwd: usize, bwd: usize| -> Option<Vec3> {
+        let one_sided = |k: usize| -> Option<(Vec3, f32)> {
+            let (q, pq) = step(k)?;
+            let t = pq - c;
+            // Cosine of the turn between this step and the next (one square root).
+            let straight = match step2(q, k) {
+                Some(pr) => {
+                    let u = pr - pq;
+                    let l2 = t.length_squared() * u.length_squared();
+                    if l2 > 0.0 {
+                        t.dot(u) / l2.sqrt()
                     } else {
-                        n
+                        0.0
                     }
                 }
-                _ => Vec3::ZERO,
+                None => 0.0,
+            };
+            Some((if k == fwd { t } else { -t }, straight))
+        };
+        match (one_sided(fwd), one_sided(bwd)) {
+            (Some((f, sf)), Some((b, sb))) => Some(if sf >= sb { f } else { b }),
+            (Some((f, _)), None) => Some(f),
+            (None, Some((b, _))) => Some(b),
+            (None, None) => None,
+        }
+    };
+    match (tangent(0, 1), tangent(2, 3)) {
+        (Some(tx), Some(ty)) => {
+            let n = tx.cross(ty).normalize_or_zero();
+            if n.dot(c) > 0.0 {
+                -n
+            } else {
+                n
             }
-        })
-        .collect()
+        }
+        _ => Vec3::ZERO,
+    }
 }
 
 #[cfg(test)]

@@ -83,6 +83,20 @@ impl Neighbours {
         self.interior_col[x] && self.interior_row[y]
     }
 
+    /// Whether one and two steps along every offset from `(x, y)` are plain offsets
+    /// ([`Neighbours::offset`], twice it).
+    #[inline]
+    pub fn is_interior2(&self, x: usize, y: usize) -> bool {
+        self.interior2_col[x] && self.interior2_row[y]
+    }
+
+    /// The pixel-index step of offset `k` where it is plain (inside the canvas or a face).
+    #[inline]
+    pub fn offset(&self, k: usize) -> isize {
+        let (dx, dy) = OFFSETS[k];
+        dy as isize * self.width as isize + dx as isize
+    }
+
     /// Neighbour `k` (index into [`OFFSETS`]) of pixel index `p`; `None` only where the sphere
     /// has no distinct neighbour (a cube corner's missing diagonal).
     #[inline]
@@ -107,12 +121,10 @@ impl Neighbours {
     /// The neighbour of the neighbour, two steps along `k` (continuing over edges step by step).
     #[inline]
     pub fn get2_at(&self, x: usize, y: usize, k: usize) -> Option<usize> {
-        let (dx, dy) = OFFSETS[k];
-        if self.interior2_col[x] && self.interior2_row[y] {
-            let nx = (x as isize + 2 * dx as isize) as usize;
-            let ny = (y as isize + 2 * dy as isize) as usize;
-            return Some(ny * self.width + nx);
+        if self.is_interior2(x, y) {
+            return Some((y * self.width + x).wrapping_add_signed(2 * self.offset(k)));
         }
+        let (dx, dy) = OFFSETS[k];
         let q = self.get_at(x, y, k)?;
         if self.interior_col[x] && self.interior_row[y] {
             let (qx, qy) = ((x as isize + dx as isize) as usize, (y as isize + dy as isize) as usize);
