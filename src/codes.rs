@@ -193,6 +193,7 @@ declare_codes! {
     RENDER_BAD_CAMERA, Error, "A camera input is non-finite, the field of view is outside (0, 180)°, the look-at point is the eye, the transform is not invertible, or stereo eyes sit beyond the freedom radius (`--ipd` over twice it).";
     RENDER_BAD_OPTIONS, Error, "A splat or mesh render option is out of range, or meshes and layers differ in number.";
     RENDER_BAD_SIZE, Error, "The output size is zero or too large, or an equirect output is not 2:1.";
+    RENDER_CAMERA_PATH, Error, "A camera path cannot be read or has a malformed line or no frames, or an output name has no run of `#` for its frame numbers.";
     RENDER_LAYER_CHANNEL, Error, "A layer lacks one of the channels rendering needs (R, G, B, Z).";
     RENDER_LAYER_SIZE, Error, "A layer's size is not a valid canvas of the panorama's mapping.";
     RENDER_MESH, Error, "A layer could not be meshed, or a given mesh does not belong to its layer.";

@@ -44,6 +44,8 @@ pub use crate::jobs::{
     build_panorama, build_panorama_with_progress, prepare_depth_files, write_depth, BuildSettings,
     BuildSummary, RenderMethod, Renderer, View, ViewCamera,
 };
+#[cfg(feature = "clap")]
+pub use crate::jobs::{read_camera_path, render_panorama, RenderReport, RenderSettings, Shot};
 pub use crate::jobs::{repack_panorama, RepackReport, RepackSettings};
 pub use crate::jobs::{scene_panorama, SceneSummary};
 pub use crate::layer::{LayerImage, Sample};

@@ -38,6 +38,7 @@ __all__ = [
     "SCENE_OPTIONS",
     "MESH_OPTIONS",
     "RENDER_OPTIONS",
+    "render_files",
     "save_colour",
 ]
 
@@ -307,6 +308,35 @@ def unpack(input: "os.PathLike[str] | str", output: "os.PathLike[str] | str") ->
     """Write the panorama ``input`` again into ``output`` with every layer on its full canvas,
     exactly as ``pomc unpack INPUT -o OUTPUT``; returns the report as :func:`pack` does."""
     return json.loads(_pomc.repack_files(os.fspath(input), os.fspath(output), False, 0.5, 0))
+
+
+def render_files(
+    pano: "os.PathLike[str] | str",
+    output: "os.PathLike[str] | str",
+    *,
+    eye: Optional[Sequence[float]] = None,
+    look_at: Optional[Sequence[float]] = None,
+    path: "os.PathLike[str] | str | None" = None,
+    method: str = "splat",
+    depth: "os.PathLike[str] | str | None" = None,
+    mask: "os.PathLike[str] | str | None" = None,
+    **camera: Any,
+) -> Dict[str, Any]:
+    """Render views of the panorama directory ``pano`` into files exactly as ``pomc render PANO -o
+    OUTPUT``: one view from ``eye`` (default the centre) towards ``look_at``, or one frame per line
+    of the camera path file ``path`` (``EYE [LOOK_AT]``; every output name then needs a run of
+    ``#`` for the frame number). ``depth`` and ``mask`` also write the distance (EXR) and the
+    coverage (PNG). Camera options as :meth:`Panorama.render`'s. Returns the command's ``--json``
+    report (one view's figures and ``stages``, or ``frames`` and their medians)."""
+    size = camera.get("size")
+    if size is not None and not isinstance(size, str):
+        camera["size"] = f"{int(size[0])}x{int(size[1])}"
+    if eye is not None:
+        camera["eye"] = _vec3("eye", eye)
+    if look_at is not None:
+        camera["look_at"] = _vec3("look_at", look_at)
+    paths = [None if p is None else os.fspath(p) for p in (depth, mask, path)]
+    return json.loads(_pomc.render_files(os.fspath(pano), os.fspath(output), *paths, method, camera))
 
 
 def prepare_depth(

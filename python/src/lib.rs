@@ -190,11 +190,7 @@ impl PyPanorama {
         method: &str,
         options: &Bound<'py, PyDict>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>, f64)> {
-        let method = match method {
-            "splat" => RenderMethod::Splat,
-            "mesh" => RenderMethod::Mesh,
-            other => return Err(usage(format!("method `{other}`: use \"splat\" or \"mesh\""))),
-        };
+        let method = render_method(method)?;
         let args: CameraArgs = options::from_keywords("render", &keywords(options)?).map_err(usage)?;
         let eye = eye.map(DVec3::from).unwrap_or(pomc::manifest::centre(self.manifest.local_to_world()));
         let look = self.manifest.default_look();
@@ -423,6 +419,39 @@ fn repack_files(
     serde_json::to_string(&report).map_err(|e| usage(e.to_string()))
 }
 
+/// `pomc render --method`'s names.
+fn render_method(name: &str) -> PyResult<RenderMethod> {
+    match name {
+        "splat" => Ok(RenderMethod::Splat),
+        "mesh" => Ok(RenderMethod::Mesh),
+        other => Err(usage(format!("method `{other}`: use \"splat\" or \"mesh\""))),
+    }
+}
+
+/// Render views of the panorama `pano` into files as `pomc render` does: one view, or one per
+/// line of the camera path `path` (output names numbered at their run of `#`); returns the JSON
+/// report `pomc render --json` prints.
+#[pyfunction]
+#[pyo3(signature = (pano, output, depth, mask, path, method, options))]
+#[allow(clippy::too_many_arguments)]
+fn render_files(
+    py: Python<'_>,
+    pano: PathBuf,
+    output: PathBuf,
+    depth: Option<PathBuf>,
+    mask: Option<PathBuf>,
+    path: Option<PathBuf>,
+    method: &str,
+    options: &Bound<'_, PyDict>,
+) -> PyResult<String> {
+    let method = render_method(method)?;
+    let camera: CameraArgs = options::from_keywords("render", &keywords(options)?).map_err(usage)?;
+    let shots = path.map(|p| jobs::read_camera_path(&p)).transpose().map_err(|e| to_py(e.into()))?;
+    let s = jobs::RenderSettings { output, depth, mask, camera, method, shots };
+    let report = py.allow_threads(|| jobs::render_panorama(&pano, &s, &|_, _, _| {})).map_err(to_py)?;
+    serde_json::to_string(&report).map_err(|e| usage(e.to_string()))
+}
+
 /// Read and prepare depth as `pomc prepare` does: the depth on the colour's grid (H×W float32,
 /// metres along the ray, `inf` far) and the JSON report.
 #[pyfunction]
@@ -533,6 +562,7 @@ fn _pomc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(prepare_files, m)?)?;
     m.add_function(wrap_pyfunction!(scene_files, m)?)?;
     m.add_function(wrap_pyfunction!(repack_files, m)?)?;
+    m.add_function(wrap_pyfunction!(render_files, m)?)?;
     m.add_function(wrap_pyfunction!(option_defaults, m)?)?;
     Ok(())
 }

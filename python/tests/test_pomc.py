@@ -402,3 +402,33 @@ def test_pack_and_unpack_equal_the_commands(built, tmp_path):
     assert all(l["atlas"] == l["canvas"] for l in full["layers"])
     with pytest.raises(pomc.PomcError):
         pomc.pack(src, tmp_path / "bad", threshold=1.5)
+
+
+def test_render_files_equal_the_command(built, tmp_path):
+    """`pomc.render_files` writes the images `pomc render` writes, byte for byte, for one view and a
+    camera path, and returns the command's `--json` report (timings aside); a bad path is
+    RENDER_CAMERA_PATH."""
+    src = built / "cli"
+    cams = tmp_path / "cams.txt"
+    cams.write_text("0,0,1.2 2,0,0.4\n0.1,0.2,1.2\n")
+
+    def untimed(v):
+        if isinstance(v, dict):
+            return {k: untimed(x) for k, x in v.items() if not k.endswith("_s") and k != "output"}
+        return [untimed(x) for x in v] if isinstance(v, list) else v
+
+    for name, kw, flags in [
+        ("view", dict(eye=(0.1, 0.0, 1.2), size=(96, 54), mask=tmp_path / "py-view-mask.png"),
+         ["--eye", "0.1,0,1.2", "--size", "96x54", "--mask", str(tmp_path / "cli-view-mask.png")]),
+        ("path-##", dict(path=cams, method="mesh", camera="equirect", size=(64, 32)),
+         ["--path", str(cams), "--method", "mesh", "--camera", "equirect", "--size", "64x32"]),
+    ]:
+        py = pomc.render_files(src, tmp_path / f"py-{name}.png", **kw)
+        out = subprocess.run([pomc_bin(), "--json", "render", str(src), "-o", str(tmp_path / f"cli-{name}.png"),
+                              *flags], check=True, capture_output=True, text=True).stdout
+        assert untimed(py) == untimed(json.loads(out)), name
+    for suffix in ("view.png", "view-mask.png", "path-00.png", "path-01.png"):
+        assert (tmp_path / f"py-{suffix}").read_bytes() == (tmp_path / f"cli-{suffix}").read_bytes(), suffix
+    with pytest.raises(pomc.PomcError) as e:
+        pomc.render_files(src, tmp_path / "no-number.png", path=cams)
+    assert e.value.code == "RENDER_CAMERA_PATH"

@@ -2,8 +2,15 @@
 //! `Default` is what the `pomc` command does without options. [`crate::prelude`] re-exports them.
 
 mod pack;
+#[cfg(feature = "clap")]
+mod render;
 
 pub use pack::{repack_panorama, RepackReport, RepackSettings, RepackTimings, RepackedLayer};
+#[cfg(feature = "clap")]
+pub use render::{
+    read_camera_path, render_panorama, FrameReport, MeshReport, PathReport, PathStages, RenderReport,
+    RenderSettings, Shot, ViewReport,
+};
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -22,7 +29,7 @@ use crate::panorama::{self, Panorama, SaveOptions};
 use crate::prepare::{self, DepthSamples, PrepareOptions, PrepareReport, PreparedDepth, SampleFormat};
 use crate::render::stereo::{self, StereoCamera};
 use crate::render::CubeCamera;
-use crate::render::{self, rasterize, Camera, Frame, RasterOptions, RenderLayer, SplatOptions, Stage};
+use crate::render::{rasterize, Camera, Frame, RasterOptions, RenderLayer, SplatOptions, Stage};
 
 /// Everything `pomc build` takes besides its input and output paths.
 #[derive(Clone, Debug, Default)]
@@ -401,7 +408,7 @@ impl Renderer {
     /// parameters `render --method mesh` uses).
     pub fn new(pano: &Panorama, method: RenderMethod) -> crate::Result<Renderer> {
         let t = Instant::now();
-        let layers = render::read_layers(pano, &ReadLimits::default())?;
+        let layers = crate::render::read_layers(pano, &ReadLimits::default())?;
         let read_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let meshes = match method {
@@ -430,13 +437,13 @@ impl Renderer {
     ) -> crate::Result<Renderer> {
         let kind = manifest.mapping.kind;
         if images.is_empty() {
-            return Err(render::RenderError::NoLayers.into());
+            return Err(crate::render::RenderError::NoLayers.into());
         }
         let layers = images
             .into_iter()
             .enumerate()
             .map(|(index, image)| {
-                let mapping = render::layer_mapping(kind, index, &image)?;
+                let mapping = crate::render::layer_mapping(kind, index, &image)?;
                 Ok((image, mapping))
             })
             .collect::<crate::Result<Vec<_>>>()?;
@@ -508,14 +515,14 @@ impl Renderer {
             ViewCamera::Cube(c) => {
                 let Some(right) = &c.right else {
                     let mut l = self.render(&c.left)?;
-                    l.frame = render::cube::to_cube(&l.frame, c.face, c.layout)?;
+                    l.frame = crate::render::cube::to_cube(&l.frame, c.face, c.layout)?;
                     l.holes = l.frame.holes();
                     l.hole_ratio = l.frame.hole_ratio();
                     return Ok(l);
                 };
                 let (mut l, mut r) = self.render_eyes(&c.left, right)?;
-                l.frame = render::cube::to_cube(&l.frame, c.face, c.layout)?;
-                r.frame = render::cube::to_cube(&r.frame, c.face, c.layout)?;
+                l.frame = crate::render::cube::to_cube(&l.frame, c.face, c.layout)?;
+                r.frame = crate::render::cube::to_cube(&r.frame, c.face, c.layout)?;
                 Ok(stereo_view(l, r, |a, b| stereo::stack_eyes(a, b, c.stereo)))
             }
             ViewCamera::Stereo(s) => {
@@ -538,7 +545,7 @@ impl Renderer {
         if half <= r * (1.0 + 1e-9) {
             return Ok(());
         }
-        Err(render::RenderError::BadCamera(format!(
+        Err(crate::render::RenderError::BadCamera(format!(
             "--ipd {} m puts each eye {half} m from the view's centre, beyond the panorama's freedom radius \
              {r} m, where nothing was kept for it to see; give --ipd at most {} m",
             2.0 * half,
@@ -548,7 +555,7 @@ impl Renderer {
     }
 
     /// Render both eyes: the splat renders them in one pass where they share a camera space
-    /// ([`render::render_views`]), the mesh one after the other.
+    /// ([`crate::render::render_views`]), the mesh one after the other.
     fn render_eyes(&self, left: &Camera, right: &Camera) -> crate::Result<(View, View)> {
         if self.meshes.is_some() {
             return Ok((self.render(left)?, self.render(right)?));
@@ -556,10 +563,10 @@ impl Renderer {
         let refs = RenderLayer::all(&self.layers);
         let cameras = [*left, *right];
         // One view per camera.
-        let [l, r]: [render::Rendered; 2] =
-            render::render_views(&refs, self.local_to_world, &cameras, &SplatOptions::default())?
+        let [l, r]: [crate::render::Rendered; 2] =
+            crate::render::render_views(&refs, self.local_to_world, &cameras, &SplatOptions::default())?
                 .try_into()
-                .map_err(|_| render::RenderError::BadOptions("two eyes, two views".into()))?;
+                .map_err(|_| crate::render::RenderError::BadOptions("two eyes, two views".into()))?;
         Ok((view(l), view(r)))
     }
 
@@ -568,7 +575,7 @@ impl Renderer {
         let refs = RenderLayer::all(&self.layers);
         let to_world = self.local_to_world;
         Ok(match &self.meshes {
-            None => view(render::render(&refs, to_world, camera, &SplatOptions::default())?),
+            None => view(crate::render::render(&refs, to_world, camera, &SplatOptions::default())?),
             Some((geometry, ..)) => {
                 view(rasterize::render_mesh(&refs, geometry, to_world, camera, &RasterOptions::default())?)
             }
@@ -593,7 +600,7 @@ fn stereo_view(l: View, r: View, stack: impl Fn(&Frame, &Frame) -> Frame) -> Vie
     }
 }
 
-fn view<C: serde::Serialize, O>(r: render::Rendered<C, O>) -> View {
+fn view<C: serde::Serialize, O>(r: crate::render::Rendered<C, O>) -> View {
     let s = r.stats;
     View {
         frame: r.frame,

@@ -123,6 +123,10 @@ pub enum RenderError {
         /// The extensions accepted, for the message (e.g. `"png or exr"`).
         expected: &'static str,
     },
+    /// A camera path cannot be read or has a malformed line or no frames, or an output name has
+    /// no run of `#` for a path's frame numbers.
+    #[error("{0}")]
+    CameraPath(String),
 }
 
 crate::codes::error_codes! {
@@ -134,7 +138,8 @@ crate::codes::error_codes! {
         LayerChannel RENDER_LAYER_CHANNEL,
         LayerSize RENDER_LAYER_SIZE,
         Mesh RENDER_MESH,
-        OutputFormat RENDER_OUTPUT_FORMAT
+        OutputFormat RENDER_OUTPUT_FORMAT,
+        CameraPath RENDER_CAMERA_PATH
 }
 
 /// One layer to render: its full-canvas image and parametrisation.

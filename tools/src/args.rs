@@ -1,7 +1,7 @@
 //! Argument value parsers shared by the commands: the library's (one syntax for every vector,
 //! one domain type for every number).
 
-pub use pomc::options::{parse_vec3, Range};
+pub use pomc::options::Range;
 
 /// One command's arguments parsed alone, `argv[0]` being the program name (tests of defaults).
 #[cfg(test)]

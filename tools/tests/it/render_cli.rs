@@ -226,11 +226,11 @@ fn camera_path_renders_every_frame_like_single_renders() {
         let b = std::fs::read(dir.path().join(format!("{method}-single.png"))).unwrap();
         assert!(a == b, "{method}: frame 1 differs from the single render of its camera");
     }
-    // An output name without `#` and a malformed line are usage errors that name the file.
+    // An output name without `#` and a malformed line are camera path errors that name the file.
     let out = pomc(&["render", &pano, "-o", &p("x.png"), "--path", &p("path.txt"), "--json"]);
     assert_eq!(out.status.code(), Some(2));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(v["error"]["code"], "CLI_USAGE");
+    assert_eq!(v["error"]["code"], "RENDER_CAMERA_PATH");
     std::fs::write(p("bad.txt"), "0,0,1.2\n0,0\n").unwrap();
     let out = pomc(&["render", &pano, "-o", &p("y-#.png"), "--path", &p("bad.txt")]);
     assert_eq!(out.status.code(), Some(2));
