@@ -24,19 +24,72 @@ impl Dsu {
     pub(super) fn new(n: usize) -> Self {
         Dsu { parent: (0..n as u32).collect() }
     }
-    pub(super) fn find(&mut self, mut x: u32) -> u32 {
-        while self.parent[x as usize] != x {
-            let g = self.parent[self.parent[x as usize] as usize];
-            self.parent[x as usize] = g;
-            x = g;
-        }
-        x
+    pub(super) fn find(&mut self, x: u32) -> u32 {
+        find_in(&mut self.parent, 0, x)
     }
     pub(super) fn union(&mut self, a: u32, b: u32) {
-        let (a, b) = (self.find(a), self.find(b));
-        if a != b {
-            self.parent[a.max(b) as usize] = a.min(b);
+        union_in(&mut self.parent, 0, a, b);
+    }
+
+    /// The sets of `nb`'s pixels joined by their smooth links (bit i of `masks[p].0`: `p` and its
+    /// neighbour along `HALF[i]`). Bands of rows are joined in parallel, each in its own slice of
+    /// the table (a set's root, its smallest pixel, lies in its band until bands meet); the links
+    /// between bands then serially. The sets and roots are those of joining every link in order.
+    fn of_smooth_links(nb: &Neighbours, masks: &[(u8, u8, u8)]) -> Dsu {
+        let (n, w) = (nb.len(), nb.width());
+        let mut parent: Vec<u32> = (0..n as u32).collect();
+        let band = (nb.height() / (4 * rayon::current_num_threads())).max(1) * w;
+        let across: Vec<(u32, u32)> = parent
+            .par_chunks_mut(band)
+            .enumerate()
+            .flat_map_iter(|(b, table)| {
+                let start = b * band;
+                let inside = start..start + table.len();
+                let mut across = Vec::new();
+                for p in inside.clone() {
+                    let smooth = masks[p].0;
+                    if smooth == 0 {
+                        continue;
+                    }
+                    let (x, y) = (p % w, p / w);
+                    for (i, &k) in HALF.iter().enumerate() {
+                        if smooth >> i & 1 == 1 {
+                            let q = nb.get_at(x, y, k).expect("link implies a neighbour");
+                            if inside.contains(&q) {
+                                union_in(table, start as u32, p as u32, q as u32);
+                            } else {
+                                across.push((p as u32, q as u32));
+                            }
+                        }
+                    }
+                }
+                across
+            })
+            .collect();
+        let mut dsu = Dsu { parent };
+        for (p, q) in across {
+            dsu.union(p, q);
         }
+        dsu
+    }
+}
+
+/// [`Dsu::find`] in a table of the pixels from `offset` on.
+fn find_in(parent: &mut [u32], offset: u32, mut x: u32) -> u32 {
+    let at = |x: u32| (x - offset) as usize;
+    while parent[at(x)] != x {
+        let g = parent[at(parent[at(x)])];
+        parent[at(x)] = g;
+        x = g;
+    }
+    x
+}
+
+/// [`Dsu::union`] in a table of the pixels from `offset` on.
+fn union_in(parent: &mut [u32], offset: u32, a: u32, b: u32) {
+    let (a, b) = (find_in(parent, offset, a), find_in(parent, offset, b));
+    if a != b {
+        parent[(a.max(b) - offset) as usize] = a.min(b);
     }
 }
 
@@ -84,18 +137,7 @@ pub fn segment(
     let n = nb.len();
     let finite = |i: usize| depth[i] > 0.0 && depth[i].is_finite();
     let masks = classify_links(nb, depth, links, normals);
-    let mut dsu = Dsu::new(n);
-    for (p, &(smooth, _, _)) in masks.iter().enumerate() {
-        if smooth == 0 {
-            continue;
-        }
-        for (i, &k) in HALF.iter().enumerate() {
-            if smooth >> i & 1 == 1 {
-                let q = nb.get(p, k).expect("link implies a neighbour");
-                dsu.union(p as u32, q as u32);
-            }
-        }
-    }
+    let mut dsu = Dsu::of_smooth_links(nb, &masks);
     let mut id = compact(&mut dsu, n, &finite);
     // A segment that occludes itself (a box joined to the floor by a crease softened below the fold
     // angle, a pole standing on the ground with no fold at its foot, a surface curving behind itself)
@@ -274,8 +316,9 @@ fn bridge_jumps(
         .into_par_iter()
         .filter(|&p| large(p))
         .flat_map_iter(|p| {
+            let (x, y) = (p % nb.width(), p / nb.width());
             HALF.iter().filter_map(move |&k| {
-                let mut r = nb.get(p, k)?;
+                let mut r = nb.get_at(x, y, k)?;
                 if large(r) || id[r] == NO_SEGMENT {
                     return None;
                 }

@@ -98,3 +98,39 @@ fn a_cut_through_flat_surface_is_not_made() {
     assert_eq!(at(10, 28), at(50, 28), "the two sides stay one surface");
     assert_ne!(at(31, 28), at(10, 28), "the front pixels along the jump are cut off");
 }
+
+/// Joining bands of rows in parallel gives the sets and roots of joining every link in order, on
+/// both mappings (links across the seam, the poles and cube-face edges cross bands).
+#[test]
+fn banded_union_equals_serial_union() {
+    for (kind, w, h) in [(MappingKind::Equirect, 64, 32), (MappingKind::Cube3x2, 96, 64)] {
+        let nb = Neighbours::new(AnyMapping::new(kind, w, h).unwrap());
+        // A fixed pseudo-random pattern of links, sparse enough to leave many sets.
+        let mut state = 0x9E37_79B9u32;
+        let masks: Vec<(u8, u8, u8)> = (0..nb.len())
+            .map(|p| {
+                state ^= state << 13;
+                state ^= state >> 17;
+                state ^= state << 5;
+                let (x, y) = (p % w, p / w);
+                let bits =
+                    (0..4).filter(|&i| nb.get_at(x, y, HALF[i]).is_some() && state >> (8 * i) & 3 == 0);
+                (bits.fold(0u8, |m, i| m | 1 << i), 0, 0)
+            })
+            .collect();
+        let mut serial = Dsu::new(nb.len());
+        for (p, &(smooth, _, _)) in masks.iter().enumerate() {
+            for (i, &k) in HALF.iter().enumerate() {
+                if smooth >> i & 1 == 1 {
+                    serial.union(p as u32, nb.get(p, k).unwrap() as u32);
+                }
+            }
+        }
+        let mut banded = Dsu::of_smooth_links(&nb, &masks);
+        let roots = |d: &mut Dsu| (0..nb.len() as u32).map(|p| d.find(p)).collect::<Vec<_>>();
+        let (a, b) = (roots(&mut serial), roots(&mut banded));
+        assert_eq!(a, b, "{kind:?}");
+        let sets = a.iter().enumerate().filter(|&(p, &r)| p as u32 == r).count();
+        assert!(sets > 10 && sets < nb.len() / 2, "{kind:?}: {sets} sets");
+    }
+}
