@@ -429,6 +429,7 @@ def test_render_files_equal_the_command(built, tmp_path):
         assert untimed(py) == untimed(json.loads(out)), name
     for suffix in ("view.png", "view-mask.png", "path-00.png", "path-01.png"):
         assert (tmp_path / f"py-{suffix}").read_bytes() == (tmp_path / f"cli-{suffix}").read_bytes(), suffix
-    with pytest.raises(pomc.PomcError) as e:
-        pomc.render_files(src, tmp_path / "no-number.png", path=cams)
-    assert e.value.code == "RENDER_CAMERA_PATH"
+    for bad in (dict(path=cams), dict(path=cams, eye=(0, 0, 1))):
+        with pytest.raises(pomc.PomcError) as e:
+            pomc.render_files(src, tmp_path / ("no-number.png" if "eye" not in bad else "f-#.png"), **bad)
+        assert e.value.code == "RENDER_CAMERA_PATH", bad

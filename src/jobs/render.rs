@@ -247,7 +247,16 @@ pub fn render_panorama(
     progress: &dyn Fn(&str, usize, usize),
 ) -> crate::Result<RenderReport> {
     let start = Instant::now();
-    if s.shots.is_some() {
+    if let Some(shots) = &s.shots {
+        if shots.is_empty() {
+            return Err(RenderError::CameraPath("the camera path has no frames".into()).into());
+        }
+        if s.camera.eye.is_some() || s.camera.look_at.is_some() {
+            return Err(RenderError::CameraPath(
+                "a camera path gives every frame its eye and look-at: leave the camera's eye and look-at unset".into(),
+            )
+            .into());
+        }
         // Every output name is checked before any work.
         for p in std::iter::once(&s.output).chain(&s.depth).chain(&s.mask) {
             frame_name(p, 0)?;

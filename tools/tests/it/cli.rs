@@ -666,10 +666,13 @@ fn non_regular_files_are_refused_without_hanging() {
             "INPUT_UNREADABLE",
         ),
         (
-            vec!["render".into(), p(""), "-o".into(), p("v.png"), "--path".into(), "/dev/zero".into()],
-            "CLI_USAGE",
+            vec!["render".into(), p(""), "-o".into(), p("v-#.png"), "--path".into(), "/dev/zero".into()],
+            "RENDER_CAMERA_PATH",
         ),
-        (vec!["render".into(), p(""), "-o".into(), p("v.png"), "--path".into(), p("fifo.png")], "CLI_USAGE"),
+        (
+            vec!["render".into(), p(""), "-o".into(), p("v-#.png"), "--path".into(), p("fifo.png")],
+            "RENDER_CAMERA_PATH",
+        ),
     ];
     for (mut args, code) in runs {
         args.push("--json".into());
