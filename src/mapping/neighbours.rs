@@ -126,7 +126,7 @@ impl Neighbours {
         }
         let (dx, dy) = OFFSETS[k];
         let q = self.get_at(x, y, k)?;
-        if self.interior_col[x] && self.interior_row[y] {
+        if self.is_interior(x, y) {
             let (qx, qy) = ((x as isize + dx as isize) as usize, (y as isize + dy as isize) as usize);
             return self.get_at(qx, qy, k);
         }
