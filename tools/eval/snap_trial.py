@@ -15,6 +15,7 @@ Methods:
   a far candidate (the sides' own values); a pixel in a step (the two more than JUMP apart) and more
   than TOL from both goes to the side whose colour (3 × 3 mean at the window's nearest or farthest
   pixel) is closer to its own.
+- `oracle-wide`: the bound of a side choice between the nearest and farthest settled depth within R.
 - `segplane`: colour superpixels, a plane in disparity per superpixel from its settled pixels, the
   in-between pixels near steps take their superpixel's plane (see `segplane`; needs scikit-image).
 """
@@ -309,6 +310,28 @@ def oracle(prep, truth, rgb, radius, tol):
             f"colour picks the oracle's side for {agree:.0f} %")
 
 
+def oracle_wide(prep, truth, radius):
+    """The bound of a side decision over settled candidates from afar: the nearest and farthest log
+    depth within `radius` among settled pixels (log-depth gradient under SEG_GRAD); each flying pixel
+    takes whichever is nearer the truth."""
+    L, T = log_depth(prep), log_depth(truth)
+    g = np.zeros(L.shape)
+    for dy, dx in ((0, 1), (1, 0)):
+        g = np.maximum(g, np.abs(dq.shifted(L, -dy, -dx) - dq.shifted(L, dy, dx)) / 2)
+    settled = g < SEG_GRAD
+    fp = np.ones((2 * radius + 1, 2 * radius + 1), bool)
+    lo = ndimage.grey_erosion(np.where(settled, L, np.inf), footprint=fp, mode="wrap")
+    hi = ndimage.grey_dilation(np.where(settled, L, -np.inf), footprint=fp, mode="wrap")
+    lo, hi = np.where(np.isfinite(lo), lo, L), np.where(np.isfinite(hi), hi, L)
+    fly = dq.flying(prep, truth)[0]
+    near = np.abs(lo - T) < np.abs(hi - T)
+    best = np.where(near, lo, hi)
+    out = prep.copy()
+    out[fly] = np.where(best[fly] >= SKY_LOG - 1e-6, np.inf, np.exp(best[fly]))
+    return (f"{fly.mean() * 100:.2f} → wide oracle {dq.flying(out, truth)[0].mean() * 100:.2f}, "
+            f"settled {settled.mean() * 100:.0f} %")
+
+
 def where(prep, truth):
     """Where the flying pixels are: shares by distance to the nearest exact occlusion edge (< 1, 1–2,
     2–5, 5–20 px and more), and the share whose truth is the sky."""
@@ -354,6 +377,9 @@ def main():
             t0 = time.time()
             if a.method == "where":
                 cells.append(where(prep, truth))
+                continue
+            if a.method == "oracle-wide":
+                cells.append(oracle_wide(prep, truth, a.radius))
                 continue
             if a.method == "oracle":
                 cells.append(oracle(prep, truth, rgb, a.radius, a.tol))
