@@ -264,8 +264,9 @@ def build_files(
     **options: Any,
 ) -> Dict[str, Any]:
     """Build from image files straight into ``output``, exactly as ``pomc build --colour C --depth
-    D -o OUTPUT`` (the library reads the images; the panorama is written atomically). Returns
-    ``{"layers", "read_s", "build_s", "write_s"}``."""
+    D -o OUTPUT`` (the library reads the images; the panorama is written atomically). Returns the
+    report ``pomc build --json`` prints: ``layers`` (one entry per layer), ``prepare``, ``stages``,
+    ``read_s``, ``build_s``, ``write_s``, ``total_s`` and the build's figures."""
     opts = _build_options(freedom_radius, convention, center, options)
     return json.loads(_pomc.build_files(os.fspath(colour), os.fspath(depth), os.fspath(output), opts))
 

@@ -78,7 +78,7 @@ def run_item(item: Dict[str, Any], out: str, options: Dict[str, Any]) -> Dict[st
 
     try:
         summary = build_files(item["colour"], item["depth"], dest, **opts)
-        result.update(status="ok", layers=summary["layers"], stages=summary)
+        result.update(status="ok", layers=len(summary["layers"]), stages=summary)
     except PomcError as e:
         result.update(status="failed", code=getattr(e, "code", "POMC_ERROR"), message=str(e))
     except BaseException as e:  # a worker must report, not die (a Rust panic is a BaseException)

@@ -357,7 +357,7 @@ fn build(
 }
 
 /// Build from image files into `output` as `pomc build` does (the library reads and writes the
-/// files, atomically); returns a JSON summary (`layers`, `read_s`, `build_s`, `write_s`).
+/// files, atomically); returns the JSON report `pomc build --json` prints.
 #[pyfunction]
 fn build_files(
     py: Python<'_>,
@@ -369,14 +369,7 @@ fn build_files(
     let settings = settings(options)?;
     let summary =
         py.allow_threads(|| jobs::build_panorama(&colour, &depth, &output, &settings)).map_err(to_py)?;
-    let json = serde_json::json!({
-        "layers": summary.manifest.layers.len(),
-        "prepare": summary.prepare,
-        "read_s": summary.read_s,
-        "build_s": summary.build_s,
-        "write_s": summary.write_s,
-    });
-    Ok(json.to_string())
+    report_json(&summary)
 }
 
 /// Make a panorama from a 3D scene file (glTF, GLB, OBJ) into `output` as `pomc scene` does (the
@@ -392,10 +385,7 @@ fn scene_files(
     let settings = args.settings();
     let made =
         py.allow_threads(|| jobs::scene_panorama(&scene, &output, &settings, &|_| {})).map_err(to_py)?;
-    let mut report = serde_json::to_value(&made.report).map_err(|e| usage(e.to_string()))?;
-    report["read_s"] = serde_json::json!(made.read_s);
-    report["write_s"] = serde_json::json!(made.write_s);
-    Ok(report.to_string())
+    report_json(&made)
 }
 
 /// Write the panorama `input` again into `output` (may be the same directory) with its sparse
@@ -468,6 +458,12 @@ fn prepare_files<'py>(
     let array = numpy::ndarray::Array2::from_shape_vec((prepared.height, prepared.width), prepared.depth)
         .map_err(|e| usage(e.to_string()))?;
     Ok((numpy::IntoPyArray::into_pyarray(array, py), report))
+}
+
+/// A job's report as the command prints it with `--json` (through `serde_json::Value`, as the
+/// command does, so floats read back the same).
+fn report_json(report: &impl serde::Serialize) -> PyResult<String> {
+    serde_json::to_value(report).map(|v| v.to_string()).map_err(|e| usage(e.to_string()))
 }
 
 fn contiguous<T: numpy::Element + Copy>(a: &PyReadonlyArray3<'_, T>) -> PyResult<Vec<T>> {

@@ -280,7 +280,11 @@ def test_prepare_depth_equals_the_command(tmp_path):
     within = np.mean(np.abs(array / depth - 1) < 0.08)
     assert within > 0.95, within
     summary = pomc.build_files(FIXTURE / "colour.png", path, tmp_path / "pano")
-    assert summary["prepare"]["resized"] and summary["layers"] >= 2
+    assert summary["prepare"]["resized"] and len(summary["layers"]) >= 2
+    # The same report as the command's, layer by layer.
+    run = subprocess.run([pomc_bin(), "build", "--colour", str(FIXTURE / "colour.png"), "--depth", str(path),
+                          "-o", str(tmp_path / "cli"), "--json"], check=True, capture_output=True, text=True)
+    assert summary["layers"] == json.loads(run.stdout)["layers"] and summary["output"] == str(tmp_path / "pano")
 
 
 def test_relative_depth_needs_its_scale(tmp_path):

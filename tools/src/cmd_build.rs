@@ -1,7 +1,6 @@
 //! `pomc build`: a layered POMC from a plain RGB-D panorama.
 
 use std::path::PathBuf;
-use std::time::Instant;
 
 use pomc::jobs;
 use pomc::options::{BuildArgs, DepthArgs, LayeringArgs};
@@ -57,7 +56,6 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     if let Some(p) = &args.report {
         check_report_path(p)?;
     }
-    let start = Instant::now();
     let settings =
         BuildArgs { depth: args.input.options.clone(), layering: args.layering.clone() }.settings();
     // Reading, then every stage the job names: a bar with an ETA.
@@ -78,14 +76,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         out.warn(w.code, &w.message);
     }
 
-    let mut report = serde_json::to_value(&built.report).expect("report serialises");
-    report["output"] = serde_json::json!(args.output);
-    report["prepare"] = serde_json::to_value(&built.prepare).expect("report serialises");
-    report["read_s"] = serde_json::json!(built.read_s);
-    report["write_s"] = serde_json::json!(built.write_s);
-    report["total_s"] = serde_json::json!(start.elapsed().as_secs_f64());
-    report["packed"] =
-        serde_json::json!(built.manifest.layers.iter().map(|l| l.packing.is_some()).collect::<Vec<_>>());
+    let report = serde_json::to_value(&built).expect("report serialises");
     if let Some(p) = &args.report {
         let text = serde_json::to_string_pretty(&report).expect("JSON values serialise");
         pomc::fsutil::write_bytes_atomic(p, text.as_bytes()).map_err(pomc::Error::from)?;
@@ -104,7 +95,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     out.say(format!(
         "built {} layer(s) in {:.2} s (fill band up to {:.2}°, d_dirmin {:.0} m) -> {}",
         built.manifest.layers.len(),
-        start.elapsed().as_secs_f64(),
+        built.total_s,
         built.report.max_band_deg,
         built.report.d_dirmin,
         args.output.display()

@@ -1,7 +1,6 @@
 //! `pomc scene`: a layered POMC from a 3D scene by tracing every hit (thesis 6.3.2).
 
 use std::path::PathBuf;
-use std::time::Instant;
 
 use pomc::jobs;
 use pomc::options::SceneArgs;
@@ -21,7 +20,6 @@ pub struct Args {
 }
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
-    let start = Instant::now();
     let settings = args.options.settings();
     let bar = out.progress(jobs::scene_stages().len() as u64, "reading");
     let progress = |stage: &str| {
@@ -31,12 +29,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     let made = jobs::scene_panorama(&args.scene, &args.output, &settings, &progress)?;
     bar.finish_and_clear();
     let r = &made.report;
-    let mut report = serde_json::to_value(r).expect("report serialises");
-    report["output"] = serde_json::json!(args.output);
-    report["read_s"] = serde_json::json!(made.read_s);
-    report["write_s"] = serde_json::json!(made.write_s);
-    report["total_s"] = serde_json::json!(start.elapsed().as_secs_f64());
-    out.json(&report);
+    out.json(&serde_json::to_value(&made).expect("report serialises"));
     for (l, occupancy) in r.layers.iter().zip(&r.occupancy) {
         let depth = match l.depth_range {
             Some((lo, hi)) => format!("depth {lo:.3}–{hi:.3} m"),
@@ -60,7 +53,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         r.freedom_radius,
         r.pieces,
         made.manifest.layers.len(),
-        start.elapsed().as_secs_f64(),
+        made.total_s,
         args.output.display()
     ));
     Ok(0)

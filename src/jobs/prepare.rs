@@ -1,0 +1,36 @@
+//! `pomc prepare`: the depth `pomc build` layers, on the colour's grid, written as an EXR.
+
+use std::path::Path;
+
+use super::BuildSettings;
+use crate::layer::LayerImage;
+use crate::layering::input;
+use crate::prepare::{self, PreparedDepth};
+
+/// Read `colour` and `depth` and prepare the depth as `pomc build` does before layering
+/// (`pomc prepare`): metres along the ray on the colour's grid, with what was found and done.
+///
+/// ```
+/// use pomc::prelude::*;
+/// let dir = std::path::Path::new("fixtures/data/room-rgbd");
+/// let settings = BuildSettings::default();
+/// let prepared = prepare_depth_files(&dir.join("colour.png"), &dir.join("depth.exr"), &settings)?;
+/// assert_eq!(prepared.depth.len(), prepared.width * prepared.height);
+/// assert!(!prepared.report.resized, "depth of the colour's size is not resampled");
+/// // Estimator output instead: `settings.depth.kind = DepthKind::Inverse` with
+/// // `settings.depth.camera_height = Some(1.6)` for its scale.
+/// # Ok::<(), pomc::Error>(())
+/// ```
+pub fn prepare_depth_files(colour: &Path, depth: &Path, s: &BuildSettings) -> crate::Result<PreparedDepth> {
+    let files = input::read(colour, s.colour_space, depth, None, &s.limits)?;
+    let prepared =
+        prepare::prepare_depth(depth, &files.mapping, &files.rgb, &files.depth, &s.depth, &s.prepare)?;
+    Ok(prepared)
+}
+
+/// Write prepared depth as a one-channel (`Z`, float) OpenEXR of the colour's size, atomically.
+pub fn write_depth(path: &Path, width: usize, height: usize, depth: &[f32]) -> crate::Result<()> {
+    let mut img = LayerImage::new(width, height);
+    img.set_channel("Z", crate::layer::SampleType::F32, depth.to_vec());
+    crate::layer_io::write_exr(path, &img, &crate::layer_io::WriteOptions::default())
+}
