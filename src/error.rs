@@ -20,7 +20,7 @@ pub enum Error {
     Resample(#[from] crate::resample::ResampleError),
     /// Converting a file or panorama between mappings failed.
     #[error(transparent)]
-    Convert(#[from] crate::convert::ConvertError),
+    Convert(#[from] crate::jobs::ConvertError),
     /// Opening, checking or saving a panorama failed.
     #[error(transparent)]
     Panorama(#[from] crate::panorama::PanoramaError),

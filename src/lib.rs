@@ -6,8 +6,8 @@
 //!
 //! Module tree mirrors the format (`docs/api.md` has the table and what is public):
 //! - [`mapping`]: pixel ↔ direction for the equirect and 3×2 cube-map parametrisations, neighbours;
-//! - [`resample`]: sphere-aware sampling and equirect ↔ cube conversion; [`convert`]: of whole
-//!   images, layer files and panoramas (`pomc convert`);
+//! - [`resample`]: sphere-aware sampling and equirect ↔ cube conversion ([`jobs::convert_file`]: of
+//!   whole images, layer files and panoramas, `pomc convert`);
 //! - [`manifest`]: the XML manifest (`panorama.xml`), with source positions for diagnostics;
 //! - [`layer`]: in-memory layer images and the depth/coverage encodings;
 //! - [`layer_io`]: reading and writing layer files (native EXR and the thesis PNG+EXR form);
@@ -32,7 +32,6 @@
 pub mod codes;
 pub mod colour;
 pub(crate) mod continuity;
-pub mod convert;
 pub mod error;
 pub mod fsutil;
 pub mod image_io;

@@ -38,12 +38,12 @@
 //! ```
 
 pub use crate::colour::ColourSpace;
-pub use crate::convert::{convert_file, ConvertReport, ConvertSettings};
 pub use crate::error::{Error, Result};
 pub use crate::jobs::{
     build_panorama, build_panorama_with_progress, prepare_depth_files, write_depth, BuildSettings,
     BuildSummary, RenderMethod, Renderer, View, ViewCamera,
 };
+pub use crate::jobs::{convert_file, ConvertReport, ConvertSettings};
 #[cfg(feature = "clap")]
 pub use crate::jobs::{read_camera_path, render_panorama, RenderReport, RenderSettings, Shot};
 pub use crate::jobs::{repack_panorama, RepackReport, RepackSettings};

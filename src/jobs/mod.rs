@@ -2,6 +2,9 @@
 //! `Default` is what the `pomc` command does without options. [`crate::prelude`] re-exports them.
 
 mod build;
+mod convert;
+mod info;
+mod mesh;
 mod pack;
 mod prepare;
 #[cfg(feature = "clap")]
@@ -13,6 +16,12 @@ pub use build::{
     build_arrays, build_panorama, build_panorama_with_progress, build_rgbd, build_stages, BuildSettings,
     BuildSummary, BuiltPanorama, PREPARE_STAGE, WRITING_STAGE,
 };
+pub use convert::{
+    convert_file, convert_file_with_progress, ConvertError, ConvertProgress, ConvertReport, ConvertSettings,
+    Converted,
+};
+pub use info::{describe, ChannelInfo, InfoReport, LayerInfo, LayerPixels, PackedInfo};
+pub use mesh::{mesh_files, LayerMeshReport, MeshJobReport, MeshSettings, SceneMeshReport, SceneTimes};
 pub use pack::{repack_panorama, RepackReport, RepackSettings, RepackTimings, RepackedLayer};
 pub use prepare::{prepare_depth_files, write_depth};
 #[cfg(feature = "clap")]

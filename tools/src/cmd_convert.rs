@@ -4,9 +4,9 @@
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
-use pomc::convert::{self, ConvertProgress, ConvertReport, ConvertSettings, Converted};
+use pomc::jobs::{self, ConvertProgress, ConvertSettings};
 use pomc::mapping::layout::CubeLayout;
-use pomc::resample::{Canvas, Filter};
+use pomc::resample::Filter;
 
 use crate::args::Range;
 use crate::output::Output;
@@ -77,62 +77,14 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
             }
         }
     };
-    let report =
-        convert::convert_file_with_progress(&args.input, &args.output, args.to, &settings, &progress);
+    let report = jobs::convert_file_with_progress(&args.input, &args.output, args.to, &settings, &progress);
     if let Some(b) = bar.get() {
         b.finish_and_clear();
     }
-    print(&args, out, &report?);
+    let report = report?;
+    out.json(&serde_json::to_value(&report).expect("report serialises"));
+    out.say(report.summary());
     Ok(0)
-}
-
-fn canvas_name(c: Canvas) -> String {
-    match c {
-        Canvas::Equirect => "equirect".into(),
-        Canvas::Cube(l) => format!("cube ({l})"),
-    }
-}
-
-fn print(args: &Args, out: Output, r: &ConvertReport) {
-    let (input, output) = (&args.input, &args.output);
-    let ((iw, ih), (ow, oh)) = (r.input_size, r.output_size);
-    if r.kind == Converted::Panorama {
-        let to = args.to.primary_name();
-        out.json(&serde_json::json!({
-            "kind": "panorama", "input": input, "output": output,
-            "to": to, "layers": r.layers,
-            "input_size": [iw, ih], "output_size": [ow, oh],
-            "total_ms": r.total_ms,
-        }));
-        out.say(format!(
-            "converted a panorama of {} layer(s) {iw}x{ih} -> {to} {ow}x{oh} in {:.0} ms -> {}",
-            r.layers,
-            r.total_ms,
-            output.display()
-        ));
-        return;
-    }
-    let size = |p: &PathBuf| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
-    let (decode, resample, encode, total) = (r.decode_ms, r.resample_ms, r.encode_ms, r.total_ms);
-    out.json(&serde_json::json!({
-        "kind": r.kind.name(),
-        "input": input, "output": output,
-        "from": canvas_name(r.from), "to": canvas_name(r.to),
-        "interp": args.interp.name(),
-        "input_size": [iw, ih], "output_size": [ow, oh],
-        "channels": r.channels, "sample_type": r.sample_type,
-        "input_bytes": size(input), "output_bytes": size(output),
-        "threads": rayon::current_num_threads(),
-        "timings_ms": {"decode": decode, "resample": resample, "encode": encode, "total": total},
-    }));
-    out.say(format!(
-        "{} {iw}x{ih} {} -> {} {ow}x{oh} {} ({}): decode {decode} ms, resample {resample} ms, encode {encode} ms, total {total} ms",
-        input.display(),
-        canvas_name(r.from),
-        output.display(),
-        canvas_name(r.to),
-        args.interp
-    ));
 }
 
 #[cfg(test)]

@@ -71,11 +71,22 @@ impl Converted {
     }
 }
 
-/// What [`convert_file`] did, with its timings in milliseconds.
+/// What [`convert_file`] did, with its timings in milliseconds. It serialises to the `--json` schema
+/// of `pomc convert` (one shape for an image or a layer, one for a panorama).
 #[derive(Clone, Debug)]
 pub struct ConvertReport {
     /// Image, layer or panorama.
     pub kind: Converted,
+    /// The input converted.
+    pub input: PathBuf,
+    /// The file or directory written.
+    pub output: PathBuf,
+    /// The reconstruction filter used.
+    pub filter: Filter,
+    /// Sizes of the input and output files, bytes (0 for a panorama).
+    pub bytes: (u64, u64),
+    /// Worker threads.
+    pub threads: usize,
     /// `u8`, `u16` or `f32`: the samples, kept as they were.
     pub sample_type: &'static str,
     /// Source canvas.
@@ -188,6 +199,25 @@ pub fn convert_file(
 
 /// [`convert_file`], telling `progress` how many steps there are and each as it is done.
 pub fn convert_file_with_progress(
+    input: &Path,
+    output: &Path,
+    to: MappingKind,
+    s: &ConvertSettings,
+    progress: &(dyn Fn(ConvertProgress) + Sync),
+) -> crate::Result<ConvertReport> {
+    let mut report = convert_any(input, output, to, s, progress)?;
+    if report.kind != Converted::Panorama {
+        let size = |p: &Path| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
+        report.bytes = (size(input), size(output));
+    }
+    report.input = input.into();
+    report.output = output.into();
+    report.filter = s.filter;
+    report.threads = rayon::current_num_threads();
+    Ok(report)
+}
+
+fn convert_any(
     input: &Path,
     output: &Path,
     to: MappingKind,
@@ -315,6 +345,11 @@ fn one_file(
 ) -> ConvertReport {
     ConvertReport {
         kind,
+        input: PathBuf::new(),
+        output: PathBuf::new(),
+        filter: Filter::default(),
+        bytes: (0, 0),
+        threads: 0,
         sample_type: "f32",
         from,
         to,
@@ -429,6 +464,11 @@ fn convert_panorama(
     };
     Ok(ConvertReport {
         kind: Converted::Panorama,
+        input: PathBuf::new(),
+        output: PathBuf::new(),
+        filter: Filter::default(),
+        bytes: (0, 0),
+        threads: 0,
         sample_type: "f32",
         from: canvas(from_kind),
         to: canvas(to),
@@ -441,4 +481,76 @@ fn convert_panorama(
         encode_ms: 0.0,
         total_ms: ms(total),
     })
+}
+
+fn canvas_name(c: Canvas) -> String {
+    match c {
+        Canvas::Equirect => "equirect".into(),
+        Canvas::Cube(l) => format!("cube ({l})"),
+    }
+}
+
+fn kind_name(c: Canvas) -> &'static str {
+    match c {
+        Canvas::Equirect => MappingKind::Equirect.primary_name(),
+        Canvas::Cube(_) => MappingKind::Cube3x2.primary_name(),
+    }
+}
+
+impl serde::Serialize for ConvertReport {
+    fn serialize<S: serde::Serializer>(&self, ser: S) -> Result<S::Ok, S::Error> {
+        let ((iw, ih), (ow, oh)) = (self.input_size, self.output_size);
+        let value = if self.kind == Converted::Panorama {
+            serde_json::json!({
+                "kind": "panorama", "input": self.input, "output": self.output,
+                "to": kind_name(self.to), "layers": self.layers,
+                "input_size": [iw, ih], "output_size": [ow, oh],
+                "total_ms": self.total_ms,
+            })
+        } else {
+            serde_json::json!({
+                "kind": self.kind.name(),
+                "input": self.input, "output": self.output,
+                "from": canvas_name(self.from), "to": canvas_name(self.to),
+                "interp": self.filter.name(),
+                "input_size": [iw, ih], "output_size": [ow, oh],
+                "channels": self.channels, "sample_type": self.sample_type,
+                "input_bytes": self.bytes.0, "output_bytes": self.bytes.1,
+                "threads": self.threads,
+                "timings_ms": {
+                    "decode": self.decode_ms, "resample": self.resample_ms, "encode": self.encode_ms,
+                    "total": self.total_ms,
+                },
+            })
+        };
+        value.serialize(ser)
+    }
+}
+
+impl ConvertReport {
+    /// The command's human line.
+    pub fn summary(&self) -> String {
+        let ((iw, ih), (ow, oh)) = (self.input_size, self.output_size);
+        if self.kind == Converted::Panorama {
+            return format!(
+                "converted a panorama of {} layer(s) {iw}x{ih} -> {} {ow}x{oh} in {:.0} ms -> {}",
+                self.layers,
+                kind_name(self.to),
+                self.total_ms,
+                self.output.display()
+            );
+        }
+        format!(
+            "{} {iw}x{ih} {} -> {} {ow}x{oh} {} ({}): decode {} ms, resample {} ms, encode {} ms, total {} ms",
+            self.input.display(),
+            canvas_name(self.from),
+            self.output.display(),
+            canvas_name(self.to),
+            self.filter,
+            self.decode_ms,
+            self.resample_ms,
+            self.encode_ms,
+            self.total_ms
+        )
+    }
 }
