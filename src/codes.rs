@@ -61,6 +61,12 @@ macro_rules! error_codes {
                 }
             }
         }
+
+        impl From<$ty> for $crate::Error {
+            fn from(e: $ty) -> Self {
+                $crate::Error::new(e.code(), e)
+            }
+        }
     };
 }
 pub(crate) use error_codes;

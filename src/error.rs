@@ -1,71 +1,76 @@
-//! The crate-level error: each module has its own typed error; this wraps them so callers can use
-//! `?` across modules. Every error has a stable machine-readable [`Error::code`].
+//! The crate's one error, at the bottom of the tree as `exrs`'s is: every module's typed error turns
+//! into it with `?` (each module declares that conversion itself, so this file names no module),
+//! keeping the module error's stable [`Error::code`], message and source chain.
 
+use std::fmt;
 use std::path::PathBuf;
 
-/// Any error pomc can return.
-#[derive(Debug, thiserror::Error)]
-pub enum Error {
-    /// Reading, parsing or checking a manifest failed.
-    #[error(transparent)]
-    Manifest(#[from] crate::manifest::ManifestError),
-    /// Reading or writing a layer file failed.
-    #[error(transparent)]
-    LayerIo(#[from] crate::layer_io::LayerIoError),
-    /// Packing or unpacking layers into an atlas failed.
-    #[error(transparent)]
-    Pack(#[from] crate::pack::PackError),
-    /// Resampling between mappings or sizes failed.
-    #[error(transparent)]
-    Resample(#[from] crate::resample::ResampleError),
-    /// Converting a file or panorama between mappings failed.
-    #[error(transparent)]
-    Convert(#[from] crate::jobs::ConvertError),
-    /// Opening, checking or saving a panorama failed.
-    #[error(transparent)]
-    Panorama(#[from] crate::panorama::PanoramaError),
-    /// Building a layered panorama from inputs failed.
-    #[error(transparent)]
-    Build(#[from] crate::layering::BuildError),
-    /// Loading or checking the build inputs failed.
-    #[error(transparent)]
-    Input(#[from] crate::layering::input::InputError),
-    /// Preparing the input depth failed (what it is, its unit, its shape).
-    #[error(transparent)]
-    Prepare(#[from] crate::prepare::PrepareError),
-    /// Meshing, or reading or writing a stored mesh, failed.
-    #[error(transparent)]
-    Mesh(#[from] crate::mesh::MeshError),
-    /// Rendering a view failed.
-    #[error(transparent)]
-    Render(#[from] crate::render::RenderError),
-    /// Reading a 3D scene or making its layers failed.
-    #[error(transparent)]
-    Scene(#[from] crate::scene::SceneError),
-    /// Reading or writing a plain image (PNG, JPEG, EXR, HDR) failed.
-    #[error(transparent)]
-    Image(#[from] crate::image_io::ImageIoError),
+/// Any error pomc can return: a stable code and the module's typed error behind it
+/// ([`Error::downcast_ref`] gets it back, e.g. as a `ManifestError`).
+pub struct Error {
+    code: &'static str,
+    inner: Box<dyn std::error::Error + Send + Sync + 'static>,
+}
+
+impl Error {
+    /// `error` with its stable `code` (a constant of [`crate::codes`]).
+    pub fn new<E: std::error::Error + Send + Sync + 'static>(code: &'static str, error: E) -> Error {
+        Error { code, inner: Box::new(error) }
+    }
+
     /// A file system operation on `path` failed (code `IO_ERROR`).
-    #[error("{path}: {source}")]
-    Io {
-        /// The file or directory the operation was on.
-        path: PathBuf,
-        /// The underlying I/O error.
-        #[source]
-        source: std::io::Error,
-    },
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Error {
+        IoError { path: path.into(), source }.into()
+    }
+
+    /// Stable machine-readable code (declared in [`crate::codes`]).
+    pub fn code(&self) -> &'static str {
+        self.code
+    }
+
+    /// The module's error behind this one.
+    pub fn get_ref(&self) -> &(dyn std::error::Error + Send + Sync + 'static) {
+        &*self.inner
+    }
+
+    /// The module's error behind this one, when it is an `E`.
+    pub fn downcast_ref<E: std::error::Error + 'static>(&self) -> Option<&E> {
+        self.inner.downcast_ref()
+    }
 }
 
-crate::codes::error_codes! {
-    Error:
-        Io IO_ERROR;
-        from Manifest.0, LayerIo.0, Pack.0, Resample.0, Convert.0, Panorama.0, Build.0, Input.0,
-            Prepare.0, Mesh.0, Render.0, Image.0, Scene.0
+impl fmt::Debug for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {:?}", self.code, self.inner)
+    }
 }
 
-impl From<crate::fsutil::IoError> for Error {
-    fn from(e: crate::fsutil::IoError) -> Self {
-        Error::Io { path: e.path, source: e.source }
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Display::fmt(&self.inner, f)
+    }
+}
+
+impl std::error::Error for Error {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.inner.source()
+    }
+}
+
+/// A file system operation on `path` failed (code `IO_ERROR`).
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {source}")]
+pub struct IoError {
+    /// The file or directory the operation was on.
+    pub path: PathBuf,
+    /// The underlying I/O error.
+    #[source]
+    pub source: std::io::Error,
+}
+
+impl From<IoError> for Error {
+    fn from(e: IoError) -> Self {
+        Error::new(crate::codes::IO_ERROR, e)
     }
 }
 

@@ -2,18 +2,9 @@
 //! whole directories (temp sibling directory + swap, under a lock), and bounded reads.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// A file system operation on `path` failed; [`crate::Error::Io`] (code `IO_ERROR`) carries it.
-#[derive(Debug, thiserror::Error)]
-#[error("{path}: {source}")]
-pub struct IoError {
-    /// The file or directory the operation was on.
-    pub path: PathBuf,
-    /// The underlying I/O error.
-    #[source]
-    pub source: std::io::Error,
-}
+pub use crate::error::IoError;
 
 fn io_err(path: &Path, source: std::io::Error) -> IoError {
     IoError { path: path.to_path_buf(), source }

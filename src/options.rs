@@ -9,7 +9,8 @@ use std::path::PathBuf;
 use glam::DVec3;
 
 use crate::colour::ColourSpace;
-use crate::jobs::{BuildSettings, ViewCamera};
+pub use crate::jobs::parse_vec3;
+use crate::jobs::{BuildSettings, CameraKind, CameraSettings};
 use crate::layer_io::ReadLimits;
 use crate::layering::input::{Convention, Preset};
 use crate::layering::{BuildOptions, Classify, EdgeOptions, FillColour};
@@ -18,9 +19,7 @@ use crate::mapping::MappingKind;
 use crate::mesh::{self, normals::NormalWeighting, simplify::SimplifyOptions, MeshOptions};
 use crate::prepare::{DepthKind, KnownDistance, Refine, UnknownDepth};
 use crate::render::stereo::Orientation;
-use crate::render::{
-    Camera, CubeCamera, EquirectCamera, Perspective, PoleMerge, RenderError, StereoCamera, StereoLayout,
-};
+use crate::render::StereoLayout;
 use crate::scene::BakeSettings;
 
 /// How the depth is read and prepared (`pomc build` and `pomc prepare`).
@@ -307,24 +306,6 @@ impl MeshArgs {
     }
 }
 
-/// The output camera of a view (`pomc render`, Python `Panorama.render`).
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CameraKind {
-    /// Pinhole camera: --eye, --look-at, --up, --fov, --size.
-    Perspective,
-    /// A new 2:1 equirect panorama centred at --eye (world axes, +Z up).
-    Equirect,
-    /// Omnidirectional stereo: two equirect eyes on a viewing circle of diameter --ipd around --eye,
-    /// stacked by --stereo-layout.
-    Ods,
-    /// VR180: two 180° × 180° half equirects looking along --look-at from eyes --ipd apart, side by
-    /// side unless --stereo-layout tb.
-    Vr180,
-    /// A cube map in --cube-layout seen from --eye; with --stereo, one per eye (the ODS eyes' rays),
-    /// stacked by --stereo-layout.
-    Cube,
-}
-
 /// How a view is seen: its camera and, for stereo, the eyes (`pomc render`).
 #[derive(clap::Args, Clone, Debug, PartialEq)]
 pub struct CameraArgs {
@@ -375,78 +356,22 @@ pub struct CameraArgs {
 }
 
 impl CameraArgs {
-    /// The pole merge these options ask for.
-    fn merge(&self) -> Option<PoleMerge> {
-        let (from, to) = self.pole_merge;
-        (!self.no_pole_merge).then(|| PoleMerge::new(from.to_radians(), to.to_radians()))
-    }
-
-    /// The camera at `eye` (looking at `look_at`, else along `look` from it); `panorama_width` is
-    /// the width of an equirect at the panorama's resolution (the default ODS eye width).
-    pub fn view_camera(
-        &self,
-        eye: DVec3,
-        look_at: Option<DVec3>,
-        look: DVec3,
-        panorama_width: usize,
-    ) -> Result<ViewCamera, RenderError> {
-        Ok(match self.camera {
-            CameraKind::Perspective => {
-                let (w, h) = self.size.unwrap_or((960, 540));
-                let at = look_at.unwrap_or(eye + look);
-                ViewCamera::Mono(Camera::Perspective(Perspective::new(eye, at, self.up, self.fov, w, h)?))
-            }
-            CameraKind::Equirect => {
-                let (w, h) = self.size.unwrap_or((2048, 1024));
-                ViewCamera::Mono(Camera::Equirect(EquirectCamera::new(eye, w, h)?))
-            }
-            CameraKind::Ods => {
-                let w = panorama_width.max(2) / 2 * 2;
-                let layout = self.stereo_layout.unwrap_or(StereoLayout::Tb);
-                let (w, h) = self.size.unwrap_or(match layout {
-                    StereoLayout::Tb => (w, w),
-                    StereoLayout::Sbs => (2 * w, w / 2),
-                });
-                let mut cam = StereoCamera::ods(eye, w, h, self.ipd, self.merge(), layout)?;
-                if self.orientation == Orientation::Player {
-                    let forward = look_at.map_or(look, |at| at - eye);
-                    cam.player_yaw = Some(forward.y.atan2(forward.x));
-                }
-                ViewCamera::Stereo(cam)
-            }
-            CameraKind::Cube => {
-                let layout = self.stereo_layout.unwrap_or(StereoLayout::Tb);
-                let face = match self.size {
-                    None => (panorama_width / 4).max(1),
-                    Some((w, h)) => {
-                        let need =
-                            "a stereo cube map is two cube maps stacked top-bottom (--stereo-layout tb) \
-                                    or side by side";
-                        let (w, h) = if self.stereo {
-                            layout.eye_size(w, h).ok_or(RenderError::BadSize { width: w, height: h, need })?
-                        } else {
-                            (w, h)
-                        };
-                        self.cube_layout.face_size(w, h).map_err(|e| RenderError::BadCamera(e.to_string()))?
-                    }
-                };
-                ViewCamera::Cube(if self.stereo {
-                    CubeCamera::ods(eye, face, self.ipd, self.merge(), self.cube_layout, layout)?
-                } else {
-                    CubeCamera::mono(eye, face, self.cube_layout)?
-                })
-            }
-            CameraKind::Vr180 => {
-                let side = (panorama_width / 4 * 2).max(2);
-                let layout = self.stereo_layout.unwrap_or(StereoLayout::Sbs);
-                let (w, h) = self.size.unwrap_or(match layout {
-                    StereoLayout::Tb => (side, 2 * side),
-                    StereoLayout::Sbs => (2 * side, side),
-                });
-                let forward = look_at.map_or(look, |at| at - eye);
-                ViewCamera::Stereo(StereoCamera::vr180(eye, forward, self.up, w, h, self.ipd, layout)?)
-            }
-        })
+    /// The library's camera settings these options stand for.
+    pub fn settings(&self) -> CameraSettings {
+        CameraSettings {
+            camera: self.camera,
+            eye: self.eye,
+            look_at: self.look_at,
+            up: self.up,
+            fov: self.fov,
+            size: self.size,
+            stereo_layout: self.stereo_layout,
+            ipd: self.ipd,
+            pole_merge: (!self.no_pole_merge).then_some(self.pole_merge),
+            stereo: self.stereo,
+            cube_layout: self.cube_layout,
+            orientation: self.orientation,
+        }
     }
 }
 
@@ -552,16 +477,6 @@ fn numbers(s: &str, what: &str) -> Result<Vec<f64>, String> {
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
         .map_err(|_| format!("expected {what}, got `{s}`"))
-}
-
-/// A vector `x,y,z` (finite numbers; spaces allowed after commas; a leading `-` is a number, not
-/// an option, when the argument is declared with `allow_hyphen_values`).
-pub fn parse_vec3(s: &str) -> Result<DVec3, String> {
-    let v = numbers(s, "three numbers x,y,z")?;
-    match v.as_slice() {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(DVec3::new(*x, *y, *z)),
-        _ => Err(format!("expected three finite numbers x,y,z, got `{s}`")),
-    }
 }
 
 /// An image size `WxH` (positive integers; the camera checks the limits).

@@ -3,12 +3,12 @@
 //!
 //! | job | call | command |
 //! |---|---|---|
-//! | open | [`Panorama::open`] | `pomc info` |
+//! | open | [`Panorama::open`]; [`describe`] for the report | `pomc info` |
 //! | build | [`build_panorama`] with [`BuildSettings`] | `pomc build` |
 //! | validate | [`validate()`] with [`ValidateSettings`] | `pomc validate` |
-//! | mesh | [`mesh_panorama`] with [`SceneSettings`] (one layer: [`mesh_layer`] with [`MeshOptions`]) | `pomc mesh` |
+//! | mesh | [`mesh_files`] with [`MeshSettings`]; in memory [`mesh_panorama`] with [`SceneSettings`] (one layer: [`mesh_layer`] with [`MeshOptions`]) | `pomc mesh` |
 //! | layers from a 3D scene | [`scene_panorama`] with [`BakeSettings`] | `pomc scene` |
-//! | render | [`Renderer::render`] | `pomc render` |
+//! | render | [`render_panorama`] with [`RenderSettings`]; in memory [`Renderer::render`] | `pomc render` |
 //! | convert | [`convert_file`] with [`ConvertSettings`] (or [`convert_layer`] in memory) | `pomc convert` |
 //! | view | [`viewer::site`] with [`SiteSettings`], then [`Site::write`] | `pomc view` |
 //!
@@ -44,8 +44,11 @@ pub use crate::jobs::{
     BuildSummary, RenderMethod, Renderer, View, ViewCamera,
 };
 pub use crate::jobs::{convert_file, ConvertReport, ConvertSettings};
-#[cfg(feature = "clap")]
-pub use crate::jobs::{read_camera_path, render_panorama, RenderReport, RenderSettings, Shot};
+pub use crate::jobs::{
+    read_camera_path, render_panorama, CameraKind, CameraSettings, RenderReport, RenderSettings, Shot,
+};
+pub use crate::jobs::{describe, InfoReport};
+pub use crate::jobs::{mesh_files, MeshJobReport, MeshSettings};
 pub use crate::jobs::{repack_panorama, RepackReport, RepackSettings};
 pub use crate::jobs::{scene_panorama, SceneSummary};
 pub use crate::layer::{LayerImage, Sample};

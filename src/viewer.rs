@@ -99,9 +99,9 @@ impl Site {
             let path = tmp.path().join(name);
             if let Some(parent) = path.parent() {
                 std::fs::create_dir_all(parent)
-                    .map_err(|source| crate::Error::Io { path: parent.to_path_buf(), source })?;
+                    .map_err(|source| crate::Error::io(parent.to_path_buf(), source))?;
             }
-            std::fs::write(&path, bytes).map_err(|source| crate::Error::Io { path, source })?;
+            std::fs::write(&path, bytes).map_err(|source| crate::Error::io(path, source))?;
         }
         Ok(crate::fsutil::swap_in(tmp, dir)?)
     }

@@ -162,7 +162,7 @@ impl PyPanorama {
                     Some(dir) => pomc::validate::validate(dir, &options),
                     None => {
                         let tmp = tempfile::tempdir()
-                            .map_err(|source| pomc::Error::Io { path: std::env::temp_dir(), source })?;
+                            .map_err(|source| pomc::Error::io(std::env::temp_dir(), source))?;
                         pomc::panorama::write_panorama(
                             tmp.path(),
                             &self.manifest,
@@ -191,13 +191,15 @@ impl PyPanorama {
         options: &Bound<'py, PyDict>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>, f64)> {
         let method = render_method(method)?;
-        let args: CameraArgs = options::from_keywords("render", &keywords(options)?).map_err(usage)?;
+        let camera =
+            options::from_keywords::<CameraArgs>("render", &keywords(options)?).map_err(usage)?.settings();
         let eye = eye.map(DVec3::from).unwrap_or(pomc::manifest::centre(self.manifest.local_to_world()));
         let look = self.manifest.default_look();
         let view = py
             .allow_threads(|| {
                 let renderer = self.renderer(method)?;
-                let cam = args.view_camera(eye, look_at.map(DVec3::from), look, renderer.panorama_width())?;
+                let cam =
+                    camera.view_camera(eye, look_at.map(DVec3::from), look, renderer.panorama_width())?;
                 renderer.render_view(&cam)
             })
             .map_err(to_py)?;
@@ -435,7 +437,8 @@ fn render_files(
     options: &Bound<'_, PyDict>,
 ) -> PyResult<String> {
     let method = render_method(method)?;
-    let camera: CameraArgs = options::from_keywords("render", &keywords(options)?).map_err(usage)?;
+    let camera =
+        options::from_keywords::<CameraArgs>("render", &keywords(options)?).map_err(usage)?.settings();
     let shots = path.map(|p| jobs::read_camera_path(&p)).transpose().map_err(|e| to_py(e.into()))?;
     let s = jobs::RenderSettings { output, depth, mask, camera, method, shots };
     let report = py.allow_threads(|| jobs::render_panorama(&pano, &s, &|_, _, _| {})).map_err(to_py)?;

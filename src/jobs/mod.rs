@@ -2,12 +2,12 @@
 //! `Default` is what the `pomc` command does without options. [`crate::prelude`] re-exports them.
 
 mod build;
+mod camera;
 mod convert;
 mod info;
 mod mesh;
 mod pack;
 mod prepare;
-#[cfg(feature = "clap")]
 mod render;
 mod renderer;
 mod scene;
@@ -16,6 +16,7 @@ pub use build::{
     build_arrays, build_panorama, build_panorama_with_progress, build_rgbd, build_stages, BuildSettings,
     BuildSummary, BuiltPanorama, PREPARE_STAGE, WRITING_STAGE,
 };
+pub use camera::{parse_vec3, CameraKind, CameraSettings};
 pub use convert::{
     convert_file, convert_file_with_progress, ConvertError, ConvertProgress, ConvertReport, ConvertSettings,
     Converted,
@@ -24,7 +25,6 @@ pub use info::{describe, ChannelInfo, InfoReport, LayerInfo, LayerPixels, Packed
 pub use mesh::{mesh_files, LayerMeshReport, MeshJobReport, MeshSettings, SceneMeshReport, SceneTimes};
 pub use pack::{repack_panorama, RepackReport, RepackSettings, RepackTimings, RepackedLayer};
 pub use prepare::{prepare_depth_files, write_depth};
-#[cfg(feature = "clap")]
 pub use render::{
     read_camera_path, render_panorama, FrameReport, MeshReport, PathReport, PathStages, RenderReport,
     RenderSettings, Shot, ViewReport,

@@ -8,8 +8,7 @@ use std::time::Instant;
 use glam::DVec3;
 use serde::Serialize;
 
-use super::{RenderMethod, Renderer, View, ViewCamera};
-use crate::options::CameraArgs;
+use super::{CameraSettings, RenderMethod, Renderer, View, ViewCamera};
 use crate::panorama::Panorama;
 use crate::render::rasterize::MeshSource;
 use crate::render::{frame, RenderError};
@@ -25,7 +24,7 @@ pub struct RenderSettings {
     /// Also write the coverage mask (PNG).
     pub mask: Option<PathBuf>,
     /// The camera; its eye and look-at are the single view's unless `shots` is given.
-    pub camera: CameraArgs,
+    pub camera: CameraSettings,
     /// How views are drawn.
     pub method: RenderMethod,
     /// A camera path ([`read_camera_path`]): one frame per shot, the layers read (and meshed) once.
@@ -184,7 +183,7 @@ pub fn read_camera_path(file: &Path) -> Result<Vec<Shot>, RenderError> {
         }
         let parts: Vec<&str> = line.split_whitespace().collect();
         let at_line = |e: String| bad(format!("line {}: {e} (expected `x,y,z [x,y,z]`)", i + 1));
-        let vec3 = |s: &str| crate::options::parse_vec3(s).map_err(at_line);
+        let vec3 = |s: &str| super::parse_vec3(s).map_err(at_line);
         let (eye, look_at) = match parts.as_slice() {
             [e] => (vec3(e)?, None),
             [e, a] => (vec3(e)?, Some(vec3(a)?)),
@@ -220,11 +219,9 @@ fn frame_name(name: &Path, index: usize) -> Result<PathBuf, RenderError> {
 ///
 /// ```
 /// use pomc::prelude::*;
-/// use pomc::options::CameraArgs;
 /// let dir = std::env::temp_dir().join(format!("pomc-doc-render-{}", std::process::id()));
 /// std::fs::create_dir_all(&dir)?;
-/// let mut camera: CameraArgs = pomc::options::from_keywords("render", &[])?;
-/// camera.size = Some((160, 90));
+/// let camera = CameraSettings { size: Some((160, 90)), ..CameraSettings::default() };
 /// let shots = vec![Shot { eye: DVec3::new(0.0, 0.0, 1.2), look_at: None }; 2];
 /// let s = RenderSettings {
 ///     output: dir.join("view-##.png"),

@@ -8,6 +8,7 @@
 pub mod codes;
 mod decode;
 mod diag;
+mod element;
 mod file_name;
 mod number;
 mod read;
@@ -356,6 +357,12 @@ pub struct ManifestError {
     pub path: String,
     /// What is wrong and how to fix it.
     pub message: String,
+}
+
+impl From<ManifestError> for crate::Error {
+    fn from(e: ManifestError) -> Self {
+        crate::Error::new(e.code(), e)
+    }
 }
 
 impl ManifestError {

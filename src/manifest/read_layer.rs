@@ -5,9 +5,9 @@
 use std::collections::HashMap;
 
 use super::codes;
+use super::element::{Ctx, El};
 use super::file_name::unsafe_reason;
 use super::number;
-use super::read::{Ctx, El};
 use super::{LayerDecl, LayerOrigin, LayerSource, MeshDecl, Origin, Packing, Role};
 use crate::pack::Patch;
 

@@ -1,4 +1,5 @@
 use super::*;
+use crate::jobs::ViewCamera;
 use clap::Parser;
 
 /// One struct of options parsed alone from `argv` (without a program name).
@@ -150,7 +151,7 @@ fn ranges_refuse_nan_infinity_and_out_of_domain() {
 fn cameras_from_options() {
     let cam = |pairs: &[(&str, Keyword)]| {
         let a: CameraArgs = from_keywords("render", &kw(pairs)).unwrap();
-        a.view_camera(DVec3::ZERO, None, DVec3::NEG_X, 1024)
+        a.settings().view_camera(DVec3::ZERO, None, DVec3::NEG_X, 1024)
     };
     // Defaults: ODS eyes as wide as the panorama, top-bottom; VR180 eyes half as wide, side by side;
     // a cube map of quarter-width faces.
@@ -175,4 +176,13 @@ fn cameras_from_options() {
     assert!(cam(&[("camera", text("vr180")), ("size", text("302x151"))]).is_err(), "odd eyes");
     let bad: Result<CameraArgs, _> = from_keywords("render", &kw(&[("pole_merge", text("80,70"))]));
     assert!(bad.unwrap_err().contains("FROM < TO"));
+}
+
+/// `CameraSettings::default()` is `pomc render` without camera options.
+#[test]
+fn camera_defaults_are_the_library_default() {
+    let a: CameraArgs = from_keywords("render", &[]).unwrap();
+    assert_eq!(a.settings(), crate::jobs::CameraSettings::default());
+    let a: CameraArgs = from_keywords("render", &kw(&[("no_pole_merge", Keyword::Flag(true))])).unwrap();
+    assert_eq!(a.settings().pole_merge, None);
 }

@@ -179,7 +179,7 @@ fn write_files(
     options: &SaveOptions,
     meshes_from: Option<&Path>,
 ) -> Result<Manifest, Error> {
-    std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
+    std::fs::create_dir_all(dir).map_err(|source| Error::io(dir.to_path_buf(), source))?;
     let mut out = manifest.clone();
     let files = destinations(dir, &out)?;
     if let Layers::Given(given) = layers {
@@ -301,7 +301,7 @@ fn write_staged(
         }
     } else {
         for (stage, path) in &staged {
-            std::fs::rename(stage, path).map_err(|source| Error::Io { path: path.clone(), source })?;
+            std::fs::rename(stage, path).map_err(|source| Error::io(path.clone(), source))?;
         }
     }
     Ok(results)
@@ -339,7 +339,7 @@ fn copy_mesh(from: &Path, to: &Path, file: &str) -> Result<bool, Error> {
             return Ok(true);
         }
     }
-    let bytes = std::fs::read(&src).map_err(|source| Error::Io { path: src.clone(), source })?;
+    let bytes = std::fs::read(&src).map_err(|source| Error::io(src.clone(), source))?;
     fsutil::write_bytes_atomic(&dst, &bytes)?;
     Ok(true)
 }

@@ -30,6 +30,7 @@ macro_rules! add_counts {
 
 pub(crate) mod accum;
 pub mod camera;
+mod checks;
 pub mod cube;
 pub mod frame;
 pub mod metrics;

@@ -19,7 +19,7 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use glam::{DVec2, DVec3};
 
-use super::camera::{check_size, finite};
+use super::checks::{check_size, finite};
 use super::RenderError;
 
 /// Fading of the eye offset towards the poles (Blender's "pole merge"), elevation angles in
@@ -102,7 +102,7 @@ impl OdsEye {
     ) -> Result<Self, RenderError> {
         check_size(width, height)?;
         if width != 2 * height {
-            return Err(RenderError::BadSize { width, height, need: super::camera::EQUIRECT });
+            return Err(RenderError::BadSize { width, height, need: super::checks::EQUIRECT });
         }
         if !offset.is_finite() {
             return Err(RenderError::BadCamera(format!("eye offset {offset} is not finite")));

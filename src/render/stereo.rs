@@ -2,7 +2,8 @@
 
 use glam::DVec3;
 
-use super::camera::{finite, Camera, HalfEquirect, OdsEye, PoleMerge, VR180};
+use super::camera::{Camera, HalfEquirect, OdsEye, PoleMerge};
+use super::checks::{finite, VR180};
 use super::frame::Frame;
 use super::RenderError;
 

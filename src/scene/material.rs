@@ -3,7 +3,6 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::load::TriangleScene;
 use crate::colour::srgb_to_linear;
 
 /// How texture coordinates outside `[0, 1]` wrap.
@@ -130,19 +129,4 @@ fn wrap_index(i: f32, n: usize, wrap: Wrap) -> usize {
         }
     };
     k as usize
-}
-
-/// Linear colour of triangle `tri` at barycentric `(u, v)` (weights `1−u−v`, `u`, `v` of its
-/// corners).
-pub fn colour_at(scene: &TriangleScene, tri: usize, u: f32, v: f32) -> Vec3 {
-    let w = [1.0 - u - v, u, v];
-    let m = &scene.materials[scene.material[tri] as usize];
-    let uv = scene.uvs[tri][0] * w[0] + scene.uvs[tri][1] * w[1] + scene.uvs[tri][2] * w[2];
-    let vc = scene.colours[tri][0] * w[0] + scene.colours[tri][1] * w[1] + scene.colours[tri][2] * w[2];
-    let tex = |t: Option<TextureRef>| {
-        t.and_then(|t| scene.textures.get(t.texture as usize).map(|tx| tx.sample(uv, t.wrap)))
-    };
-    let base = m.base * vc * tex(m.base_texture).unwrap_or(Vec4::ONE);
-    let emission = m.emissive * tex(m.emissive_texture).map_or(Vec3::ONE, |e| e.truncate());
-    (base.truncate() + emission).max(Vec3::ZERO)
 }

@@ -400,11 +400,11 @@ fn shade(
                     let sum = offsets.iter().fold(Vec3::ZERO, |acc, &(ox, oy)| {
                         let ds = m.pixel_to_dir(x as f64 + ox, y as f64 + oy).as_vec3();
                         let (u, v) = tr.barycentric_clamped(hit.tri, ds);
-                        acc + material::colour_at(scene, tri, u, v)
+                        acc + load::colour_at(scene, tri, u, v)
                     });
                     sum / offsets.len() as f32
                 } else {
-                    material::colour_at(scene, tri, hit.u, hit.v)
+                    load::colour_at(scene, tri, hit.u, hit.v)
                 };
                 (colour, shading_normal(tr, hit, d))
             })

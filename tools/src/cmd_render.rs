@@ -41,7 +41,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
         output: args.output,
         depth: args.depth,
         mask: args.mask,
-        camera: args.view,
+        camera: args.view.settings(),
         method: args.method,
         shots,
     };
