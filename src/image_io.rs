@@ -140,33 +140,162 @@ fn decode_exr(path: &Path) -> Result<Pixels, ImageIoError> {
     Ok(Pixels::F32(Raster::from_vec(w, h, ch, data).expect("sizes from the decoder")))
 }
 
+/// Why [`decode_image`] failed; each caller's error names the file and gives its own code.
+#[derive(Debug)]
+pub enum DecodeFailure {
+    /// Opening or reading the file failed (or it is not a regular file).
+    Io(std::io::Error),
+    /// The decoder refused the data: corrupt, unsupported, or beyond the limits.
+    Image(image::ImageError),
+    /// A JPEG stops before its end-of-image marker (the decoder alone fills the rest with grey).
+    Truncated,
+}
+
+impl std::fmt::Display for DecodeFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            DecodeFailure::Io(e) => e.fmt(f),
+            DecodeFailure::Image(e) => e.fmt(f),
+            DecodeFailure::Truncated => f.write_str(
+                "the JPEG data stops before its end-of-image marker (a truncated file?); download or export it again",
+            ),
+        }
+    }
+}
+
+/// The decoder's limits for `limits`: the sides, and the allocation of the largest accepted canvas
+/// as f32 RGBA.
+fn image_limits(limits: &ReadLimits) -> Limits {
+    let mut l = Limits::default();
+    l.max_image_width = Some(limits.max_dimension as u32);
+    l.max_image_height = Some(limits.max_dimension as u32);
+    l.max_alloc = Some(limits.max_pixels.saturating_mul(16));
+    l
+}
+
+/// A reader of the regular file `path`, its format guessed from the content.
+fn reader(path: &Path) -> Result<ImageReader<std::io::BufReader<std::fs::File>>, std::io::Error> {
+    crate::fsutil::check_regular(path)?;
+    ImageReader::open(path)?.with_guessed_format()
+}
+
+/// What a plain image's header says (`pomc info`): no pixel is decoded.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct ImageHeader {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// The container, e.g. `Png`, `Jpeg`.
+    pub format: String,
+    /// Channels per pixel (1 grey, 2 grey + alpha, 3 RGB, 4 RGBA).
+    pub channels: u8,
+    /// Bits per channel (8, 16, 32).
+    pub bits: u16,
+}
+
+/// Read a PNG/JPEG/HDR/… header ([`ImageHeader`]).
+pub fn image_header(path: &Path) -> Result<ImageHeader, DecodeFailure> {
+    use image::ImageDecoder;
+    let reader = reader(path).map_err(DecodeFailure::Io)?;
+    let format = reader.format().map(|f| format!("{f:?}")).unwrap_or_else(|| "unknown".into());
+    let decoder = reader.into_decoder().map_err(DecodeFailure::Image)?;
+    let (width, height) = decoder.dimensions();
+    let colour = decoder.color_type();
+    let channels = colour.channel_count();
+    Ok(ImageHeader { width, height, format, channels, bits: colour.bits_per_pixel() / u16::from(channels) })
+}
+
+/// Width and height from a PNG/JPEG/HDR/… header, no pixel decoded.
+pub fn image_size(path: &Path) -> Result<(u32, u32), DecodeFailure> {
+    reader(path).map_err(DecodeFailure::Io)?.into_dimensions().map_err(DecodeFailure::Image)
+}
+
+/// Decode a PNG/JPEG/HDR/… image within `limits`: the one decoder of pomc's plain images, for
+/// `pomc convert`, the build's colour and depth, and scene textures. A truncated JPEG is refused.
+pub fn decode_image(path: &Path, limits: &ReadLimits) -> Result<DynamicImage, DecodeFailure> {
+    let mut reader = reader(path).map_err(DecodeFailure::Io)?;
+    reader.limits(image_limits(limits));
+    let is_jpeg = reader.format() == Some(image::ImageFormat::Jpeg);
+    let image = reader.decode().map_err(DecodeFailure::Image)?;
+    if is_jpeg && !jpeg_is_complete(&std::fs::read(path).map_err(DecodeFailure::Io)?) {
+        return Err(DecodeFailure::Truncated);
+    }
+    Ok(image)
+}
+
+/// Whether the primary image reaches its end-of-image marker (`FF D9`): the marker segments are
+/// walked from the start by their lengths and each scan's entropy-coded data up to the next marker
+/// (its `FF` bytes are stuffed), so data after the image (a thumbnail inside `APP1`, a trailer such
+/// as a motion photo's video) cannot be mistaken for it.
+pub(crate) fn jpeg_is_complete(b: &[u8]) -> bool {
+    if !b.starts_with(&[0xFF, 0xD8]) {
+        return false;
+    }
+    let mut i = 2;
+    loop {
+        // Fill bytes (`FF FF …`) may precede a marker.
+        while b.get(i) == Some(&0xFF) && b.get(i + 1) == Some(&0xFF) {
+            i += 1;
+        }
+        let (Some(&0xFF), Some(&m)) = (b.get(i), b.get(i + 1)) else { return false };
+        i += 2;
+        match m {
+            0xD9 => return true,
+            // Restart markers and TEM stand alone.
+            0xD0..=0xD7 | 0x01 => continue,
+            _ => {}
+        }
+        let Some(len) = b.get(i..i + 2).map(|l| usize::from(u16::from_be_bytes([l[0], l[1]]))) else {
+            return false;
+        };
+        if len < 2 {
+            return false;
+        }
+        i += len;
+        if m == 0xDA {
+            // Entropy-coded data: runs to the next marker that is not a stuffed `FF 00` or a restart.
+            loop {
+                let Some(k) = b.get(i..).and_then(|r| r.iter().position(|&x| x == 0xFF)) else {
+                    return false;
+                };
+                i += k;
+                match b.get(i + 1) {
+                    None => return false,
+                    Some(0x00) | Some(0xD0..=0xD7) => i += 2,
+                    Some(_) => break,
+                }
+            }
+        }
+    }
+}
+
 /// Decode a plain image, refusing oversized ones from their header.
 pub fn decode(path: &Path) -> Result<Pixels, ImageIoError> {
     if extension(path) == "exr" {
         return decode_exr(path);
     }
     let limits = ReadLimits::default();
-    let failed = |e: image::ImageError| {
-        let (path, reason) = (path.to_path_buf(), e.to_string());
+    let failed = |e: DecodeFailure| {
+        let path = path.to_path_buf();
         match e {
-            image::ImageError::Limits(_) => ImageIoError::TooLarge { path, reason },
-            image::ImageError::Unsupported(_) => ImageIoError::Unsupported { path, reason },
-            _ => ImageIoError::Unreadable {
+            DecodeFailure::Io(source) => ImageIoError::Io { path, source },
+            DecodeFailure::Image(e @ image::ImageError::Limits(_)) => {
+                ImageIoError::TooLarge { path, reason: e.to_string() }
+            }
+            DecodeFailure::Image(e @ image::ImageError::Unsupported(_)) => {
+                ImageIoError::Unsupported { path, reason: e.to_string() }
+            }
+            DecodeFailure::Truncated => {
+                ImageIoError::Unreadable { path, reason: DecodeFailure::Truncated.to_string() }
+            }
+            other => ImageIoError::Unreadable {
                 path,
-                reason: format!("cannot decode ({reason}); supported inputs are PNG, JPEG, EXR and HDR"),
+                reason: format!("cannot decode ({other}); supported inputs are PNG, JPEG, EXR and HDR"),
             },
         }
     };
-    let io = |source: std::io::Error| ImageIoError::Io { path: path.to_path_buf(), source };
-    crate::fsutil::check_regular(path).map_err(io)?;
-    let mut reader = ImageReader::open(path).map_err(io)?.with_guessed_format().map_err(io)?;
-    let mut l = Limits::default();
-    l.max_image_width = Some(limits.max_dimension as u32);
-    l.max_image_height = Some(limits.max_dimension as u32);
-    // Decoded f32 RGBA of the largest accepted canvas.
-    l.max_alloc = Some(limits.max_pixels * 16);
-    reader.limits(l);
-    let img = reader.decode().map_err(failed)?;
+    let img = decode_image(path, &limits).map_err(failed)?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     if (w as u64 * h as u64) > limits.max_pixels {
         return Err(ImageIoError::TooLarge {
@@ -355,4 +484,28 @@ fn write_exr(path: &Path, r: &Raster<f32>) -> Result<(), ImageIoError> {
         .to_buffered(&mut cursor)
         .map_err(|e| ImageIoError::Encode { path: path.to_path_buf(), reason: format!("EXR: {e}") })?;
     write(path, cursor.get_ref())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The one decoder refuses a cut-off JPEG for every reader: `pomc convert` and scene textures
+    /// as the build's inputs do (the `image` decoder alone fills the missing rows with grey).
+    #[test]
+    fn truncated_jpegs_are_refused_by_the_one_decoder() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.jpg");
+        image::RgbImage::from_fn(256, 128, |x, y| {
+            image::Rgb([(x * 7 % 256) as u8, ((x ^ y) % 256) as u8, 9])
+        })
+        .save(&path)
+        .unwrap();
+        assert!(decode(&path).is_ok());
+        let whole = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &whole[..whole.len() * 2 / 3]).unwrap();
+        let Err(err) = decode(&path) else { panic!("a truncated JPEG decodes") };
+        assert_eq!(err.code(), crate::codes::IMAGE_UNREADABLE);
+        assert!(err.to_string().contains("truncated"), "{err}");
+    }
 }

@@ -35,6 +35,7 @@ pub(crate) mod continuity;
 pub mod error;
 pub mod fsutil;
 pub mod image_io;
+pub mod input;
 pub mod jobs;
 pub mod layer;
 pub mod layer_io;

@@ -9,15 +9,15 @@ use std::path::PathBuf;
 use glam::DVec3;
 
 use crate::colour::ColourSpace;
+use crate::input::Convention;
 pub use crate::jobs::parse_vec3;
 use crate::jobs::{BuildSettings, CameraKind, CameraSettings};
 use crate::layer_io::ReadLimits;
-use crate::layering::input::{Convention, Preset};
 use crate::layering::{BuildOptions, Classify, EdgeOptions, FillColour};
 use crate::mapping::layout::CubeLayout;
 use crate::mapping::MappingKind;
 use crate::mesh::{self, normals::NormalWeighting, simplify::SimplifyOptions, MeshOptions};
-use crate::prepare::{DepthKind, KnownDistance, Refine, UnknownDepth};
+use crate::prepare::{DepthKind, KnownDistance, Preset, Refine, UnknownDepth};
 use crate::render::stereo::Orientation;
 use crate::render::StereoLayout;
 use crate::scene::BakeSettings;

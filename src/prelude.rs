@@ -39,27 +39,28 @@
 
 pub use crate::colour::ColourSpace;
 pub use crate::error::{Error, Result};
+pub use crate::input::Convention;
 pub use crate::jobs::{
     build_panorama, build_panorama_with_progress, prepare_depth_files, write_depth, BuildSettings,
     BuildSummary, RenderMethod, Renderer, View, ViewCamera,
 };
 pub use crate::jobs::{convert_file, ConvertReport, ConvertSettings};
+pub use crate::jobs::{describe, InfoReport};
+pub use crate::jobs::{mesh_files, MeshJobReport, MeshSettings};
 pub use crate::jobs::{
     read_camera_path, render_panorama, CameraKind, CameraSettings, RenderReport, RenderSettings, Shot,
 };
-pub use crate::jobs::{describe, InfoReport};
-pub use crate::jobs::{mesh_files, MeshJobReport, MeshSettings};
 pub use crate::jobs::{repack_panorama, RepackReport, RepackSettings};
 pub use crate::jobs::{scene_panorama, SceneSummary};
 pub use crate::layer::{LayerImage, Sample};
 pub use crate::layer_io::ReadLimits;
-pub use crate::layering::input::{Convention, DepthEncoding, Preset};
 pub use crate::layering::{BuildOptions, BuildReport};
 pub use crate::manifest::Manifest;
 pub use crate::mapping::{layout::CubeLayout, AnyMapping, MappingKind};
 pub use crate::mesh::scene::{mesh_panorama, Scene, SceneSettings};
 pub use crate::mesh::{mesh_layer, MeshOptions};
 pub use crate::panorama::{write_panorama, Panorama, SaveOptions};
+pub use crate::prepare::{DepthEncoding, Preset};
 pub use crate::prepare::{DepthKind, PrepareOptions, PrepareReport, PreparedDepth, Refine, UnknownDepth};
 pub use crate::render::{
     Camera, EquirectCamera, Frame, OdsEye, Perspective, PoleMerge, StereoCamera, StereoLayout,

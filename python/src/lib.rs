@@ -15,10 +15,10 @@ use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyBytes, PyDict, PyInt, PyString};
 
+use pomc::input::ColourSamples;
 use pomc::jobs::{self, BuildSettings, RenderMethod, Renderer};
 use pomc::layer::{LayerImage, Sample};
 use pomc::layer_io::ReadLimits;
-use pomc::layering::input::ColourSamples;
 use pomc::manifest::Manifest;
 use pomc::mesh::scene::{self, SceneSettings};
 use pomc::mesh::MeshOptions;

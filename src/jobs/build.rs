@@ -8,13 +8,14 @@ use glam::DVec3;
 use serde::Serialize;
 
 use crate::colour::ColourSpace;
+use crate::input::{self, Convention};
 use crate::layer::LayerImage;
 use crate::layer_io::ReadLimits;
-use crate::layering::input::{self, Convention, DepthEncoding};
 use crate::layering::{self, BuildOptions, BuildReport};
 use crate::manifest::{Manifest, Transform};
 use crate::panorama::{self, SaveOptions};
-use crate::prepare::{DepthSamples, PrepareOptions, PrepareReport, SampleFormat};
+use crate::prepare::DepthEncoding;
+use crate::prepare::{self, DepthSamples, PrepareOptions, PrepareReport, SampleFormat};
 
 /// Everything `pomc build` takes besides its input and output paths.
 #[derive(Clone, Debug, Default)]
@@ -236,6 +237,24 @@ fn prepare_stage(
 ) -> crate::Result<(layering::RgbdInput, PrepareReport, f64)> {
     progress(PREPARE_STAGE);
     let t = Instant::now();
-    let (rgbd, prepare) = files.prepare(depth, &s.depth, &s.prepare)?;
-    Ok((rgbd, prepare, t.elapsed().as_secs_f64()))
+    let (rgbd, report) = prepare_input(files, depth, s)?;
+    Ok((rgbd, report, t.elapsed().as_secs_f64()))
+}
+
+/// The layering's input from the files as read: the depth prepared as `s` asks (`depth` names
+/// the depth file in messages).
+pub fn prepare_input(
+    files: input::RgbdFiles,
+    depth: &Path,
+    s: &BuildSettings,
+) -> crate::Result<(layering::RgbdInput, PrepareReport)> {
+    let prepared =
+        prepare::prepare_depth(depth, &files.mapping, &files.rgb, &files.depth, &s.depth, &s.prepare)?;
+    let rgbd = layering::RgbdInput {
+        mapping: files.mapping,
+        rgb: files.rgb,
+        depth: prepared.depth,
+        normals: files.normals,
+    };
+    Ok((rgbd, prepared.report))
 }

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use crate::input::ImageHeader;
 use crate::layer::SampleType;
 use crate::layer_io::{self, ReadLimits};
-use crate::layering::input::ImageHeader;
 use crate::manifest::{LayerDecl, LayerSource, Transform};
 use crate::panorama::Panorama;
 
@@ -159,7 +159,7 @@ fn exr_info(path: &Path) -> crate::Result<InfoReport> {
 }
 
 fn image_info(path: &Path) -> crate::Result<InfoReport> {
-    let header = crate::layering::input::image_header(path)?;
+    let header = crate::input::image_header(path)?;
     Ok(InfoReport::Image { path: path.into(), header })
 }
 

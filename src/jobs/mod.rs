@@ -13,8 +13,8 @@ mod renderer;
 mod scene;
 
 pub use build::{
-    build_arrays, build_panorama, build_panorama_with_progress, build_rgbd, build_stages, BuildSettings,
-    BuildSummary, BuiltPanorama, PREPARE_STAGE, WRITING_STAGE,
+    build_arrays, build_panorama, build_panorama_with_progress, build_rgbd, build_stages, prepare_input,
+    BuildSettings, BuildSummary, BuiltPanorama, PREPARE_STAGE, WRITING_STAGE,
 };
 pub use camera::{parse_vec3, CameraKind, CameraSettings};
 pub use convert::{

@@ -3,8 +3,8 @@
 use std::path::Path;
 
 use super::BuildSettings;
+use crate::input;
 use crate::layer::LayerImage;
-use crate::layering::input;
 use crate::prepare::{self, PreparedDepth};
 
 /// Read `colour` and `depth` and prepare the depth as `pomc build` does before layering

@@ -9,7 +9,6 @@
 pub(crate) mod edges;
 pub(crate) mod fill;
 mod images;
-pub mod input;
 mod pieces;
 pub(crate) mod segment;
 pub(crate) mod shadow;

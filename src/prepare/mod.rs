@@ -20,54 +20,9 @@ use serde::Serialize;
 pub use decode::{DepthEncoding, DepthKind, KnownDistance, MetricFit, Preset};
 pub use refine::EdgeScan;
 
+pub use crate::input::{DepthSamples, SampleFormat};
+
 use crate::mapping::{AnyMapping, Mapping, MappingKind, Neighbours};
-
-/// Depth samples as a file stores them, before any unit or kind is applied.
-#[derive(Clone, Debug)]
-pub struct DepthSamples {
-    /// Width, pixels.
-    pub width: usize,
-    /// Height, pixels.
-    pub height: usize,
-    /// Stored values, row-major (integers as their value: 0–255, 0–65535).
-    pub values: Vec<f32>,
-    /// The stored sample format.
-    pub format: SampleFormat,
-    /// Whether the file's red, green and blue differ (a colour image, not depth).
-    pub colour_channels: bool,
-}
-
-/// How a depth file stores its samples.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum SampleFormat {
-    /// 8-bit integers.
-    U8,
-    /// 16-bit integers.
-    U16,
-    /// Floating point (OpenEXR, Radiance HDR).
-    F32,
-}
-
-impl SampleFormat {
-    /// The stored value of full scale as 1 (nearness maps), for integer formats.
-    pub fn unit(self) -> f64 {
-        match self {
-            SampleFormat::U8 => 1.0 / 255.0,
-            SampleFormat::U16 => 1.0 / 65535.0,
-            SampleFormat::F32 => 1.0,
-        }
-    }
-
-    /// `8-bit`, `16-bit` or `float`.
-    pub fn name(self) -> &'static str {
-        match self {
-            SampleFormat::U8 => "8-bit",
-            SampleFormat::U16 => "16-bit",
-            SampleFormat::F32 => "float",
-        }
-    }
-}
 
 /// Whether soft edges are snapped and noise smoothed (`--refine`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]

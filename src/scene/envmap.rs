@@ -6,7 +6,7 @@ use std::path::Path;
 use glam::{DMat3, DVec3};
 
 use super::SceneError;
-use crate::layering::input::Convention;
+use crate::input::Convention;
 use crate::manifest::compose;
 use crate::mapping::{AnyMapping, Equirect, Mapping};
 

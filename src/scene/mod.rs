@@ -18,8 +18,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::continuity;
+use crate::input::Convention;
 use crate::layer::{LayerImage, SampleType, OUTSIDE_DEPTH};
-use crate::layering::input::Convention;
 use crate::layering::{pixel_angle, BuiltLayer, LayerStats};
 use crate::manifest::Role;
 use crate::mapping::{AnyMapping, Mapping, MappingKind, Neighbours};

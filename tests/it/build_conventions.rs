@@ -4,7 +4,7 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use pomc::layering::input::Convention;
+use pomc::input::Convention;
 use pomc::manifest::{Manifest, MappingDecl, MappingKind};
 use pomc::mapping::{Equirect, Mapping};
 

@@ -718,14 +718,14 @@ fn progress_names_the_listed_stages() {
 /// included, with the same manifest.
 #[test]
 fn the_file_job_writes_the_layers_build_makes() {
-    use pomc::jobs::{build_panorama, build_rgbd, BuildSettings};
-    use pomc::layering::input;
+    use pomc::input;
+    use pomc::jobs::{build_panorama, build_rgbd, prepare_input, BuildSettings};
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/data/room-rgbd");
     let (colour, depth) = (root.join("colour.png"), root.join("depth.exr"));
     let mut s = BuildSettings::default();
     s.options.normals_out = true;
     let files = input::read(&colour, s.colour_space, &depth, None, &s.limits).unwrap();
-    let (rgbd, _) = files.prepare(&depth, &s.depth, &s.prepare).unwrap();
+    let (rgbd, _) = prepare_input(files, &depth, &s).unwrap();
     let in_memory = build_rgbd(rgbd, &s, &|_| {}).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let written = build_panorama(&colour, &depth, dir.path(), &s).unwrap();

@@ -1,20 +1,22 @@
-//! Reading RGB-D panoramas for [`super::build`]: colour from PNG/JPEG/EXR/HDR, depth from float
-//! EXR or 16-bit PNG with a scale and an invalid value, dataset presets, z-depth to ray distance,
-//! and the azimuth conventions of other tools expressed as a LocalToWorld prefix.
+//! Reading RGB-D panoramas, the build's front door: colour from PNG/JPEG/EXR/HDR as linear planes,
+//! depth samples as stored (their unit and kind are the preparation's, [`crate::prepare`]), normals,
+//! sizes checked from the headers first; and the azimuth conventions of other tools as a
+//! LocalToWorld prefix. Plain images are decoded by [`crate::image_io`], the one decoder.
 
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::RgbdInput;
+use serde::Serialize;
+
 use crate::colour::{srgb_to_linear, ColourSpace};
+use crate::image_io::{self, DecodeFailure};
 use crate::layer_io::{self, ReadLimits};
 use crate::manifest::Transform;
 use crate::mapping::{AnyMapping, MappingKind};
-use crate::prepare::{self, DepthSamples, PrepareError, PrepareOptions, PrepareReport, SampleFormat};
 
-pub use crate::prepare::{DepthEncoding, DepthKind, Preset};
+pub use crate::image_io::ImageHeader;
 
 /// Azimuth conventions of the tools panoramas come from, as the LocalToWorld operations that
 /// map our (the thesis's) local frame onto theirs. Pixels are never resampled.
@@ -136,48 +138,14 @@ fn is_exr(p: &Path) -> bool {
     p.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"))
 }
 
-fn image_limits(limits: &ReadLimits) -> image::Limits {
-    let mut l = image::Limits::default();
-    l.max_image_width = Some(limits.max_dimension as u32);
-    l.max_image_height = Some(limits.max_dimension as u32);
-    l.max_alloc = Some(limits.max_pixels.saturating_mul(16));
-    l
-}
-
-fn reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>, InputError> {
-    let err =
-        |e: &dyn std::fmt::Display| InputError::Image { path: path.to_path_buf(), reason: e.to_string() };
-    crate::fsutil::check_regular(path).map_err(|e| err(&e))?;
-    image::ImageReader::open(path).map_err(|e| err(&e))?.with_guessed_format().map_err(|e| err(&e))
-}
-
-/// What a plain image's header says (`pomc info`): no pixel is decoded.
-#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
-pub struct ImageHeader {
-    /// Width, pixels.
-    pub width: u32,
-    /// Height, pixels.
-    pub height: u32,
-    /// The container, e.g. `Png`, `Jpeg`.
-    pub format: String,
-    /// Channels per pixel (1 grey, 2 grey + alpha, 3 RGB, 4 RGBA).
-    pub channels: u8,
-    /// Bits per channel (8, 16, 32).
-    pub bits: u16,
+/// A plain image's failure as the build reports it (`INPUT_UNREADABLE`, naming the file).
+fn unreadable(path: &Path, e: DecodeFailure) -> InputError {
+    InputError::Image { path: path.to_path_buf(), reason: e.to_string() }
 }
 
 /// Read a PNG/JPEG/HDR/… header ([`ImageHeader`]).
 pub fn image_header(path: &Path) -> Result<ImageHeader, InputError> {
-    use image::ImageDecoder;
-    let err =
-        |e: &dyn std::fmt::Display| InputError::Image { path: path.to_path_buf(), reason: e.to_string() };
-    let reader = reader(path)?;
-    let format = reader.format().map(|f| format!("{f:?}")).unwrap_or_else(|| "unknown".into());
-    let decoder = reader.into_decoder().map_err(|e| err(&e))?;
-    let (width, height) = decoder.dimensions();
-    let colour = decoder.color_type();
-    let channels = colour.channel_count();
-    Ok(ImageHeader { width, height, format, channels, bits: colour.bits_per_pixel() / u16::from(channels) })
+    image_io::image_header(path).map_err(|e| unreadable(path, e))
 }
 
 /// Width and height from the file's header, checked against `limits` (for `channels` planes of
@@ -187,9 +155,7 @@ pub fn header_size(path: &Path, channels: usize, limits: &ReadLimits) -> Result<
         let header = layer_io::read_header(path, limits)?;
         (header.width as u64, header.height as u64)
     } else {
-        let dims = reader(path)?.into_dimensions();
-        let (w, h) =
-            dims.map_err(|e| InputError::Image { path: path.to_path_buf(), reason: e.to_string() })?;
+        let (w, h) = image_io::image_size(path).map_err(|e| unreadable(path, e))?;
         (u64::from(w), u64::from(h))
     };
     limits.check(w, h, channels).map_err(|limit| InputError::TooLarge {
@@ -202,64 +168,7 @@ pub fn header_size(path: &Path, channels: usize, limits: &ReadLimits) -> Result<
 }
 
 fn open_image(path: &Path, limits: &ReadLimits) -> Result<image::DynamicImage, InputError> {
-    let err =
-        |e: &dyn std::fmt::Display| InputError::Image { path: path.to_path_buf(), reason: e.to_string() };
-    let mut reader = reader(path)?;
-    reader.limits(image_limits(limits));
-    let is_jpeg = reader.format() == Some(image::ImageFormat::Jpeg);
-    let image = reader.decode().map_err(|e| err(&e))?;
-    // The JPEG decoder fills a cut-off scan with grey rather than failing.
-    if is_jpeg && !jpeg_is_complete(&std::fs::read(path).map_err(|e| err(&e))?) {
-        return Err(err(&"the JPEG data stops before its end-of-image marker (a truncated file?); \
-                          download or export it again"));
-    }
-    Ok(image)
-}
-
-/// Whether the primary image reaches its end-of-image marker (`FF D9`): the marker segments are
-/// walked from the start by their lengths and each scan's entropy-coded data up to the next marker
-/// (its `FF` bytes are stuffed), so data after the image (a thumbnail inside `APP1`, a trailer such
-/// as a motion photo's video) cannot be mistaken for it.
-fn jpeg_is_complete(b: &[u8]) -> bool {
-    if !b.starts_with(&[0xFF, 0xD8]) {
-        return false;
-    }
-    let mut i = 2;
-    loop {
-        // Fill bytes (`FF FF …`) may precede a marker.
-        while b.get(i) == Some(&0xFF) && b.get(i + 1) == Some(&0xFF) {
-            i += 1;
-        }
-        let (Some(&0xFF), Some(&m)) = (b.get(i), b.get(i + 1)) else { return false };
-        i += 2;
-        match m {
-            0xD9 => return true,
-            // Restart markers and TEM stand alone.
-            0xD0..=0xD7 | 0x01 => continue,
-            _ => {}
-        }
-        let Some(len) = b.get(i..i + 2).map(|l| usize::from(u16::from_be_bytes([l[0], l[1]]))) else {
-            return false;
-        };
-        if len < 2 {
-            return false;
-        }
-        i += len;
-        if m == 0xDA {
-            // Entropy-coded data: runs to the next marker that is not a stuffed `FF 00` or a restart.
-            loop {
-                let Some(k) = b.get(i..).and_then(|r| r.iter().position(|&x| x == 0xFF)) else {
-                    return false;
-                };
-                i += k;
-                match b.get(i + 1) {
-                    None => return false,
-                    Some(0x00) | Some(0xD0..=0xD7) => i += 2,
-                    Some(_) => break,
-                }
-            }
-        }
-    }
+    image_io::decode_image(path, limits).map_err(|e| unreadable(path, e))
 }
 
 /// Colour as planar linear RGB f32: 8/16-bit images are decoded from sRGB unless `space` says
@@ -341,6 +250,53 @@ pub fn read_depth_samples(path: &Path, limits: &ReadLimits) -> Result<DepthSampl
     Ok(DepthSamples { width: w, height: h, values, format, colour_channels })
 }
 
+/// Depth samples as a file stores them, before any unit or kind is applied.
+#[derive(Clone, Debug)]
+pub struct DepthSamples {
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels.
+    pub height: usize,
+    /// Stored values, row-major (integers as their value: 0–255, 0–65535).
+    pub values: Vec<f32>,
+    /// The stored sample format.
+    pub format: SampleFormat,
+    /// Whether the file's red, green and blue differ (a colour image, not depth).
+    pub colour_channels: bool,
+}
+
+/// How a depth file stores its samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SampleFormat {
+    /// 8-bit integers.
+    U8,
+    /// 16-bit integers.
+    U16,
+    /// Floating point (OpenEXR, Radiance HDR).
+    F32,
+}
+
+impl SampleFormat {
+    /// The stored value of full scale as 1 (nearness maps), for integer formats.
+    pub fn unit(self) -> f64 {
+        match self {
+            SampleFormat::U8 => 1.0 / 255.0,
+            SampleFormat::U16 => 1.0 / 65535.0,
+            SampleFormat::F32 => 1.0,
+        }
+    }
+
+    /// `8-bit`, `16-bit` or `float`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SampleFormat::U8 => "8-bit",
+            SampleFormat::U16 => "16-bit",
+            SampleFormat::F32 => "float",
+        }
+    }
+}
+
 /// Whether more than 1 % of the pixels have channels apart by more than `tol`.
 fn differ(r: &[f32], g: &[f32], b: &[f32], tol: f32) -> bool {
     let apart = (0..r.len()).filter(|&i| (r[i] - g[i]).abs() > tol || (g[i] - b[i]).abs() > tol).count();
@@ -393,22 +349,6 @@ pub struct RgbdFiles {
     pub normals: Option<Vec<Vec3>>,
 }
 
-impl RgbdFiles {
-    /// Prepare the depth ([`prepare::prepare_depth`]; `depth` names the file in messages) into the
-    /// build's input.
-    pub fn prepare(
-        self,
-        depth: &Path,
-        enc: &DepthEncoding,
-        s: &PrepareOptions,
-    ) -> Result<(RgbdInput, PrepareReport), PrepareError> {
-        let prepared = prepare::prepare_depth(depth, &self.mapping, &self.rgb, &self.depth, enc, s)?;
-        let input =
-            RgbdInput { mapping: self.mapping, rgb: self.rgb, depth: prepared.depth, normals: self.normals };
-        Ok((input, prepared.report))
-    }
-}
-
 /// Read colour, depth samples (+ optional normals EXR); the depth may have any resolution.
 pub fn read(
     colour: &Path,
@@ -431,19 +371,6 @@ pub fn read(
     let samples = read_depth_samples(depth, limits)?;
     let normals = normals.map(|p| read_normals(p, colour, cw, ch, limits)).transpose()?;
     Ok(RgbdFiles { mapping, rgb, depth: samples, normals })
-}
-
-/// Read and prepare colour + depth (+ optional normals EXR) into an [`RgbdInput`].
-pub fn load(
-    colour: &Path,
-    space: ColourSpace,
-    depth: &Path,
-    normals: Option<&Path>,
-    enc: &DepthEncoding,
-    prep: &PrepareOptions,
-    limits: &ReadLimits,
-) -> crate::Result<(RgbdInput, PrepareReport)> {
-    Ok(read(colour, space, depth, normals, limits)?.prepare(depth, enc, prep)?)
 }
 
 /// The normals image `path` (`N.X N.Y N.Z`, or `R G B`) of a `cw` × `ch` colour image `colour`.
@@ -507,16 +434,16 @@ mod tests {
         });
         img.save(&path).unwrap();
         let whole = std::fs::read(&path).unwrap();
-        assert!(jpeg_is_complete(&whole));
+        assert!(image_io::jpeg_is_complete(&whole));
         let limits = ReadLimits::default();
         assert!(open_image(&path, &limits).is_ok());
         // Data after the end-of-image marker (a motion photo's video, a trailer) is no truncation,
         // even when it holds `FF DA` bytes.
         let mut trailer = whole.clone();
         trailer.extend_from_slice(&[0xFF, 0xDA, 0x00, 0x08, 1, 2, 3, 4, 5, 6, 0xAB, 0xFF, 0xDA, 0x12]);
-        assert!(jpeg_is_complete(&trailer));
+        assert!(image_io::jpeg_is_complete(&trailer));
         let cut = &whole[..whole.len() * 2 / 3];
-        assert!(!jpeg_is_complete(cut));
+        assert!(!image_io::jpeg_is_complete(cut));
         // The decoder alone accepts the cut file (the missing rows come out grey).
         assert!(image::load_from_memory(cut).is_ok());
         std::fs::write(&path, cut).unwrap();
