@@ -287,7 +287,7 @@ mod tests {
     fn codes_are_used_through_their_constants() {
         let root = env!("CARGO_MANIFEST_DIR");
         let declared: Vec<&str> = all().iter().map(|c| c.0).collect();
-        let mut stack: Vec<std::path::PathBuf> = ["src", "tools/src", "python/src", "python/pomc"]
+        let mut stack: Vec<std::path::PathBuf> = ["src", "cli/src", "python/src", "python/pomc"]
             .iter()
             .map(|d| std::path::Path::new(root).join(d))
             .collect();
