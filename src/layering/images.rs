@@ -5,7 +5,11 @@ use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
 
-use super::*;
+use super::fill;
+use super::{BuildReport, Built, BuiltLayer, LayerKey, RgbdInput, SurfaceClass};
+use crate::layer::{LayerImage, SampleType, OUTSIDE_DEPTH};
+use crate::manifest::{LayerDecl, Manifest, MappingDecl, Role, Transform};
+use crate::mapping::{Mapping, MappingKind};
 
 /// Layers decided and filled, their images not made yet: [`Layered::image`] makes one at a time
 /// (a writer then holds one full canvas, not all of them; see docs/benchmarks.md).

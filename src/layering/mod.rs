@@ -11,8 +11,6 @@ pub(crate) mod fill;
 mod images;
 mod pieces;
 pub(crate) mod segment;
-pub(crate) mod shadow;
-pub(crate) mod texture;
 
 use std::time::Instant;
 
@@ -20,19 +18,17 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::continuity;
-use crate::layer::{LayerImage, SampleType, OUTSIDE_DEPTH};
-use crate::manifest::{LayerDecl, Manifest, MappingDecl, Role, Transform};
-use crate::mapping::{opposite, Neighbours};
-use crate::mapping::{AnyMapping, Mapping, MappingKind, PixelDirs};
+use crate::layer::LayerImage;
+use crate::manifest::Role;
+use crate::mapping::{AnyMapping, Mapping, Neighbours, PixelDirs};
 pub use edges::EdgeOptions;
+pub use fill::FillColour;
 use fill::{fill_layer, FillContext};
 use images::layer_heads;
 pub use images::{layers_manifest, manifest, Layered};
-use pieces::*;
+use pieces::{assign_unknown, mixed_pixels_of, parts, pieces, repair_breaks};
 pub use segment::SegmentOptions;
 use segment::{segment, NO_SEGMENT};
-pub use texture::FillColour;
 
 /// A plain RGB-D panorama: one surface per ray.
 #[derive(Clone, Debug)]
@@ -444,8 +440,8 @@ fn fill_all(cx: &FillContext, count: usize, colour: FillColour, stages: &mut Sta
     if colour != FillColour::Nearest {
         stages.start("fill colour");
         fills.par_iter_mut().enumerate().for_each(|(k, f)| match colour {
-            FillColour::Exemplar => texture::synthesise(cx, k as u32, f),
-            _ => texture::smooth(cx, k as u32, f),
+            FillColour::Exemplar => fill::texture::synthesise(cx, k as u32, f),
+            _ => fill::texture::smooth(cx, k as u32, f),
         });
     }
     fills

@@ -3,7 +3,10 @@
 
 use rayon::prelude::*;
 
-use super::*;
+use super::edges;
+use super::segment::{self, NO_SEGMENT};
+use crate::continuity;
+use crate::mapping::{opposite, Neighbours};
 
 /// Pixels whose depth lies strictly between a nearer neighbour and a farther neighbour, each across a
 /// jump (the mixed samples of an anti-aliased depth edge, spec §7 step 1), with the depth of their

@@ -19,12 +19,18 @@ use crate::continuity::continuous_with;
 use crate::mapping::{opposite, Neighbours, PixelDirs};
 
 /// One filled pixel.
+mod shadow;
 mod surface;
 #[cfg(test)]
 mod tests;
+pub(crate) mod texture;
 
 pub(crate) use surface::SAME_PLANE_COS;
-use surface::*;
+use surface::{
+    continue_surface, interior_neighbour, planar_reach, plane_hit, same_surface, trusted_plane, Surfaces,
+    SPECK,
+};
+pub use texture::FillColour;
 
 #[derive(Clone, Copy, Debug)]
 pub struct FillPixel {
@@ -32,7 +38,7 @@ pub struct FillPixel {
     pub pixel: usize,
     /// Distance along its ray (m) on the continued surface; `+inf` in the infinity layer.
     pub depth: f32,
-    /// Its linear RGB: the nearest visible pixel's, then as [`super::texture`] colours it.
+    /// Its linear RGB: the nearest visible pixel's, then as [`texture`] colours it.
     pub rgb: [f32; 3],
     /// The seed whose surface it continues (its plane and normal).
     pub surface: usize,

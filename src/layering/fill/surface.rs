@@ -5,7 +5,7 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use super::*;
+use super::FillContext;
 
 /// Cosine of the angle under which two seeds' normals are taken for one plane.
 pub(crate) const SAME_PLANE_COS: f32 = 0.94; // 20°

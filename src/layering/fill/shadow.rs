@@ -8,7 +8,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::fill::FillContext;
+use super::FillContext;
 
 /// Widest a hole may be for its local frame (cosine from its centre).
 const MIN_COS: f32 = 0.5;

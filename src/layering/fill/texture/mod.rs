@@ -9,8 +9,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::fill::{Fill, FillContext, SAME_PLANE_COS};
 use super::shadow::{self, Shadow};
+use super::{Fill, FillContext, SAME_PLANE_COS};
 use crate::mapping::Neighbours;
 use search::Search;
 
