@@ -1,7 +1,8 @@
 //! The depth-aware rule: depth is never blended across a discontinuity, and all channels follow
 //! the one decision per pixel.
 
-use super::*;
+use super::taps::{copy_pixel, Taps};
+use super::{SampleOptions, Texel};
 
 /// What the depth-aware rule makes of a pixel's taps.
 pub(super) enum DepthTaps {

@@ -4,7 +4,8 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
-use super::*;
+use super::{same_face_size, target_size, Canvas, Filter, Prepared, ResampleError, Rows, SampleOptions};
+
 use crate::continuity;
 use crate::layer::{Channel, LayerImage, SampleType};
 use crate::mapping::layout::CubeLayout;

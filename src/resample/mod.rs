@@ -229,12 +229,15 @@ mod taps;
 #[cfg(test)]
 mod tests;
 
-use crate::mapping::fast_atan2;
-use depth::*;
+use self::source::batch;
+use self::source::Coords;
+use self::source::CubeSource;
+use self::source::Dirs;
+use self::source::EquirectSource;
+use self::source::Source;
 pub use layer::convert_layer;
-use source::*;
+
 pub use taps::Taps;
-use taps::*;
 
 /// Width and height of a `target` canvas of `size`, checked so that `channels` interleaved samples
 /// of it can be allocated.

@@ -5,7 +5,11 @@ use std::f32::consts::{PI, TAU};
 
 use glam::Vec3;
 
-use super::*;
+use super::depth::{blendable, resolve, resolve_with, tap_inside, DepthTaps};
+use super::taps::{axis_weights, cubic_weights, floor_i64, Taps};
+use super::{Filter, SampleOptions, Texel};
+use crate::mapping::fast_atan2;
+
 use crate::mapping::{CubeFace, FacePoint};
 
 /// A canvas that turns directions into taps.

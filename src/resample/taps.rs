@@ -1,6 +1,6 @@
 //! Filter weights and taps: which texels a filtered pixel reads, with what weight.
 
-use super::*;
+use super::Filter;
 
 /// Catmull-Rom weights of taps `−1, 0, 1, 2` at fraction `t ∈ [0, 1)`.
 #[inline]

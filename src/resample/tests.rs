@@ -1,4 +1,5 @@
 use super::layer::convert_layer_in_bands;
+use super::taps::cubic_weights;
 use super::*;
 use crate::layer::{LayerImage, SampleType};
 

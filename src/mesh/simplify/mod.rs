@@ -10,7 +10,7 @@
 use rayon::prelude::*;
 
 use super::grid::Grid;
-use super::{is_pole, LayerMesh};
+use super::LayerMesh;
 use crate::mapping::AnyMapping;
 
 /// Tolerances of the simplification stage.
@@ -62,10 +62,11 @@ mod quadric;
 mod run;
 mod shared;
 
-use overlap::*;
-use quadric::*;
-use run::*;
-use shared::*;
+use self::quadric::Loc;
+
+use self::run::Run;
+
+use self::shared::Shared;
 
 /// A part of phase 1: lattice `g`, columns `x0..=x1`; its interior vertices (strictly between) are
 /// simplified independently of the other parts'.

@@ -4,7 +4,11 @@ use std::collections::BinaryHeap;
 
 use glam::DVec3;
 
-use super::*;
+use super::overlap::{LatticePts, LatticeTri};
+use super::quadric::{Cand, Loc, Quadric};
+use super::shared::Shared;
+use super::{SimplifyStats, MIN_DET};
+
 use crate::mesh::grid::is_jump;
 
 /// Mutable state of one greedy run over a set of triangles.

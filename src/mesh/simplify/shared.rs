@@ -2,7 +2,12 @@
 
 use glam::DVec3;
 
-use super::*;
+use super::overlap::{clip, disjoint, LatticeTri};
+use super::quadric::Loc;
+use super::{SimplifyOptions, PAIR_SKIP};
+use crate::mesh::is_pole;
+use crate::mesh::LayerMesh;
+
 use crate::mapping::{AnyMapping, DirTable};
 use crate::mesh::accuracy::{candidates, ray_hit};
 use crate::mesh::grid::{Grid, PlaneDot};
