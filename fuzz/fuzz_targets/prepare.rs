@@ -13,7 +13,7 @@ use std::sync::OnceLock;
 
 use libfuzzer_sys::fuzz_target;
 use pomc::layer_io::ReadLimits;
-use pomc::layering::input::{header_size, read_depth_samples};
+use pomc::input::{header_size, read_depth_samples};
 use pomc::mapping::{AnyMapping, Mapping, MappingKind};
 use pomc::prepare::{
     prepare_depth, DepthEncoding, DepthKind, DepthSamples, KnownDistance, PrepareOptions, Preset, Refine,
