@@ -1,0 +1,52 @@
+#!/usr/bin/env python3
+"""Import graph of src/ (issue 54): circles between top-level modules, the edges of each, and the
+imports that run back up the spec order (the last two lines). Run from the repository root:
+`python3 tools/refactor/module_graph.py`."""
+import os, re, sys, itertools
+root = "src"
+edges = {}
+def modname(path):
+    rel = os.path.relpath(path, root)[:-3]
+    parts = rel.split("/")
+    if parts[-1] in ("mod", "lib"): parts = parts[:-1]
+    return parts[0] if parts else "lib"
+for dp, _, fs in os.walk(root):
+    for f in fs:
+        if not f.endswith(".rs"): continue
+        p = os.path.join(dp, f)
+        m = modname(p)
+        text = "\n".join(l.split("//")[0] for l in open(p).read().splitlines())
+        text = re.sub(r"#\[cfg\(test\)\]\s*mod tests\s*\{.*", "", text, flags=re.S)
+        for t in re.findall(r"(?<!\$)crate::([a-z_]+)", text):
+            if t != m and t not in ("Result", "Error"):
+                edges.setdefault(m, set()).add(t)
+        if re.search(r"(?<!\$)crate::(Result|Error)\b", text) and m not in ("error", "lib", "prelude"):
+            edges.setdefault(m, set()).add("error")
+mods = sorted(set(edges) | {t for v in edges.values() for t in v})
+# SCCs (Tarjan)
+index, low, st, on, sccs, i = {}, {}, [], set(), [], [0]
+def sc(v):
+    index[v] = low[v] = i[0]; i[0] += 1; st.append(v); on.add(v)
+    for w in edges.get(v, ()):
+        if w not in index: sc(w); low[v] = min(low[v], low[w])
+        elif w in on: low[v] = min(low[v], index[w])
+    if low[v] == index[v]:
+        c = []
+        while True:
+            w = st.pop(); on.discard(w); c.append(w)
+            if w == v: break
+        sccs.append(c)
+sys.setrecursionlimit(10000)
+for v in mods:
+    if v not in index: sc(v)
+for c in sccs:
+    if len(c) > 1: print("cycle:", sorted(c))
+for m in sorted(edges):
+    print(m, "->", sorted(edges[m]))
+level = {}
+for i, grp in enumerate([["codes","error","fsutil","raster","colour"],["mapping","continuity"],["layer","resample"],["layer_io","pack","manifest","image_io"],["panorama","input"],["prepare","layering","mesh","render","validate","scene","viewer"],["jobs"],["options","prelude","lib"]]):
+    for m in grp: level[m] = i
+up = [(a,b) for a in edges for b in edges[a] if level.get(b,0) > level.get(a,0)]
+same = [(a,b) for a in edges for b in edges[a] if level.get(b,0) == level.get(a,0) and a != b]
+print("back up:", up)
+print("same level:", sorted(same))
