@@ -231,9 +231,24 @@ declare_codes! {
 }
 
 /// Every code pomc can give, with its severity and meaning: the manifest's and the validator's
-/// findings, then the errors ([`ERRORS`]) and warnings ([`WARNINGS`]) of jobs.
+/// findings ([`findings`]), then the errors ([`ERRORS`]) and warnings ([`WARNINGS`]) of jobs.
 pub fn all() -> Vec<(&'static str, Severity, &'static str)> {
     manifest::CODES.iter().chain(CODES).chain(ERRORS).chain(WARNINGS).copied().collect()
+}
+
+/// Every code `validate` can report: the manifest's and the validator's own (`pomc validate
+/// --list-codes`).
+pub fn findings() -> Vec<(&'static str, Severity, &'static str)> {
+    manifest::CODES.iter().chain(CODES).copied().collect()
+}
+
+/// Severity of a code; an unknown code is an error (a test keeps every emitted code declared).
+pub fn severity(code: &str) -> Severity {
+    [manifest::CODES, CODES, ERRORS, WARNINGS]
+        .into_iter()
+        .flatten()
+        .find(|(c, _, _)| *c == code)
+        .map_or(Severity::Error, |(_, s, _)| *s)
 }
 
 /// The table of [`all`] codes as Markdown (`pomc codes --markdown`; spec/10-codes.md is this text).
@@ -287,10 +302,11 @@ mod tests {
     fn codes_are_used_through_their_constants() {
         let root = env!("CARGO_MANIFEST_DIR");
         let declared: Vec<&str> = all().iter().map(|c| c.0).collect();
-        let mut stack: Vec<std::path::PathBuf> = ["src", "cli/src", "python/src", "python/pomc"]
-            .iter()
-            .map(|d| std::path::Path::new(root).join(d))
-            .collect();
+        let mut stack: Vec<std::path::PathBuf> =
+            ["src", "cli/src", "cli/flags/src", "python/src", "python/pomc"]
+                .iter()
+                .map(|d| std::path::Path::new(root).join(d))
+                .collect();
         while let Some(p) = stack.pop() {
             if p.is_dir() {
                 stack.extend(std::fs::read_dir(&p).unwrap().map(|e| e.unwrap().path()));

@@ -28,23 +28,23 @@ pub fn srgb8(l: f32) -> u8 {
     (linear_to_srgb(l) * 255.0).round().clamp(0.0, 255.0) as u8
 }
 
-/// How the values of an 8/16-bit input image are encoded.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum ColourSpace {
-    /// sRGB for 8/16-bit images, linear for float ones.
-    ///
-    /// 8/16-bit: PNG, JPEG; float: OpenEXR, Radiance HDR.
-    #[default]
-    Auto,
-    /// sRGB-encoded values.
-    ///
-    /// Whatever the format.
-    Srgb,
-    /// Linear values.
-    ///
-    /// Already linear (e.g. a PNG written from linear values without encoding).
-    Linear,
+crate::choice::choices! {
+    /// How the values of an 8/16-bit input image are encoded.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum ColourSpace (default Auto) {
+        /// sRGB for 8/16-bit images, linear for float ones.
+        ///
+        /// 8/16-bit: PNG, JPEG; float: OpenEXR, Radiance HDR.
+        Auto = "auto",
+        /// sRGB-encoded values.
+        ///
+        /// Whatever the format.
+        Srgb = "srgb",
+        /// Linear values.
+        ///
+        /// Already linear (e.g. a PNG written from linear values without encoding).
+        Linear = "linear",
+    }
 }
 
 #[cfg(test)]

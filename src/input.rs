@@ -18,25 +18,24 @@ use crate::mapping::{AnyMapping, MappingKind};
 
 pub use crate::image_io::ImageHeader;
 
-/// Azimuth conventions of the tools panoramas come from, as the LocalToWorld operations that
-/// map our (the thesis's) local frame onto theirs. Pixels are never resampled.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum Convention {
-    /// POMC / thesis: azimuth 2πu from +X towards +Y, +Z up.
-    #[default]
-    Thesis,
-    /// Blender equirect camera: azimuth π(1−2u), centre column along +X.
-    ///
-    /// `+Z` up: `world = Scale(−1, 1, 1) · local`.
-    Blender,
-    /// OpenEXR lat-long: longitude decreasing, +Y up.
-    ///
-    /// Longitude `π − 2πu`, latitude `π/2 − πv`, `+Y` up, direction
-    /// `(sin lon cos lat, sin lat, cos lon cos lat)`: `world = Rotate((1,1,1), −120°) ·
-    /// Scale(−1, 1, 1) · local`.
-    #[cfg_attr(feature = "clap", value(name = "openexr"))]
-    OpenExr,
+crate::choice::choices! {
+    /// Azimuth conventions of the tools panoramas come from, as the LocalToWorld operations that
+    /// map our (the thesis's) local frame onto theirs. Pixels are never resampled.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Convention (default Thesis) {
+        /// POMC / thesis: azimuth 2πu from +X towards +Y, +Z up.
+        Thesis = "thesis",
+        /// Blender equirect camera: azimuth π(1−2u), centre column along +X.
+        ///
+        /// `+Z` up: `world = Scale(−1, 1, 1) · local`.
+        Blender = "blender",
+        /// OpenEXR lat-long: longitude decreasing, +Y up.
+        ///
+        /// Longitude `π − 2πu`, latitude `π/2 − πv`, `+Y` up, direction
+        /// `(sin lon cos lat, sin lat, cos lon cos lat)`: `world = Rotate((1,1,1), −120°) ·
+        /// Scale(−1, 1, 1) · local`.
+        OpenExr = "openexr",
+    }
 }
 
 impl Convention {

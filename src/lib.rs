@@ -21,7 +21,7 @@
 //! - [`render`]: views from a displaced camera, by point splatting or mesh rasterisation (spec §9);
 //! - [`viewer`]: the browser viewer's static site;
 //! - [`image_io`] and [`colour`]: plain images in and out, sRGB ↔ linear at the edges;
-//! - [`raster`]: the plain interleaved image container; [`fsutil`]: atomic writes and bounded reads;
+//! - [`Raster`]: the plain interleaved image container;
 //! - [`error`]: the crate's error type, each with a stable code;
 //! - [`jobs`] and [`prelude`]: the main jobs, one call each, with the command line's defaults.
 
@@ -29,11 +29,12 @@
 #![warn(missing_docs)]
 #![warn(unnameable_types)]
 
+pub mod choice;
 pub mod codes;
 pub mod colour;
 pub(crate) mod continuity;
 pub mod error;
-pub mod fsutil;
+mod fsutil;
 pub mod image_io;
 pub mod input;
 pub mod jobs;
@@ -43,13 +44,11 @@ pub mod layering;
 pub mod manifest;
 pub mod mapping;
 pub mod mesh;
-#[cfg(feature = "clap")]
-pub mod options;
 pub mod pack;
 pub mod panorama;
 pub mod prelude;
 pub mod prepare;
-pub mod raster;
+mod raster;
 pub mod render;
 pub mod resample;
 pub mod scene;
@@ -57,3 +56,4 @@ pub mod validate;
 pub mod viewer;
 
 pub use error::{Error, Result};
+pub use raster::{Raster, RasterSizeError};

@@ -1,7 +1,7 @@
 //! Argument value parsers shared by the commands: the library's (one syntax for every vector,
 //! one domain type for every number).
 
-pub use pomc::options::Range;
+pub use pomc_flags::Range;
 
 /// One command's arguments parsed alone, `argv[0]` being the program name (tests of defaults).
 #[cfg(test)]

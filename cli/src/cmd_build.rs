@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use pomc::jobs;
-use pomc::options::{BuildArgs, DepthArgs, LayeringArgs};
+use pomc_flags::{BuildArgs, DepthArgs, LayeringArgs};
 
 use crate::output::Output;
 use crate::Failure;
@@ -78,8 +78,7 @@ pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
 
     let report = serde_json::to_value(&built).expect("report serialises");
     if let Some(p) = &args.report {
-        let text = serde_json::to_string_pretty(&report).expect("JSON values serialise");
-        pomc::fsutil::write_bytes_atomic(p, text.as_bytes()).map_err(pomc::Error::from)?;
+        pomc::jobs::write_report(p, &report)?;
     }
     out.json(&report);
     for l in &built.report.layers {

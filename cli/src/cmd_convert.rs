@@ -23,7 +23,7 @@ pub struct Args {
     #[arg(short, long)]
     output: PathBuf,
     /// Target mapping.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = pomc_flags::choice::<pomc::mapping::MappingKind>())]
     to: pomc::mapping::MappingKind,
     /// Cube face size in pixels (default: a quarter of the equirect width, ffmpeg's default).
     #[arg(long)]

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use pomc::jobs::{self, MeshSettings};
 use pomc::mesh::scene::SceneSettings;
-use pomc::options::MeshArgs;
+use pomc_flags::MeshArgs;
 
 use crate::output::Output;
 use crate::Failure;

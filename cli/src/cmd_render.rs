@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use indicatif::ProgressBar;
 use pomc::jobs::{read_camera_path, render_panorama, RenderMethod, RenderSettings};
-use pomc::options::CameraArgs;
+use pomc_flags::CameraArgs;
 
 use crate::output::Output;
 use crate::Failure;
@@ -19,7 +19,7 @@ pub struct Args {
     output: PathBuf,
     #[command(flatten)]
     view: CameraArgs,
-    #[arg(long, value_enum, default_value = "splat")]
+    #[arg(long, value_parser = pomc_flags::choice::<RenderMethod>(), default_value = "splat")]
     method: RenderMethod,
     /// Also write the distance from the eye (EXR, channel Z; +inf for infinity content, -1 in holes).
     #[arg(long)]

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use pomc::jobs;
-use pomc::options::SceneArgs;
+use pomc_flags::SceneArgs;
 
 use crate::output::Output;
 use crate::Failure;

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use pomc::validate::{self, Severity, ValidateSettings};
+use pomc::jobs::ValidateSettings;
 
 use crate::args::Range;
 use crate::output::Output;
@@ -23,33 +23,15 @@ pub struct Args {
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
     if args.list_codes {
-        crate::cmd_codes::print(&validate::codes::all(), out);
+        crate::cmd_codes::print(&pomc::codes::findings(), out);
         return Ok(0);
     }
     let options = ValidateSettings { jump_threshold: args.jump_threshold, ..Default::default() };
     let path = args.path.unwrap_or_default();
-    let report = validate::validate(&path, &options)?;
-    if out.json {
-        out.json(&serde_json::to_value(&report).expect("report serialises"));
-    } else if !out.quiet {
-        for i in &report.issues {
-            crate::output::line(format!(
-                "{}[{}]: {}\n  --> {}",
-                i.severity.as_str(),
-                i.code,
-                i.message,
-                i.location
-            ));
-        }
-        let infos = report.issues.iter().filter(|i| i.severity == Severity::Info).count();
-        crate::output::line(format!(
-            "{}: {} ({} error(s), {} warning(s), {} note(s))",
-            path.display(),
-            if report.valid { "valid" } else { "INVALID" },
-            report.errors,
-            report.warnings,
-            infos
-        ));
+    let report = pomc::jobs::validate(&path, &options)?;
+    out.json(&serde_json::to_value(&report).expect("report serialises"));
+    if !out.json && !out.quiet {
+        report.summary(&path).iter().for_each(crate::output::line);
     }
     Ok(if report.valid { 0 } else { 1 })
 }

@@ -2,10 +2,8 @@
 //! written as a static site.
 
 use std::path::PathBuf;
-use std::time::Instant;
 
-use pomc::panorama::Panorama;
-use pomc::viewer::{self, SiteSettings};
+use pomc::viewer::SiteSettings;
 
 use crate::args::Range;
 use crate::output::Output;
@@ -31,8 +29,6 @@ pub struct Args {
 }
 
 pub fn run(a: Args, out: Output) -> Result<u8, Failure> {
-    let t = Instant::now();
-    let pano = Panorama::open(&a.pano)?;
     // Listen before the meshing, so that a busy port is reported at once.
     let server = match a.export {
         Some(_) => None,
@@ -46,49 +42,20 @@ pub fn run(a: Args, out: Output) -> Result<u8, Failure> {
         })?),
     };
     let spinner = out.spinner("meshing the layers");
-    let options = SiteSettings { sky_radius: a.sky_radius, ..SiteSettings::default() };
-    let site = viewer::site(&pano, &options)?;
+    let settings = SiteSettings { sky_radius: a.sky_radius, ..SiteSettings::default() };
+    let (site, report) = pomc::jobs::view_site(&a.pano, &settings)?;
     spinner.finish_and_clear();
-    let triangles: usize = site.triangles.iter().map(|t| t.1).sum();
-    let summary = serde_json::json!({
-        "panorama": pano.dir.display().to_string(),
-        "bytes": site.bytes(),
-        "files": site.files.len(),
-        "triangles": triangles,
-        "layers": site.triangles.iter().map(|(n, t)| serde_json::json!({"name": n, "triangles": t})).collect::<Vec<_>>(),
-        "seconds": t.elapsed().as_secs_f64(),
-    });
-    if let Some(dir) = &a.export {
-        site.write(dir)?;
-        if out.json {
-            let mut s = summary;
-            s["export"] = serde_json::json!(dir.display().to_string());
-            out.json(&s);
-        } else {
-            out.say(format!(
-                "wrote {} ({} files, {:.1} MB, {triangles} triangles); serve it with any static file server, e.g. `python3 -m http.server -d {}`",
-                dir.display(),
-                site.files.len(),
-                site.bytes() as f64 / 1e6,
-                dir.display()
-            ));
+    let (report, server) = match (&a.export, server) {
+        (Some(dir), _) => (report.exported(&site, dir)?, None),
+        (None, Some(server)) => {
+            let port = server.server_addr().to_ip().map(|a| a.port()).unwrap_or(a.port);
+            (report.served(&format!("http://127.0.0.1:{port}/")), Some(server))
         }
-        return Ok(0);
-    }
-    let Some(server) = server else { return Ok(0) };
-    let port = server.server_addr().to_ip().map(|a| a.port()).unwrap_or(a.port);
-    let url = format!("http://127.0.0.1:{port}/");
-    if out.json {
-        let mut s = summary;
-        s["url"] = serde_json::json!(url);
-        out.json(&s);
-    } else if !out.quiet {
-        crate::output::line(format!(
-            "serving {} on {url} ({:.1} MB, {triangles} triangles); Ctrl-C to stop",
-            pano.dir.display(),
-            site.bytes() as f64 / 1e6
-        ));
-    }
+        (None, None) => return Ok(0),
+    };
+    out.json(&serde_json::to_value(&report).expect("report serialises"));
+    out.say(report.summary());
+    let (Some(server), Some(url)) = (server, report.url) else { return Ok(0) };
     if a.open {
         if let Err(e) = open::that_detached(&url) {
             eprintln!("note: could not open a browser ({e}); open {url} yourself");

@@ -22,8 +22,8 @@ use pomc::layer_io::ReadLimits;
 use pomc::manifest::Manifest;
 use pomc::mesh::scene::{self, SceneSettings};
 use pomc::mesh::MeshOptions;
-use pomc::options::{self, BuildArgs, CameraArgs, Keyword, MeshArgs, SceneArgs};
 use pomc::panorama::{Panorama, SaveOptions};
+use pomc_flags::{self as options, BuildArgs, CameraArgs, Keyword, MeshArgs, SceneArgs};
 
 create_exception!(_pomc, PomcError, PyException, "A pomc failure; `.code` is its stable code.");
 

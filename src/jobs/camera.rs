@@ -10,24 +10,24 @@ use crate::render::{
     Camera, CubeCamera, EquirectCamera, Perspective, PoleMerge, RenderError, StereoCamera, StereoLayout,
 };
 
-/// The output camera of a view (`pomc render`, Python `Panorama.render`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum CameraKind {
-    /// Pinhole camera: --eye, --look-at, --up, --fov, --size.
-    #[default]
-    Perspective,
-    /// A new 2:1 equirect panorama centred at --eye (world axes, +Z up).
-    Equirect,
-    /// Omnidirectional stereo: two equirect eyes on a viewing circle of diameter --ipd around --eye,
-    /// stacked by --stereo-layout.
-    Ods,
-    /// VR180: two 180° × 180° half equirects looking along --look-at from eyes --ipd apart, side by
-    /// side unless --stereo-layout tb.
-    Vr180,
-    /// A cube map in --cube-layout seen from --eye; with --stereo, one per eye (the ODS eyes' rays),
-    /// stacked by --stereo-layout.
-    Cube,
+crate::choice::choices! {
+    /// The output camera of a view (`pomc render`, Python `Panorama.render`).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum CameraKind (default Perspective) {
+        /// Pinhole camera: --eye, --look-at, --up, --fov, --size.
+        Perspective = "perspective",
+        /// A new 2:1 equirect panorama centred at --eye (world axes, +Z up).
+        Equirect = "equirect",
+        /// Omnidirectional stereo: two equirect eyes on a viewing circle of diameter --ipd around --eye,
+        /// stacked by --stereo-layout.
+        Ods = "ods",
+        /// VR180: two 180° × 180° half equirects looking along --look-at from eyes --ipd apart, side by
+        /// side unless --stereo-layout tb.
+        Vr180 = "vr180",
+        /// A cube map in --cube-layout seen from --eye; with --stereo, one per eye (the ODS eyes' rays),
+        /// stacked by --stereo-layout.
+        Cube = "cube",
+    }
 }
 
 /// How a view is seen: its camera and, for stereo, the eyes. `Default` is `pomc render` without

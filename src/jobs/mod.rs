@@ -11,6 +11,8 @@ mod prepare;
 mod render;
 mod renderer;
 mod scene;
+mod validate;
+mod view;
 
 pub use build::{
     build_arrays, build_panorama, build_panorama_with_progress, build_rgbd, build_stages, prepare_input,
@@ -31,3 +33,11 @@ pub use render::{
 };
 pub use renderer::{RenderMethod, Renderer, View, ViewCamera};
 pub use scene::{scene_panorama, scene_stages, SceneSummary, READING_STAGE};
+pub use validate::{validate, Report, ValidateSettings};
+pub use view::{view_site, SiteLayer, SiteReport};
+
+/// Write a job's report to `path` as pretty JSON, atomically (`pomc build --report FILE`).
+pub fn write_report(path: &std::path::Path, report: &impl serde::Serialize) -> crate::Result<()> {
+    let text = serde_json::to_string_pretty(report).expect("reports serialise");
+    Ok(crate::fsutil::write_bytes_atomic(path, text.as_bytes())?)
+}

@@ -14,16 +14,16 @@ use crate::render::stereo::{self, StereoCamera};
 use crate::render::CubeCamera;
 use crate::render::{rasterize, Camera, Frame, RasterOptions, RenderLayer, SplatOptions, Stage};
 
-/// How [`Renderer`] draws a view (`pomc render --method`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum RenderMethod {
-    /// Adaptive 8-neighbourhood point splatting (thesis Alg. 10).
-    #[default]
-    Splat,
-    /// Z-buffered rasterisation of each layer's adaptive quadtree mesh (thesis 7.4); a mesh stored
-    /// with `pomc mesh --store` is decoded instead of rebuilt.
-    Mesh,
+crate::choice::choices! {
+    /// How [`Renderer`] draws a view (`pomc render --method`).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum RenderMethod (default Splat) {
+        /// Adaptive 8-neighbourhood point splatting (thesis Alg. 10).
+        Splat = "splat",
+        /// Z-buffered rasterisation of each layer's adaptive quadtree mesh (thesis 7.4); a mesh stored
+        /// with `pomc mesh --store` is decoded instead of rebuilt.
+        Mesh = "mesh",
+    }
 }
 
 /// What a view is seen through: one camera, or a stereo pair whose eyes make one image.

@@ -86,17 +86,17 @@ impl Default for BuildOptions {
     }
 }
 
-/// How layers are separated beyond the minimal layering.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum Classify {
-    /// Occlusion levels (and depth bands) only.
-    #[default]
-    Depth,
-    /// Also split the background into floor, ceiling and walls.
-    ///
-    /// By the segments' mean normals (thesis 6.2.4.2; `+Z` is up in the panorama frame).
-    Geometry,
+crate::choice::choices! {
+    /// How layers are separated beyond the minimal layering.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Classify (default Depth) {
+        /// Occlusion levels (and depth bands) only.
+        Depth = "depth",
+        /// Also split the background into floor, ceiling and walls.
+        ///
+        /// By the segments' mean normals (thesis 6.2.4.2; `+Z` is up in the panorama frame).
+        Geometry = "geometry",
+    }
 }
 
 /// Surface class of a background segment under [`Classify::Geometry`].

@@ -3,9 +3,9 @@
 //! byte for byte (each byte is the code point of the same value), so line:col positions in the
 //! decoded text are those of the file. Everything else is refused with a code rather than guessed.
 
-use super::codes;
 use super::diag::{LineIndex, Sink};
 use super::Pos;
+use crate::codes::manifest as codes;
 
 const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
 

@@ -4,8 +4,8 @@
 //! `text_pos_at`, which rescans the text from the start each time: a hostile 16 MiB manifest
 //! with a million unknown elements must not take quadratic time.
 
-use super::codes;
 use super::{Diagnosed, Diagnostic, Manifest, Pos, Severity};
+use crate::codes::manifest as codes;
 
 /// At most this many findings are listed; the rest are counted (the manifest is still refused
 /// when any of them is an error).
@@ -72,9 +72,9 @@ pub struct Sink {
 }
 
 impl Sink {
-    /// Record a finding; its severity comes from [`codes::CODES`].
+    /// Record a finding; its severity comes from [`crate::codes::manifest::CODES`].
     pub fn push(&mut self, code: &'static str, pos: Pos, path: &str, message: String) {
-        let severity = codes::severity(code);
+        let severity = crate::codes::severity(code);
         if severity == Severity::Error {
             self.errors += 1;
         }

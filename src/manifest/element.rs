@@ -5,10 +5,10 @@ use std::collections::HashMap;
 
 use roxmltree::Node;
 
-use super::codes;
 use super::diag::{LineIndex, Sink};
 use super::number::{self, NumberError};
 use super::Pos;
+use crate::codes::manifest as codes;
 
 /// Walk state: the text (for positions and verbatim copies) and the findings.
 pub struct Ctx<'t> {

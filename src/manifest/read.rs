@@ -6,12 +6,12 @@
 
 use roxmltree::{Document, ParsingOptions};
 
-use super::codes;
 use super::decode::decode;
 use super::diag::{LineIndex, Sink};
 use super::element::{Ctx, El};
 use super::number::{self, NumberError};
 use super::{Diagnosed, Manifest, MappingDecl, MappingKind, Pos, Transform};
+use crate::codes::manifest as codes;
 
 /// The parser's options: no DTD (so no entity expansion at all, hence no billion laughs).
 fn parsing_options<'i>() -> ParsingOptions<'i> {

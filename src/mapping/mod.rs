@@ -54,19 +54,19 @@ pub trait Mapping: Send + Sync {
     }
 }
 
-/// Which parametrisation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum MappingKind {
-    /// Equirect (lat-long) 2:1 canvas.
-    ///
-    /// See [`Equirect`].
-    Equirect,
-    /// 3×2 cube map.
-    ///
-    /// The thesis's; see [`Cube3x2`].
-    #[cfg_attr(feature = "clap", value(name = "cube"))]
-    Cube3x2,
+crate::choice::choices! {
+    /// Which parametrisation.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub enum MappingKind {
+        /// Equirect (lat-long) 2:1 canvas.
+        ///
+        /// See [`Equirect`].
+        Equirect = "equirect",
+        /// 3×2 cube map.
+        ///
+        /// The thesis's; see [`Cube3x2`].
+        Cube3x2 = "cube",
+    }
 }
 
 /// A canvas size that does not fit a mapping.

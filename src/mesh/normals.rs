@@ -14,15 +14,15 @@ use glam::DVec3;
 use super::grid::Grid;
 use crate::layer::LayerImage;
 
-/// How estimated normals weight the triangles of a vertex's one-ring.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum NormalWeighting {
-    /// By triangle area (eq. 7.10).
-    #[default]
-    Area,
-    /// By the triangle's angle at the vertex (eq. 7.11).
-    Angle,
+crate::choice::choices! {
+    /// How estimated normals weight the triangles of a vertex's one-ring.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum NormalWeighting (default Area) {
+        /// By triangle area (eq. 7.10).
+        Area = "area",
+        /// By the triangle's angle at the vertex (eq. 7.11).
+        Angle = "angle",
+    }
 }
 
 /// Per-vertex unit normals of the lattice (zero where unknown).

@@ -56,29 +56,29 @@ pub struct KnownDistance {
     pub metres: f64,
 }
 
-/// What stored depth values mean.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum DepthKind {
-    /// Distance along the ray (metres, or units × --depth-scale).
-    ///
-    /// The Euclidean distance from the centre along the pixel's ray.
-    #[default]
-    Ray,
-    /// Planar depth along each cube face's axis (cube maps only).
-    ///
-    /// Converted to ray distance.
-    Z,
-    /// Inverse depth / disparity, larger = nearer, unknown scale and shift (MiDaS, Depth Anything).
-    ///
-    /// Inverse depth / disparity with unknown scale and shift, as monocular estimators give it
-    /// (MiDaS, Depth Anything): `1/depth = a·value + b`, larger = nearer.
-    Inverse,
-    /// 8/16-bit nearness map: brighter = nearer, 0 = far, linear in distance (three.js, krpano).
-    ///
-    /// "Nearness" as in web viewers (three.js, krpano): brighter = nearer, 0 = far, linear in
-    /// distance between the range's ends; 8/16-bit values are taken as 0–1.
-    Nearness,
+crate::choice::choices! {
+    /// What stored depth values mean.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum DepthKind (default Ray) {
+        /// Distance along the ray (metres, or units × --depth-scale).
+        ///
+        /// The Euclidean distance from the centre along the pixel's ray.
+        Ray = "ray",
+        /// Planar depth along each cube face's axis (cube maps only).
+        ///
+        /// Converted to ray distance.
+        Z = "z",
+        /// Inverse depth / disparity, larger = nearer, unknown scale and shift (MiDaS, Depth Anything).
+        ///
+        /// Inverse depth / disparity with unknown scale and shift, as monocular estimators give it
+        /// (MiDaS, Depth Anything): `1/depth = a·value + b`, larger = nearer.
+        Inverse = "inverse",
+        /// 8/16-bit nearness map: brighter = nearer, 0 = far, linear in distance (three.js, krpano).
+        ///
+        /// "Nearness" as in web viewers (three.js, krpano): brighter = nearer, 0 = far, linear in
+        /// distance between the range's ends; 8/16-bit values are taken as 0–1.
+        Nearness = "nearness",
+    }
 }
 
 impl DepthKind {
@@ -98,26 +98,27 @@ impl DepthKind {
     }
 }
 
-/// Dataset presets (each documented in spec/07-build.md with its source).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum Preset {
-    /// uint16 PNG, metres = value / 4000, 0 invalid.
-    ///
-    /// Matterport3D.
-    Matterport3d,
-    /// uint16 PNG, value / 512, 65535 invalid, Euclidean.
-    ///
-    /// Stanford 2D-3D-S equirect panoramas.
-    Stanford2d3ds,
-    /// uint16 PNG in millimetres, 0 invalid.
-    ///
-    /// Structured3D.
-    Structured3d,
-    /// float EXR in metres.
-    ///
-    /// Pano3D / 3D60.
-    Pano3d,
+crate::choice::choices! {
+    /// Dataset presets (each documented in spec/07-build.md with its source).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Preset {
+        /// uint16 PNG, metres = value / 4000, 0 invalid.
+        ///
+        /// Matterport3D.
+        Matterport3d = "matterport3d",
+        /// uint16 PNG, value / 512, 65535 invalid, Euclidean.
+        ///
+        /// Stanford 2D-3D-S equirect panoramas.
+        Stanford2d3ds = "stanford2d3ds",
+        /// uint16 PNG in millimetres, 0 invalid.
+        ///
+        /// Structured3D.
+        Structured3d = "structured3d",
+        /// float EXR in metres.
+        ///
+        /// Pano3D / 3D60.
+        Pano3d = "pano3d",
+    }
 }
 
 impl Preset {

@@ -24,38 +24,38 @@ pub use crate::input::{DepthSamples, SampleFormat};
 
 use crate::mapping::{AnyMapping, Mapping, MappingKind, Neighbours};
 
-/// Whether soft edges are snapped and noise smoothed (`--refine`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
-pub enum Refine {
-    /// Smooth measured noise; do not snap edges.
-    ///
-    /// Snapping is measured to lose (docs/build.md).
-    #[default]
-    Auto,
-    /// Also snap soft edges onto colour edges (experimental).
-    ///
-    /// Sharper depth, not yet better layers.
-    On,
-    /// Neither smooth nor snap.
-    ///
-    /// The depth as decoded and resized (holes still completed).
-    Off,
+crate::choice::choices! {
+    /// Whether soft edges are snapped and noise smoothed (`--refine`).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+    #[serde(rename_all = "lowercase")]
+    pub enum Refine (default Auto) {
+        /// Smooth measured noise; do not snap edges.
+        ///
+        /// Snapping is measured to lose (docs/build.md).
+        Auto = "auto",
+        /// Also snap soft edges onto colour edges (experimental).
+        ///
+        /// Sharper depth, not yet better layers.
+        On = "on",
+        /// Neither smooth nor snap.
+        ///
+        /// The depth as decoded and resized (holes still completed).
+        Off = "off",
+    }
 }
 
-/// What unknown depth (no measurement) means (`--unknown-depth`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
-pub enum UnknownDepth {
-    /// A surface not measured: completed from the depth around it.
-    #[default]
-    Complete,
-    /// Unknown regions open to the zenith are the sky (a scan outdoors); the rest is completed.
-    ///
-    /// The sky is infinitely far, as a scanner sees it: nothing there.
-    Sky,
+crate::choice::choices! {
+    /// What unknown depth (no measurement) means (`--unknown-depth`).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+    #[serde(rename_all = "lowercase")]
+    pub enum UnknownDepth (default Complete) {
+        /// A surface not measured: completed from the depth around it.
+        Complete = "complete",
+        /// Unknown regions open to the zenith are the sky (a scan outdoors); the rest is completed.
+        ///
+        /// The sky is infinitely far, as a scanner sees it: nothing there.
+        Sky = "sky",
+    }
 }
 
 /// Settings of [`prepare_depth`]; the default is what `pomc build` does.

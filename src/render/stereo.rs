@@ -7,15 +7,15 @@ use super::checks::{finite, VR180};
 use super::frame::Frame;
 use super::RenderError;
 
-/// Where each eye goes in a stereo image.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum StereoLayout {
-    /// Top-bottom (over-under): the left eye on top, as YouTube and most players expect of 360°.
-    #[default]
-    Tb,
-    /// Side by side: the left eye on the left.
-    Sbs,
+crate::choice::choices! {
+    /// Where each eye goes in a stereo image.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum StereoLayout (default Tb) {
+        /// Top-bottom (over-under): the left eye on top, as YouTube and most players expect of 360°.
+        Tb = "tb",
+        /// Side by side: the left eye on the left.
+        Sbs = "sbs",
+    }
 }
 
 impl StereoLayout {
@@ -28,17 +28,17 @@ impl StereoLayout {
     }
 }
 
-/// How the columns of a panoramic output run.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum Orientation {
-    /// The world axes of `--camera equirect` (spec §3: column 0 at azimuth +X, azimuth growing
-    /// towards +Y to the right; the sphere seen from outside).
-    #[default]
-    World,
-    /// What 360° players and headsets expect (the sphere seen from inside): the centre column looks
-    /// along the panorama's forward (the centre of its image) and moving right turns right.
-    Player,
+crate::choice::choices! {
+    /// How the columns of a panoramic output run.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Orientation (default World) {
+        /// The world axes of `--camera equirect` (spec §3: column 0 at azimuth +X, azimuth growing
+        /// towards +Y to the right; the sphere seen from outside).
+        World = "world",
+        /// What 360° players and headsets expect (the sphere seen from inside): the centre column looks
+        /// along the panorama's forward (the centre of its image) and moving right turns right.
+        Player = "player",
+    }
 }
 
 /// A stereo camera: the left and right eyes, and the layout of the image they make.

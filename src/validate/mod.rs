@@ -1,11 +1,10 @@
 //! The validator (spec §6): checks a panorama directory against POMC 1 and reports every problem
-//! with a stable code, a severity and a location. Codes are data ([`codes::CODES`]); each has a
+//! with a stable code, a severity and a location. Codes are data ([`crate::codes::CODES`]); each has a
 //! test that triggers it.
 //!
 //! Pixel-level findings are aggregated: one issue per (layer, code) with the number of pixels and
 //! the first one found, so a broken 8K layer gives a readable report, not millions of lines.
 
-pub mod codes;
 pub mod report;
 
 use std::path::Path;
@@ -20,7 +19,8 @@ use crate::mapping::{AnyMapping, Mapping, MappingKind, Neighbours};
 use crate::pack;
 use crate::panorama::{self, Panorama};
 
-pub use codes::CODES;
+use crate::codes;
+pub use crate::codes::CODES;
 pub use report::{Issue, Report, Severity};
 
 /// Patch-table findings listed per layer (the rest are counted).
@@ -68,8 +68,7 @@ pub fn validate(path: &Path, options: &ValidateSettings) -> Result<Report, crate
         Err(e) => {
             let too_large = std::fs::metadata(&manifest_path)
                 .is_ok_and(|m| m.is_file() && m.len() > panorama::MAX_MANIFEST_BYTES);
-            let code =
-                if too_large { crate::manifest::codes::XML_TOO_LARGE } else { codes::MANIFEST_IO_ERROR };
+            let code = if too_large { codes::manifest::XML_TOO_LARGE } else { codes::MANIFEST_IO_ERROR };
             issues.push(issue(code, e.to_string(), name.clone()));
             return Ok(Report::from_issues(issues));
         }
@@ -211,7 +210,7 @@ fn check_packing(pano: &Panorama, decl: &LayerDecl, loc: &str, issues: &mut Vec<
             if problems.len() > MAX_PATCH_FINDINGS {
                 let msg =
                     format!("{} patch problems; the first {MAX_PATCH_FINDINGS} are listed", problems.len());
-                issues.push(issue(manifest::codes::DIAGNOSTICS_TRUNCATED, msg, loc.to_string()));
+                issues.push(issue(codes::manifest::DIAGNOSTICS_TRUNCATED, msg, loc.to_string()));
             }
             for prob in problems.into_iter().take(MAX_PATCH_FINDINGS) {
                 let ploc = decl

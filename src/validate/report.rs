@@ -8,7 +8,7 @@ pub use crate::codes::Severity;
 /// `file layer[k] channel (x,y)` for pixels.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Issue {
-    /// Stable code, e.g. `LAYER_NOT_FOUND` (see [`crate::validate::codes::all`]).
+    /// Stable code, e.g. `LAYER_NOT_FOUND` (see [`crate::codes::findings`]).
     pub code: &'static str,
     /// Error, warning or info.
     pub severity: Severity,

@@ -4,8 +4,8 @@ use glam::DVec3;
 use pomc::layer::{LayerImage, SampleType};
 use pomc::mapping::layout::{convert_layout, CubeLayout};
 use pomc::mapping::{AnyMapping, Cube3x2, Equirect, Mapping};
-use pomc::raster::Raster;
 use pomc::resample::{convert, convert_layer, sample_dir, Canvas, Filter, SampleOptions};
+use pomc::Raster;
 
 /// A smooth function of direction (no seam, no pole singularity).
 fn f(d: DVec3) -> f64 {

@@ -5,9 +5,10 @@
 
 use std::path::Path;
 
+use pomc::codes;
 use pomc::layer::{LayerImage, SampleType};
 use pomc::layer_io::{self, WriteOptions};
-use pomc::validate::{self, codes, Report, ValidateSettings};
+use pomc::validate::{self, Report, ValidateSettings};
 
 const W: usize = 16;
 const H: usize = 8;

@@ -44,7 +44,7 @@ for c in sccs:
 for m in sorted(edges):
     print(m, "->", sorted(edges[m]))
 level = {}
-for i, grp in enumerate([["codes","error","fsutil","raster","colour"],["mapping","continuity"],["layer","resample"],["layer_io","pack","manifest","image_io"],["panorama","input"],["prepare","layering","mesh","render","validate","scene","viewer"],["jobs"],["options","prelude","lib"]]):
+for i, grp in enumerate([["choice","codes","error","fsutil","raster","colour"],["mapping","continuity"],["layer","resample"],["layer_io","pack","manifest","image_io"],["panorama","input"],["prepare","layering","mesh","render","validate","scene","viewer"],["jobs"],["prelude","lib"]]):
     for m in grp: level[m] = i
 up = [(a,b) for a in edges for b in edges[a] if level.get(b,0) > level.get(a,0)]
 same = [(a,b) for a in edges for b in edges[a] if level.get(b,0) == level.get(a,0) and a != b]

@@ -30,7 +30,7 @@ F = os.path.join(ROOT, "fixtures", "data")
 def strip(v):
     if isinstance(v, dict):
         return {k: strip(x) for k, x in v.items()
-                if not (k.endswith("_ms") or k.endswith("_s") or k in ("times_ms", "timings_ms", "stages"))}
+                if not (k.endswith("_ms") or k.endswith("_s") or k in ("times_ms", "timings_ms", "stages", "seconds"))}
     if isinstance(v, list):
         return [strip(x) for x in v]
     return v
@@ -57,6 +57,10 @@ def cli_cases():
         ["render", f"{F}/room-equirect", "-o", "@r5.png", "--camera", "cube", "--size", "100x100", "--json"],
         ["render", f"{F}/room-equirect", "-o", "@r6.png", "--camera", "equirect", "--size", "256x128", "--orientation", "player", "--json"],
         ["build", "--colour", f"{F}/room-rgbd/colour.png", "--depth", f"{F}/room-rgbd/depth.exr", "-o", "@b", "--json"],
+        ["validate", f"{F}/room-equirect"], ["validate", f"{F}/room-cube", "--json"],
+        ["validate", "/nonexistent", "--json"], ["validate", "--list-codes"], ["codes", "--json"],
+        ["view", f"{F}/room-equirect", "--export", "@site", "--json"], ["view", f"{F}/room-equirect", "--export", "@site2"],
+        ["view", "/nonexistent", "--export", "@site3"],
     ]
     for cmd in ["", "validate", "codes", "info", "convert", "build", "scene", "prepare", "pack", "unpack", "mesh",
                 "render", "view"]:

@@ -16,26 +16,26 @@ use search::Search;
 
 mod search;
 
-/// How the fill is coloured.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum FillColour {
-    /// Continue the hidden surface's texture: patches matched in its plane.
-    ///
-    /// Exemplar: the hidden surface copied from elsewhere on it by the offsets in its plane that
-    /// best continue the texture around the hole.
-    #[default]
-    Exemplar,
-    /// Copy the nearest visible pixel (fast; textures come out as streaks).
-    ///
-    /// The visible pixel nearest the filled pixel's seed.
-    Nearest,
-    /// Blend the border's colours smoothly across the hole.
-    ///
-    /// Inwards from the border, each filled pixel takes the distance-weighted mean of the known
-    /// pixels around it, then relaxation sweeps smooth it: the border's colours blend
-    /// across the hole without streaks or texture.
-    Smooth,
+crate::choice::choices! {
+    /// How the fill is coloured.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum FillColour (default Exemplar) {
+        /// Continue the hidden surface's texture: patches matched in its plane.
+        ///
+        /// Exemplar: the hidden surface copied from elsewhere on it by the offsets in its plane that
+        /// best continue the texture around the hole.
+        Exemplar = "exemplar",
+        /// Copy the nearest visible pixel (fast; textures come out as streaks).
+        ///
+        /// The visible pixel nearest the filled pixel's seed.
+        Nearest = "nearest",
+        /// Blend the border's colours smoothly across the hole.
+        ///
+        /// Inwards from the border, each filled pixel takes the distance-weighted mean of the known
+        /// pixels around it, then relaxation sweeps smooth it: the border's colours blend
+        /// across the hole without streaks or texture.
+        Smooth = "smooth",
+    }
 }
 
 const NONE: u32 = u32::MAX;

@@ -1,36 +1,40 @@
-//! The jobs' options declared once, as flags (ripgrep's "flags as data"): each option's name,
+//! The jobs' options declared once, as flags (ripgrep's `crates/core/flags`): each option's name,
 //! default, domain and help live here and nowhere else. The `pomc` command flattens these
 //! structs into its subcommands; the Python binding parses its keywords with the same structs
 //! ([`from_keywords`]) and lists them with [`keyword_defaults`]. Each struct turns itself into the
-//! library's settings in one place (`apply`, `params`).
+//! library's settings in one place (`apply`, `settings`, `params`); the library itself has no
+//! argument parser.
+
+#![warn(missing_docs)]
 
 use std::path::PathBuf;
 
 use glam::DVec3;
 
-use crate::colour::ColourSpace;
-use crate::input::Convention;
-pub use crate::jobs::parse_vec3;
-use crate::jobs::{BuildSettings, CameraKind, CameraSettings};
-use crate::layer_io::ReadLimits;
-use crate::layering::{BuildOptions, Classify, EdgeOptions, FillColour};
-use crate::mapping::layout::CubeLayout;
-use crate::mapping::MappingKind;
-use crate::mesh::{self, normals::NormalWeighting, simplify::SimplifyOptions, MeshOptions};
-use crate::prepare::{DepthKind, KnownDistance, Preset, Refine, UnknownDepth};
-use crate::render::stereo::Orientation;
-use crate::render::StereoLayout;
-use crate::scene::BakeSettings;
+use pomc::choice::Choice;
+use pomc::colour::ColourSpace;
+use pomc::input::Convention;
+pub use pomc::jobs::parse_vec3;
+use pomc::jobs::{BuildSettings, CameraKind, CameraSettings};
+use pomc::layer_io::ReadLimits;
+use pomc::layering::{BuildOptions, Classify, EdgeOptions, FillColour};
+use pomc::mapping::layout::CubeLayout;
+use pomc::mapping::MappingKind;
+use pomc::mesh::{self, normals::NormalWeighting, simplify::SimplifyOptions, MeshOptions};
+use pomc::prepare::{DepthKind, KnownDistance, Preset, Refine, UnknownDepth};
+use pomc::render::stereo::Orientation;
+use pomc::render::StereoLayout;
+use pomc::scene::BakeSettings;
 
 /// How the depth is read and prepared (`pomc build` and `pomc prepare`).
 #[derive(clap::Args, Clone, Debug)]
 pub struct DepthArgs {
     /// Encoding of an 8/16-bit colour image: auto (sRGB for PNG/JPEG, linear for EXR/HDR), srgb or
     /// linear. Layers are linear; sRGB is decoded on read.
-    #[arg(long, value_enum, default_value = "auto")]
+    #[arg(long, value_parser = choice::<ColourSpace>(), default_value = "auto")]
     pub colour_space: ColourSpace,
     /// Dataset preset for the depth encoding.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = choice::<Preset>())]
     pub preset: Option<Preset>,
     /// Metres per stored depth unit (16-bit PNG); overrides the preset.
     #[arg(long, value_parser = Range::POSITIVE.parser())]
@@ -40,7 +44,7 @@ pub struct DepthArgs {
     pub depth_invalid: Option<f64>,
     /// What the depth values are: metric (ray, z) or relative (inverse, nearness: give
     /// --camera-height or --depth-range).
-    #[arg(long, value_enum, default_value = "ray")]
+    #[arg(long, value_parser = choice::<DepthKind>(), default_value = "ray")]
     pub depth_kind: DepthKind,
     /// Nearest and farthest distance (m) of relative depth: NEAR,FAR.
     #[arg(long, value_name = "NEAR,FAR", value_parser = parse_range, allow_hyphen_values = true)]
@@ -54,10 +58,10 @@ pub struct DepthArgs {
     pub known_distance: Option<KnownDistance>,
     /// Snap soft depth edges onto colour edges and smooth depth noise: auto (when measured soft,
     /// noisy, resized or completed), on, off.
-    #[arg(long, value_enum, default_value = "auto")]
+    #[arg(long, value_parser = choice::<Refine>(), default_value = "auto")]
     pub refine: Refine,
     /// What unknown depth means: complete (a surface, completed from around it) or sky (nothing there).
-    #[arg(long, value_enum, default_value = "complete")]
+    #[arg(long, value_parser = choice::<UnknownDepth>(), default_value = "complete")]
     pub unknown_depth: UnknownDepth,
     /// Largest input accepted, in pixels (width × height), checked from the file headers before
     /// decoding; the default, 268435456 (2^28), takes a 16384 × 8192 equirect.
@@ -94,7 +98,7 @@ pub struct LayeringArgs {
     #[arg(long)]
     pub normals_in: Option<PathBuf>,
     /// Azimuth convention of the input, recorded in the manifest's LocalToWorld.
-    #[arg(long, value_enum, default_value = "thesis")]
+    #[arg(long, value_parser = choice::<Convention>(), default_value = "thesis")]
     pub convention: Convention,
     /// Position of the panorama centre in the world, metres: x,y,z.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
@@ -112,7 +116,7 @@ pub struct LayeringArgs {
     #[arg(long, default_value_t = BuildOptions::default().margin_px, value_parser = Range::NON_NEGATIVE.parser())]
     pub fill_margin: f64,
     /// How the fill behind occluders is coloured.
-    #[arg(long, value_enum, default_value = "exemplar")]
+    #[arg(long, value_parser = choice::<FillColour>(), default_value = "exemplar")]
     pub fill_colour: FillColour,
     /// Do not split at folds (depth discontinuities only).
     #[arg(long)]
@@ -121,7 +125,7 @@ pub struct LayeringArgs {
     #[arg(long, value_delimiter = ',', value_parser = Range::POSITIVE.parser())]
     pub depth_bands: Vec<f64>,
     /// Layer classification: by depth only, or also floor / ceiling / walls (thesis 6.2.4.2).
-    #[arg(long, value_enum, default_value = "depth")]
+    #[arg(long, value_parser = choice::<Classify>(), default_value = "depth")]
     pub classify: Classify,
     /// Write normals into the layers.
     #[arg(long)]
@@ -199,7 +203,7 @@ pub struct SceneArgs {
     #[arg(long, default_value_t = BakeSettings::default().width as u64, value_parser = clap::value_parser!(u64).range(6..=98304))]
     pub width: u64,
     /// Mapping of the layers.
-    #[arg(long, value_enum, default_value = "equirect")]
+    #[arg(long, value_parser = choice::<MappingKind>(), default_value = "equirect")]
     pub mapping: MappingKind,
     /// Rays per pixel for the colour (anti-aliasing); depth and normals come from the pixel centre.
     #[arg(long, default_value_t = BakeSettings::default().samples, value_parser = clap::value_parser!(u32).range(1..=64))]
@@ -216,7 +220,7 @@ pub struct SceneArgs {
     #[arg(long, value_name = "IMAGE", value_delimiter = ',')]
     pub colour: Vec<PathBuf>,
     /// Azimuth convention of the --sky map and the --colour renders (blender for Blender's).
-    #[arg(long, value_enum, default_value = "thesis", alias = "sky-convention")]
+    #[arg(long, value_parser = choice::<Convention>(), default_value = "thesis", alias = "sky-convention")]
     pub convention: Convention,
     /// Do not write normals.
     #[arg(long)]
@@ -268,7 +272,7 @@ pub struct MeshArgs {
     #[arg(long, default_value_t = mesh::DEFAULT_RESIDUAL, value_parser = Range::POSITIVE.parser())]
     pub residual: f64,
     /// Weighting of normals estimated from depth when the layer has no N.* channels: area or angle.
-    #[arg(long, value_enum, default_value = "area")]
+    #[arg(long, value_parser = choice::<NormalWeighting>(), default_value = "area")]
     pub normal_weighting: NormalWeighting,
     /// Cap on a node's angular extent, degrees (texture distortion; 0 disables).
     #[arg(long, default_value_t = mesh::DEFAULT_MAX_ANGLE_DEG, value_name = "DEG", value_parser = Range::ANGLE_OR_OFF.parser())]
@@ -310,7 +314,7 @@ impl MeshArgs {
 #[derive(clap::Args, Clone, Debug, PartialEq)]
 pub struct CameraArgs {
     /// Output camera.
-    #[arg(long, value_enum, default_value = "perspective")]
+    #[arg(long, value_parser = choice::<CameraKind>(), default_value = "perspective")]
     pub camera: CameraKind,
     /// Eye position in the world, metres: x,y,z (default: the panorama centre).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
@@ -331,7 +335,7 @@ pub struct CameraArgs {
     pub size: Option<(usize, usize)>,
     /// Stereo layout: tb (top-bottom, left eye on top) or sbs (side by side, left eye left); default
     /// tb for ods, sbs for vr180.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = choice::<StereoLayout>())]
     pub stereo_layout: Option<StereoLayout>,
     /// Interpupillary distance of stereo cameras, metres.
     #[arg(long, value_name = "M", default_value_t = 0.064, value_parser = Range::NON_NEGATIVE.parser())]
@@ -351,7 +355,7 @@ pub struct CameraArgs {
     /// Columns of stereo panoramas: world (the axes of --camera equirect) or player (as 360° players
     /// and headsets show them: centre column towards --look-at, moving right turns right; use it
     /// for videos).
-    #[arg(long, value_enum, default_value = "world")]
+    #[arg(long, value_parser = choice::<Orientation>(), default_value = "world")]
     pub orientation: Orientation,
 }
 
@@ -373,6 +377,15 @@ impl CameraArgs {
             orientation: self.orientation,
         }
     }
+}
+
+/// A parser of a [`Choice`]'s names, each listed in `--help` with its one-line help.
+pub fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Value = T> {
+    let values = T::VALUES.iter().map(|(v, name, _)| clap::builder::PossibleValue::new(*name).help(v.help()));
+    let parser = clap::builder::PossibleValuesParser::new(values);
+    clap::builder::TypedValueParser::map(parser, |name: String| {
+        T::from_name(&name).expect("a possible value")
+    })
 }
 
 /// A keyword's value as a binding holds it: a flag's truth, or a value in the command line's

@@ -1,6 +1,6 @@
 use super::*;
-use crate::jobs::ViewCamera;
 use clap::Parser;
+use pomc::jobs::ViewCamera;
 
 /// One struct of options parsed alone from `argv` (without a program name).
 fn parse<A: clap::Args + clap::FromArgMatches>(argv: &[&str]) -> Result<A, clap::Error> {
@@ -182,7 +182,7 @@ fn cameras_from_options() {
 #[test]
 fn camera_defaults_are_the_library_default() {
     let a: CameraArgs = from_keywords("render", &[]).unwrap();
-    assert_eq!(a.settings(), crate::jobs::CameraSettings::default());
+    assert_eq!(a.settings(), pomc::jobs::CameraSettings::default());
     let a: CameraArgs = from_keywords("render", &kw(&[("no_pole_merge", Keyword::Flag(true))])).unwrap();
     assert_eq!(a.settings().pole_merge, None);
 }
