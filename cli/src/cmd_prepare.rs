@@ -19,34 +19,15 @@ pub struct Args {
 }
 
 pub fn run(args: Args, out: Output) -> Result<u8, Failure> {
-    let mut settings = pomc::jobs::BuildSettings::default();
+    let mut settings = jobs::BuildSettings::default();
     args.input.options.apply(&mut settings);
     let spinner = out.spinner("preparing depth");
-    let prepared = jobs::prepare_depth_files(&args.input.colour, &args.input.depth, &settings)?;
-    let (w, h) = (prepared.width, prepared.height);
-    jobs::write_depth(&args.output, w, h, &prepared.depth)?;
+    let prepared = jobs::prepare_to_file(&args.input.colour, &args.input.depth, &args.output, &settings)?;
     spinner.finish_and_clear();
     for w in &prepared.report.warnings {
         out.warn(w.code, &w.message);
     }
-    let mut report = serde_json::to_value(&prepared.report).expect("report serialises");
-    report["output"] = serde_json::json!(args.output);
-    out.json(&report);
-    let r = &prepared.report;
-    out.say(format!(
-        "prepared {}x{} depth from {}x{}: {} px completed, {} made sky, {} px snapped (radius {}), {} px of specks, noise {:.4}{} -> {}",
-        w,
-        h,
-        r.source_size.0,
-        r.source_size.1,
-        r.completed_pixels,
-        r.sky_pixels,
-        r.snapped_pixels,
-        r.snap_radius,
-        r.speck_pixels,
-        r.noise,
-        if r.smoothed { " (smoothed)" } else { "" },
-        args.output.display()
-    ));
+    out.json(&serde_json::to_value(&prepared).expect("report serialises"));
+    out.say(prepared.summary());
     Ok(0)
 }

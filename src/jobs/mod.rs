@@ -26,7 +26,7 @@ pub use convert::{
 pub use info::{describe, ChannelInfo, InfoReport, LayerInfo, LayerPixels, PackedInfo};
 pub use mesh::{mesh_files, LayerMeshReport, MeshJobReport, MeshSettings, SceneMeshReport, SceneTimes};
 pub use pack::{repack_panorama, RepackReport, RepackSettings, RepackTimings, RepackedLayer};
-pub use prepare::{prepare_depth_files, write_depth};
+pub use prepare::{prepare_depth_files, prepare_to_file, write_depth, PrepareSummary};
 pub use render::{
     read_camera_path, render_panorama, FrameReport, MeshReport, PathReport, PathStages, RenderReport,
     RenderSettings, Shot, ViewReport,

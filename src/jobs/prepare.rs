@@ -1,11 +1,13 @@
 //! `pomc prepare`: the depth `pomc build` layers, on the colour's grid, written as an EXR.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
 
 use super::BuildSettings;
 use crate::input;
 use crate::layer::LayerImage;
-use crate::prepare::{self, PreparedDepth};
+use crate::prepare::{self, PrepareReport, PreparedDepth};
 
 /// Read `colour` and `depth` and prepare the depth as `pomc build` does before layering
 /// (`pomc prepare`): metres along the ray on the colour's grid, with what was found and done.
@@ -33,4 +35,53 @@ pub fn write_depth(path: &Path, width: usize, height: usize, depth: &[f32]) -> c
     let mut img = LayerImage::new(width, height);
     img.set_channel("Z", crate::layer::SampleType::F32, depth.to_vec());
     crate::layer_io::write_exr(path, &img, &crate::layer_io::WriteOptions::default())
+}
+
+/// What `pomc prepare --json` prints: the preparation's report and the file written.
+#[derive(Clone, Debug, Serialize)]
+pub struct PrepareSummary {
+    /// What was found in the depth and done to it.
+    #[serde(flatten)]
+    pub report: PrepareReport,
+    /// Width and height of the prepared depth (the colour's), pixels.
+    #[serde(skip)]
+    pub size: (usize, usize),
+    /// The EXR written.
+    pub output: PathBuf,
+}
+
+/// Prepare the depth of `colour` and `depth` ([`prepare_depth_files`]) and write it to `output`
+/// ([`write_depth`]): the job `pomc prepare` runs.
+pub fn prepare_to_file(
+    colour: &Path,
+    depth: &Path,
+    output: &Path,
+    s: &BuildSettings,
+) -> crate::Result<PrepareSummary> {
+    let prepared = prepare_depth_files(colour, depth, s)?;
+    let size = (prepared.width, prepared.height);
+    write_depth(output, size.0, size.1, &prepared.depth)?;
+    Ok(PrepareSummary { report: prepared.report, size, output: output.to_path_buf() })
+}
+
+impl PrepareSummary {
+    /// The line `pomc prepare` prints.
+    pub fn summary(&self) -> String {
+        let r = &self.report;
+        format!(
+            "prepared {}x{} depth from {}x{}: {} px completed, {} made sky, {} px snapped (radius {}), {} px of specks, noise {:.4}{} -> {}",
+            self.size.0,
+            self.size.1,
+            r.source_size.0,
+            r.source_size.1,
+            r.completed_pixels,
+            r.sky_pixels,
+            r.snapped_pixels,
+            r.snap_radius,
+            r.speck_pixels,
+            r.noise,
+            if r.smoothed { " (smoothed)" } else { "" },
+            self.output.display()
+        )
+    }
 }

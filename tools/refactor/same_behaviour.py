@@ -61,6 +61,9 @@ def cli_cases():
         ["validate", "/nonexistent", "--json"], ["validate", "--list-codes"], ["codes", "--json"],
         ["view", f"{F}/room-equirect", "--export", "@site", "--json"], ["view", f"{F}/room-equirect", "--export", "@site2"],
         ["view", "/nonexistent", "--export", "@site3"],
+        ["prepare", "--colour", f"{F}/room-rgbd/colour.png", "--depth", f"{F}/room-rgbd/depth.exr", "-o", "@p.exr", "--json"],
+        ["prepare", "--colour", f"{F}/room-rgbd/colour.png", "--depth", f"{F}/room-rgbd/depth.exr", "-o", "@p2.exr"],
+        ["prepare", "--colour", f"{F}/room-rgbd/colour.png", "--depth", "/nonexistent.exr", "-o", "@p3.exr"],
     ]
     for cmd in ["", "validate", "codes", "info", "convert", "build", "scene", "prepare", "pack", "unpack", "mesh",
                 "render", "view"]:
