@@ -15,6 +15,8 @@ Methods:
   a far candidate (the sides' own values); a pixel in a step (the two more than JUMP apart) and more
   than TOL from both goes to the side whose colour (3 × 3 mean at the window's nearest or farthest
   pixel) is closer to its own.
+- `oracle-plane`: the bounds of taking any settled depth within R, and of each side's plane in
+  disparity continued into the pixel.
 - `oracle-wide`: the bound of a side choice between the nearest and farthest settled depth within R.
 - `segplane`: colour superpixels, a plane in disparity per superpixel from its settled pixels, the
   in-between pixels near steps take their superpixel's plane (see `segplane`; needs scikit-image).
@@ -332,6 +334,53 @@ def oracle_wide(prep, truth, radius):
             f"settled {settled.mean() * 100:.0f} %")
 
 
+def oracle_plane(prep, truth, radius):
+    """Bounds of rules that give a flying pixel depth from what lies within `radius` (settled pixels
+    only: log-depth step under SEG_GRAD): `any` takes the settled value nearest the truth (the bound of
+    every rule that picks an observed depth); `plane` splits the window's settled pixels into a near and
+    a far side (at the middle of their log-depth range) and continues each side's plane in disparity
+    (least squares, disparity = a · ray; the sky is disparity 0) to the pixel, taking whichever of the
+    two continued depths (or the two sides' medians) is nearer the truth."""
+    L, T = log_depth(prep), log_depth(truth)
+    h, w = L.shape
+    g = np.zeros(L.shape)
+    for dy, dx in ((0, 1), (1, 0)):
+        g = np.maximum(g, np.abs(dq.shifted(L, -dy, -dx) - dq.shifted(L, dy, dx)) / 2)
+    settled = (g < SEG_GRAD) & ~np.isnan(prep)
+    disp = np.where(np.isinf(prep), 0.0, 1.0 / np.where(prep > 0, prep, np.nan))
+    r = rays(h, w)
+    fly = dq.flying(prep, truth)[0]
+    out_any, out_plane = prep.copy(), prep.copy()
+    ys, xs = np.nonzero(fly)
+    R = radius
+    cols_base = np.arange(-R, R + 1)
+    for y, x in zip(ys.tolist(), xs.tolist()):
+        y0, y1 = max(0, y - R), min(h, y + R + 1)
+        cols = (x + cols_base) % w
+        m = settled[y0:y1][:, cols]
+        if not m.any():
+            continue
+        Lw = L[y0:y1][:, cols][m]
+        t = T[y, x]
+        best = Lw[np.argmin(np.abs(Lw - t))]
+        out_any[y, x] = np.inf if best >= SKY_LOG - 1e-6 else np.exp(best)
+        lo, hi = Lw.min(), Lw.max()
+        cands = []
+        dw, rw = disp[y0:y1][:, cols][m], r[y0:y1][:, cols][m]
+        sides = [np.ones(len(Lw), bool)] if hi - lo < np.log(1.1) else [Lw <= (lo + hi) / 2, Lw > (lo + hi) / 2]
+        for side in sides:
+            cands.append(np.median(Lw[side]))
+            if side.sum() >= 6:
+                coef, *_ = np.linalg.lstsq(rw[side], dw[side], rcond=None)
+                dp = float(coef @ r[y, x])
+                cands.append(SKY_LOG if dp <= 1e-4 else min(-np.log(dp), SKY_LOG))
+        c = min(cands, key=lambda v: abs(v - t))
+        out_plane[y, x] = np.inf if c >= SKY_LOG - 1e-6 else np.exp(c)
+    f_any = dq.flying(out_any, truth)[0].mean() * 100
+    f_plane = dq.flying(out_plane, truth)[0].mean() * 100
+    return f"{fly.mean() * 100:.2f} → any settled {f_any:.2f}, side planes {f_plane:.2f}"
+
+
 def where(prep, truth):
     """Where the flying pixels are: shares by distance to the nearest exact occlusion edge (< 1, 1–2,
     2–5, 5–20 px and more), and the share whose truth is the sky."""
@@ -380,6 +429,9 @@ def main():
                 continue
             if a.method == "oracle-wide":
                 cells.append(oracle_wide(prep, truth, a.radius))
+                continue
+            if a.method == "oracle-plane":
+                cells.append(oracle_plane(prep, truth, a.radius))
                 continue
             if a.method == "oracle":
                 cells.append(oracle(prep, truth, rgb, a.radius, a.tol))
