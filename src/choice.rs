@@ -1,5 +1,5 @@
 //! Options that take one of a few named values (`--refine auto|on|off`): each value's name and
-//! documentation declared once, with its enum, by [`choices!`]. Front ends list and parse them
+//! documentation declared once, with its enum, by `choices!`. Front ends list and parse them
 //! through [`Choice`]; the library needs no argument parser.
 
 /// An enum whose values have names, as the command line and Python take them.
@@ -17,11 +17,17 @@ pub trait Choice: Copy + PartialEq + Sized + 'static {
         Self::VALUES.iter().find(|v| v.1 == name).map(|v| v.0)
     }
 
-    /// The one-line help of each value, in order: its documentation's first paragraph on one line,
-    /// without a closing full stop.
+    /// The value's one-line help, as clap's derive makes it of a doc comment: the first paragraph
+    /// on one line, without a closing full stop (empty without documentation).
     fn help(self) -> String {
         let doc = Self::VALUES.iter().find(|v| v.0 == self).map_or(&[][..], |v| v.2);
-        let first: Vec<&str> = doc.iter().map(|l| l.trim()).take_while(|l| !l.is_empty()).collect();
+        let first: Vec<&str> = doc
+            .iter()
+            .flat_map(|l| l.split('\n'))
+            .map(str::trim)
+            .skip_while(|l| l.is_empty())
+            .take_while(|l| !l.is_empty())
+            .collect();
         let mut line = first.join(" ");
         if line.ends_with('.') && !line.ends_with("..") {
             line.pop();

@@ -10,7 +10,7 @@
 //! | layers from a 3D scene | [`scene_panorama`] with [`BakeSettings`] | `pomc scene` |
 //! | render | [`render_panorama`] with [`RenderSettings`]; in memory [`Renderer::render`] | `pomc render` |
 //! | convert | [`convert_file`] with [`ConvertSettings`] (or [`convert_layer`] in memory) | `pomc convert` |
-//! | view | [`viewer::site`] with [`SiteSettings`], then [`Site::write`] | `pomc view` |
+//! | view | [`view_site`] with [`SiteSettings`], then [`SiteReport::exported`] (or serve with [`Site::get`]) | `pomc view` |
 //!
 //! ```
 //! use pomc::prelude::*;
@@ -37,12 +37,13 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub use crate::choice::Choice;
 pub use crate::colour::ColourSpace;
 pub use crate::error::{Error, Result};
 pub use crate::input::Convention;
 pub use crate::jobs::{
-    build_panorama, build_panorama_with_progress, prepare_depth_files, write_depth, BuildSettings,
-    BuildSummary, RenderMethod, Renderer, View, ViewCamera,
+    build_panorama, build_panorama_with_progress, prepare_depth_files, prepare_to_file, write_depth,
+    write_report, BuildSettings, BuildSummary, PrepareSummary, RenderMethod, Renderer, View, ViewCamera,
 };
 pub use crate::jobs::{convert_file, ConvertReport, ConvertSettings};
 pub use crate::jobs::{describe, InfoReport};
@@ -52,6 +53,7 @@ pub use crate::jobs::{
 };
 pub use crate::jobs::{repack_panorama, RepackReport, RepackSettings};
 pub use crate::jobs::{scene_panorama, SceneSummary};
+pub use crate::jobs::{view_site, SiteReport};
 pub use crate::layer::{LayerImage, Sample};
 pub use crate::layer_io::ReadLimits;
 pub use crate::layering::{BuildOptions, BuildReport};

@@ -29,6 +29,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args, out: Output) -> Result<u8, Failure> {
+    let pano = pomc::panorama::Panorama::open(&a.pano)?;
     // Listen before the meshing, so that a busy port is reported at once.
     let server = match a.export {
         Some(_) => None,
@@ -43,15 +44,15 @@ pub fn run(a: Args, out: Output) -> Result<u8, Failure> {
     };
     let spinner = out.spinner("meshing the layers");
     let settings = SiteSettings { sky_radius: a.sky_radius, ..SiteSettings::default() };
-    let (site, report) = pomc::jobs::view_site(&a.pano, &settings)?;
+    let (site, report) = pomc::jobs::view_site(&pano, &settings)?;
     spinner.finish_and_clear();
     let (report, server) = match (&a.export, server) {
         (Some(dir), _) => (report.exported(&site, dir)?, None),
-        (None, Some(server)) => {
+        (None, server) => {
+            let server = server.expect("bound above when there is no --export");
             let port = server.server_addr().to_ip().map(|a| a.port()).unwrap_or(a.port);
             (report.served(&format!("http://127.0.0.1:{port}/")), Some(server))
         }
-        (None, None) => return Ok(0),
     };
     out.json(&serde_json::to_value(&report).expect("report serialises"));
     out.say(report.summary());

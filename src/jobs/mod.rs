@@ -38,6 +38,7 @@ pub use view::{view_site, SiteLayer, SiteReport};
 
 /// Write a job's report to `path` as pretty JSON, atomically (`pomc build --report FILE`).
 pub fn write_report(path: &std::path::Path, report: &impl serde::Serialize) -> crate::Result<()> {
-    let text = serde_json::to_string_pretty(report).expect("reports serialise");
+    let text = serde_json::to_string_pretty(report)
+        .map_err(|e| crate::Error::io(path.to_path_buf(), std::io::Error::other(e)))?;
     Ok(crate::fsutil::write_bytes_atomic(path, text.as_bytes())?)
 }

@@ -40,12 +40,11 @@ pub struct SiteLayer {
     pub triangles: usize,
 }
 
-/// The viewer's site of the panorama at `path` (its directory or manifest) and its report
-/// (`export` and `url` unset: [`SiteReport::exported`] and [`SiteReport::served`] set them).
-pub fn view_site(path: &Path, settings: &SiteSettings) -> crate::Result<(Site, SiteReport)> {
+/// The viewer's site of panorama `pano` and its report (`export` and `url` unset:
+/// [`SiteReport::exported`] and [`SiteReport::served`] set them).
+pub fn view_site(pano: &Panorama, settings: &SiteSettings) -> crate::Result<(Site, SiteReport)> {
     let t = Instant::now();
-    let pano = Panorama::open(path)?;
-    let site = viewer::site(&pano, settings)?;
+    let site = viewer::site(pano, settings)?;
     let layers: Vec<SiteLayer> =
         site.triangles.iter().map(|(n, t)| SiteLayer { name: n.clone(), triangles: *t }).collect();
     let report = SiteReport {

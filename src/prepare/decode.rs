@@ -2,6 +2,7 @@
 //! (inverse depth with unknown scale and shift, 8/16-bit "nearness") made metric by a given range
 //! or by fitting the floor under a camera of known height, and the checks of what cannot be depth.
 
+use crate::choice::Choice;
 use std::path::Path;
 
 use super::{DepthSamples, PrepareError, SampleFormat, Warning};
@@ -86,16 +87,6 @@ impl DepthKind {
     pub fn is_relative(self) -> bool {
         matches!(self, DepthKind::Inverse | DepthKind::Nearness)
     }
-
-    /// The name used on the command line.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            DepthKind::Ray => "ray",
-            DepthKind::Z => "z",
-            DepthKind::Inverse => "inverse",
-            DepthKind::Nearness => "nearness",
-        }
-    }
 }
 
 crate::choice::choices! {
@@ -131,16 +122,6 @@ impl Preset {
             Preset::Pano3d => (1.0, None),
         };
         DepthEncoding { scale: Some(scale), invalid, preset: Some(self), ..DepthEncoding::default() }
-    }
-
-    /// The name used on the command line.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Preset::Matterport3d => "matterport3d",
-            Preset::Stanford2d3ds => "stanford2d3ds",
-            Preset::Structured3d => "structured3d",
-            Preset::Pano3d => "pano3d",
-        }
     }
 
     /// The sample format the dataset stores depth in.
@@ -357,7 +338,7 @@ fn check_kind(path: &Path, s: &DepthSamples, enc: &DepthEncoding) -> Result<(), 
     if let Some(p) = enc.preset.filter(|p| p.format() != s.format) {
         return Err(PrepareError::PresetMismatch {
             path: path.into(),
-            preset: p.as_str(),
+            preset: p.name(),
             expected: p.format().name(),
             found: s.format.name(),
         });
@@ -380,7 +361,7 @@ fn check_kind(path: &Path, s: &DepthSamples, enc: &DepthEncoding) -> Result<(), 
         let disparity =
             enc.kind == DepthKind::Inverse && (enc.scale.is_some() || enc.known_distance.is_some());
         if !disparity {
-            return Err(PrepareError::RelativeNeedsScale { path: path.into(), kind: enc.kind.as_str() });
+            return Err(PrepareError::RelativeNeedsScale { path: path.into(), kind: enc.kind.name() });
         }
     }
     Ok(())

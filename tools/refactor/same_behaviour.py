@@ -10,7 +10,11 @@ the same commands and compare what they print and write.
 - Builds: the bundled room, a 768 cube room (`pomc-fixtures rgbd`, built when missing) and, when
   present, the realistic corpus (`target/realistic-corpus/<hash>/{room,outdoor,extreme}`) exact and
   degraded (`target/depth-quality/<hash>/default/...`, from tools/eval/depth_quality.py); each
-  output directory must be identical (`diff -r`).
+  output directory must hold the same files, byte-identical.
+
+With `--pixels` (needs numpy and OpenEXR, e.g. `target/bpy-venv/bin/python`), EXR files count as the
+same when their header attributes other than compression details and every channel's samples are equal:
+for a change of the encoder (its deflate), where the bytes differ and the layers do not.
 
 OLD_POMC is typically a release build of the commit before the change in a worktree:
 `git worktree add /tmp/wt REV && (cd /tmp/wt && cargo build --release -p pomc-cli)`.
@@ -25,6 +29,41 @@ import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 F = os.path.join(ROOT, "fixtures", "data")
+
+
+PIXELS = False
+
+
+def exr_same(p, q):
+    """The same channels with equal samples (NaN equal to NaN), and the same data window."""
+    import numpy as np
+    import OpenEXR
+    a, b = OpenEXR.File(p), OpenEXR.File(q)
+    ca, cb = a.channels(), b.channels()
+    wa, wb = a.header().get("dataWindow"), b.header().get("dataWindow")
+    if set(ca) != set(cb) or not np.array_equal(np.asarray(wa), np.asarray(wb)):
+        return False
+    for k in ca:
+        x, y = ca[k].pixels, cb[k].pixels
+        if x.dtype != y.dtype or not np.array_equal(x, y, equal_nan=x.dtype.kind == "f"):
+            return False
+    return True
+
+
+def same_file(p, q, strip_a=b"", strip_b=b""):
+    if not os.path.exists(q):
+        return False
+    a, b = open(p, "rb").read(), open(q, "rb").read()
+    if strip_a:
+        a, b = a.replace(strip_a, b""), b.replace(strip_b, b"")
+    if a == b:
+        return True
+    return PIXELS and p.endswith(".exr") and exr_same(p, q)
+
+
+def same_tree(a, b):
+    names = lambda d: sorted(os.path.relpath(os.path.join(r, n), d) for r, _, ns in os.walk(d) for n in ns)
+    return names(a) == names(b) and all(same_file(os.path.join(a, n), os.path.join(b, n)) for n in names(a))
 
 
 def strip(v):
@@ -104,8 +143,7 @@ def compare_cli(old, new, work):
             p = os.path.join(root, n)
             q = os.path.join(dirs["new"], os.path.relpath(p, dirs["old"]))
             files += 1
-            if not os.path.exists(q) or open(p, "rb").read().replace(dirs["old"].encode(), b"") != \
-                    open(q, "rb").read().replace(dirs["new"].encode(), b""):
+            if not same_file(p, q, dirs["old"].encode(), dirs["new"].encode()):
                 bad += 1
                 print("FILE DIFF", os.path.relpath(p, dirs["old"]))
     print(f"CLI cases {len(cases)}, files {files}: {bad} differences")
@@ -143,7 +181,7 @@ def compare_builds(old, new, work):
             shutil.rmtree(out, ignore_errors=True)
             subprocess.run([binary, "build", *args, "-o", out, "--quiet"], capture_output=True)
             outs.append(out)
-        if subprocess.run(["diff", "-r", *outs], capture_output=True).returncode != 0:
+        if not same_tree(*outs):
             bad += 1
             print("BUILD DIFF", name)
     print(f"builds {len(inputs)}: {bad} differ")
@@ -155,7 +193,10 @@ def main():
     ap.add_argument("old")
     ap.add_argument("new")
     ap.add_argument("--work", default=os.path.join(ROOT, "target", "same-behaviour"))
+    ap.add_argument("--pixels", action="store_true", help="EXR files compared by their samples, not bytes")
     a = ap.parse_args()
+    global PIXELS
+    PIXELS = a.pixels
     os.makedirs(a.work, exist_ok=True)
     bad = compare_cli(a.old, a.new, a.work) + compare_builds(a.old, a.new, a.work)
     sys.exit(1 if bad else 0)

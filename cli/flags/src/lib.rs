@@ -381,10 +381,16 @@ impl CameraArgs {
 
 /// A parser of a [`Choice`]'s names, each listed in `--help` with its one-line help.
 pub fn choice<T: Choice + Send + Sync>() -> impl clap::builder::TypedValueParser<Value = T> {
-    let values = T::VALUES.iter().map(|(v, name, _)| clap::builder::PossibleValue::new(*name).help(v.help()));
+    let values = T::VALUES.iter().map(|(v, name, _)| {
+        let value = clap::builder::PossibleValue::new(*name);
+        match v.help() {
+            help if help.is_empty() => value,
+            help => value.help(help),
+        }
+    });
     let parser = clap::builder::PossibleValuesParser::new(values);
-    clap::builder::TypedValueParser::map(parser, |name: String| {
-        T::from_name(&name).expect("a possible value")
+    clap::builder::TypedValueParser::try_map(parser, |name: String| {
+        T::from_name(&name).ok_or_else(|| format!("`{name}` is not one of the values"))
     })
 }
 
