@@ -15,6 +15,7 @@ Methods:
   a far candidate (the sides' own values); a pixel in a step (the two more than JUMP apart) and more
   than TOL from both goes to the side whose colour (3 × 3 mean at the window's nearest or farthest
   pixel) is closer to its own.
+- `sideplane`: `oracle-plane`'s continued side planes, the side chosen by colour (a rule).
 - `oracle-plane`: the bounds of taking any settled depth within R, and of each side's plane in
   disparity continued into the pixel.
 - `oracle-wide`: the bound of a side choice between the nearest and farthest settled depth within R.
@@ -381,6 +382,51 @@ def oracle_plane(prep, truth, radius):
     return f"{fly.mean() * 100:.2f} → any settled {f_any:.2f}, side planes {f_plane:.2f}"
 
 
+def side_plane(d, rgb, radius, jump, tol):
+    """A rule, not a bound (`oracle-plane`'s side planes with the side chosen by colour): a pixel that
+    is not settled (log-depth step over SEG_GRAD), whose window of settled pixels spans a step (range
+    over `jump`) and that lies more than `tol` inside both ends, takes the continued plane (or the
+    median) of the side whose mean colour over its settled pixels in the window is nearer its own."""
+    L = log_depth(d)
+    h, w = L.shape
+    g = np.zeros(L.shape)
+    for dy, dx in ((0, 1), (1, 0)):
+        g = np.maximum(g, np.abs(dq.shifted(L, -dy, -dx) - dq.shifted(L, dy, dx)) / 2)
+    settled = (g < SEG_GRAD) & ~np.isnan(d)
+    disp = np.where(np.isinf(d), 0.0, 1.0 / np.where(d > 0, d, np.nan))
+    r = rays(h, w)
+    fp = np.ones((2 * radius + 1, 2 * radius + 1), bool)
+    lo = ndimage.grey_erosion(np.where(settled, L, np.inf), footprint=fp, mode="wrap")
+    hi = ndimage.grey_dilation(np.where(settled, L, -np.inf), footprint=fp, mode="wrap")
+    t = np.log(1 + tol)
+    cand = ~settled & ~np.isnan(d) & np.isfinite(lo) & np.isfinite(hi) & (hi - lo > np.log(1 + jump))
+    cand &= (L > lo + t) & (L < hi - t)
+    out = d.copy()
+    R = radius
+    cols_base = np.arange(-R, R + 1)
+    for y, x in zip(*[v.tolist() for v in np.nonzero(cand)]):
+        y0, y1 = max(0, y - R), min(h, y + R + 1)
+        cols = (x + cols_base) % w
+        m = settled[y0:y1][:, cols]
+        Lw = L[y0:y1][:, cols][m]
+        mid = (Lw.min() + Lw.max()) / 2
+        cw = rgb[y0:y1][:, cols][m]
+        best, val = np.inf, None
+        for side in (Lw <= mid, Lw > mid):
+            dist = np.linalg.norm(cw[side].mean(0) - rgb[y, x])
+            if dist >= best:
+                continue
+            best = dist
+            v = np.median(Lw[side])
+            if side.sum() >= 6:
+                coef, *_ = np.linalg.lstsq(r[y0:y1][:, cols][m][side], disp[y0:y1][:, cols][m][side], rcond=None)
+                dp = float(coef @ r[y, x])
+                v = SKY_LOG if dp <= 1e-4 else min(-np.log(dp), SKY_LOG)
+            val = v
+        out[y, x] = np.inf if val >= SKY_LOG - 1e-6 else np.exp(val)
+    return out, cand
+
+
 def where(prep, truth):
     """Where the flying pixels are: shares by distance to the nearest exact occlusion edge (< 1, 1–2,
     2–5, 5–20 px and more), and the share whose truth is the sky."""
@@ -446,6 +492,8 @@ def main():
                     os.path.join(a.work, a.corpus, a.base, scene, f"prepared-{kind}.exr"))["Z"]
                 changed = ~((prep == base) | (np.isnan(prep) & np.isnan(base)))
                 out, moved = settle(prep, rgb, a.radius, a.tol, changed)
+            elif a.method == "sideplane":
+                out, moved = side_plane(prep, rgb, a.radius, a.jump, a.tol)
             elif a.method == "segplane":
                 out, moved = segplane(prep, rgb, a.jump, a.tol, a.radius)
             else:
