@@ -201,6 +201,14 @@ SEG_C = float(os.environ.get("SEG_C", "10"))  # segplane: SLIC compactness
 SEG_GRAD = float(os.environ.get("SEG_GRAD", "0.01"))  # segplane: settled below this log-depth step
 
 
+def log_step(L):
+    """Per pixel, the larger of the central log-depth differences along rows and columns (per pixel)."""
+    g = np.zeros(L.shape)
+    for dy, dx in ((0, 1), (1, 0)):
+        g = np.maximum(g, np.abs(dq.shifted(L, -dy, -dx) - dq.shifted(L, dy, dx)) / 2)
+    return g
+
+
 def rays(h, w):
     """Unit ray per pixel of an equirect canvas (any right-handed frame will do for plane fits)."""
     th = (np.arange(h) + 0.5) / h * np.pi
@@ -245,9 +253,7 @@ def segplane(d, rgb, jump, tol, radius):
     labels = slic(rgb, n_segments=max(h * w // SEG_PX, 1), compactness=SEG_C, start_label=0,
                   channel_axis=-1, enforce_connectivity=True)
     n = labels.max() + 1
-    g = np.zeros(L.shape)
-    for dy, dx in ((0, 1), (1, 0)):
-        g = np.maximum(g, np.abs(dq.shifted(L, -dy, -dx) - dq.shifted(L, dy, dx)) / 2)
+    g = log_step(L)
     r = rays(h, w)
     use = (g < SEG_GRAD) & np.isfinite(disp)
     coef = plane_fits(labels, n, r, disp, use)
@@ -318,9 +324,7 @@ def oracle_wide(prep, truth, radius):
     depth within `radius` among settled pixels (log-depth gradient under SEG_GRAD); each flying pixel
     takes whichever is nearer the truth."""
     L, T = log_depth(prep), log_depth(truth)
-    g = np.zeros(L.shape)
-    for dy, dx in ((0, 1), (1, 0)):
-        g = np.maximum(g, np.abs(dq.shifted(L, -dy, -dx) - dq.shifted(L, dy, dx)) / 2)
+    g = log_step(L)
     settled = g < SEG_GRAD
     fp = np.ones((2 * radius + 1, 2 * radius + 1), bool)
     lo = ndimage.grey_erosion(np.where(settled, L, np.inf), footprint=fp, mode="wrap")
@@ -344,9 +348,7 @@ def oracle_plane(prep, truth, radius):
     two continued depths (or the two sides' medians) is nearer the truth."""
     L, T = log_depth(prep), log_depth(truth)
     h, w = L.shape
-    g = np.zeros(L.shape)
-    for dy, dx in ((0, 1), (1, 0)):
-        g = np.maximum(g, np.abs(dq.shifted(L, -dy, -dx) - dq.shifted(L, dy, dx)) / 2)
+    g = log_step(L)
     settled = (g < SEG_GRAD) & ~np.isnan(prep)
     disp = np.where(np.isinf(prep), 0.0, 1.0 / np.where(prep > 0, prep, np.nan))
     r = rays(h, w)
@@ -389,9 +391,7 @@ def side_plane(d, rgb, radius, jump, tol):
     median) of the side whose mean colour over its settled pixels in the window is nearer its own."""
     L = log_depth(d)
     h, w = L.shape
-    g = np.zeros(L.shape)
-    for dy, dx in ((0, 1), (1, 0)):
-        g = np.maximum(g, np.abs(dq.shifted(L, -dy, -dx) - dq.shifted(L, dy, dx)) / 2)
+    g = log_step(L)
     settled = (g < SEG_GRAD) & ~np.isnan(d)
     disp = np.where(np.isinf(d), 0.0, 1.0 / np.where(d > 0, d, np.nan))
     r = rays(h, w)
