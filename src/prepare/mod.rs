@@ -332,8 +332,11 @@ pub fn prepare_depth(
     if all_sky {
         report.sky_pixels = n;
     }
-    // Nothing known at all: the build makes such a canvas one layer at infinity.
+    // Nothing known at all (what was known fell between the resize's samples): the sky, one layer
+    // at infinity, so that accepted depth is in front of the camera everywhere.
     if unknown_count == n {
+        depth.fill(f32::INFINITY);
+        report.sky_pixels = n;
         return Ok(PreparedDepth { width: mapping.width(), height: mapping.height(), depth, report });
     }
     let nb = Neighbours::new(*mapping);

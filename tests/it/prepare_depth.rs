@@ -505,3 +505,42 @@ proptest::proptest! {
         }
     }
 }
+
+/// A known distance so small that every finite depth is lost (under f32's range) leaves the sky
+/// alone known: the prepared depth is the sky or a surface everywhere, never NaN (found by the
+/// `prepare` fuzz target).
+#[test]
+fn a_known_distance_that_loses_every_finite_depth_leaves_no_nan() {
+    for sky_at in [0, 37, 300, 511] {
+        for zoom in [1, 2] {
+            let (w, h) = (32, 16);
+            let mut values = vec![2.0f32; w * h];
+            values[sky_at] = f32::INFINITY;
+            let s = DepthSamples {
+                width: w,
+                height: h,
+                values,
+                format: SampleFormat::F32,
+                colour_channels: false,
+            };
+            let m = AnyMapping::new(MappingKind::Equirect, w / zoom, h / zoom).unwrap();
+            let rgb: [Vec<f32>; 3] = std::array::from_fn(|c| {
+                (0..m.width() * m.height()).map(|i| ((i / 5 + c) % 3) as f32 / 2.0).collect()
+            });
+            let enc = DepthEncoding {
+                known_distance: Some(KnownDistance { x: 3.0, y: 5.0, metres: 7e-323 }),
+                ..DepthEncoding::default()
+            };
+            for refine in [pomc::prepare::Refine::On, pomc::prepare::Refine::Auto] {
+                let opts = PrepareOptions { refine, unknown: UnknownDepth::Complete };
+                if let Ok(p) = prepare_depth("d.exr".as_ref(), &m, &rgb, &s, &enc, &opts) {
+                    let bad = p.depth.iter().filter(|d| d.is_nan() || **d <= 0.0).count();
+                    assert_eq!(
+                        bad, 0,
+                        "sky at {sky_at}, zoom {zoom}, {refine:?}: {bad} pixels NaN or not in front"
+                    );
+                }
+            }
+        }
+    }
+}
