@@ -2,7 +2,9 @@
 """Import graph of src/ (issue 54): circles between top-level modules, the edges of each, and the
 imports that run back up the spec order (the last two lines). Run from the repository root:
 `python3 tools/refactor/module_graph.py`."""
-import os, re, sys, itertools
+import os, re, sys
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from graph import circles  # noqa: E402
 root = "src"
 edges = {}
 def modname(path):
@@ -23,24 +25,8 @@ for dp, _, fs in os.walk(root):
         if re.search(r"(?<!\$)crate::(Result|Error)\b", text) and m not in ("error", "lib", "prelude"):
             edges.setdefault(m, set()).add("error")
 mods = sorted(set(edges) | {t for v in edges.values() for t in v})
-# SCCs (Tarjan)
-index, low, st, on, sccs, i = {}, {}, [], set(), [], [0]
-def sc(v):
-    index[v] = low[v] = i[0]; i[0] += 1; st.append(v); on.add(v)
-    for w in edges.get(v, ()):
-        if w not in index: sc(w); low[v] = min(low[v], low[w])
-        elif w in on: low[v] = min(low[v], index[w])
-    if low[v] == index[v]:
-        c = []
-        while True:
-            w = st.pop(); on.discard(w); c.append(w)
-            if w == v: break
-        sccs.append(c)
-sys.setrecursionlimit(10000)
-for v in mods:
-    if v not in index: sc(v)
-for c in sccs:
-    if len(c) > 1: print("cycle:", sorted(c))
+for c in circles(mods, edges):
+    print("cycle:", c)
 for m in sorted(edges):
     print(m, "->", sorted(edges[m]))
 level = {}
