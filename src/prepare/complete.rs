@@ -17,6 +17,11 @@ pub(crate) fn open_to_zenith(nb: &Neighbours, unknown: &[bool]) -> Vec<usize> {
     for _ in 0..OPEN {
         core = (0..core.len()).into_par_iter().map(|p| core[p] && four(p).all(|q| core[q])).collect();
     }
+    // The sky is above the horizon: unknown ground beyond a scanner's range is not.
+    let above = above_horizon(nb);
+    for (c, a) in core.iter_mut().zip(&above) {
+        *c &= a;
+    }
     let seeds: Vec<usize> = (0..unknown.len())
         .filter(|&p| core[p] && nb.mapping().pixel_dir(p % nb.width(), p / nb.width()).z > ZENITH_COS)
         .collect();
@@ -35,8 +40,9 @@ pub(crate) fn open_to_zenith(nb: &Neighbours, unknown: &[bool]) -> Vec<usize> {
     }
     // Grow back by the opening's width, through unknown pixels only.
     for _ in 0..OPEN {
-        let grown: Vec<usize> =
-            (0..sky.len()).filter(|&p| !sky[p] && unknown[p] && four(p).any(|q| sky[q])).collect();
+        let grown: Vec<usize> = (0..sky.len())
+            .filter(|&p| !sky[p] && unknown[p] && above[p] && four(p).any(|q| sky[q]))
+            .collect();
         for p in grown {
             sky[p] = true;
         }
@@ -46,6 +52,187 @@ pub(crate) fn open_to_zenith(nb: &Neighbours, unknown: &[bool]) -> Vec<usize> {
 
 /// Directions within this cosine of the zenith (about 10°) seed the sky.
 const ZENITH_COS: f64 = 0.985;
+
+/// How far below the horizontal the sky may still be seen: 1°, the horizon's dip from about 1 km up.
+const HORIZON_DIP_SIN: f64 = 0.017452;
+
+/// Pixels whose direction is above [`HORIZON_DIP_SIN`] below the horizontal.
+fn above_horizon(nb: &Neighbours) -> Vec<bool> {
+    let (w, m) = (nb.width(), nb.mapping());
+    (0..w * nb.height()).into_par_iter().map(|p| m.pixel_dir(p % w, p / w).z > -HORIZON_DIP_SIN).collect()
+}
+
+/// Unknown pixels below the horizon in holes that join the sky, more than two steps from known
+/// depth: the push-pull blends the sky into them, but the sky is not below the horizon. Each takes
+/// the known depth that reaches it first through the hole, continued as level ground when that
+/// pixel is lower (depth × its height below the horizon over this pixel's: a plane's disparity
+/// falls linearly to 0 at the horizon), as it is where a scanner's returns end on the ground.
+pub(crate) fn ground_to_the_horizon(nb: &Neighbours, log: &mut [f32], original: &[f32], unknown: &[bool]) {
+    let n = log.len();
+    let sky = |p: usize| !unknown[p] && original[p] >= SKY_LOG;
+    if !(0..n).into_par_iter().any(sky) {
+        return;
+    }
+    let four = |p: usize| (0..4).filter_map(move |k| nb.get(p, k));
+    let above = above_horizon(nb);
+    let mut joined = vec![false; n];
+    let mut stack: Vec<usize> =
+        (0..n).into_par_iter().filter(|&p| unknown[p] && !above[p] && four(p).any(sky)).collect();
+    for &p in &stack {
+        joined[p] = true;
+    }
+    while let Some(p) = stack.pop() {
+        for q in four(p) {
+            if unknown[q] && !above[q] && !joined[q] {
+                joined[q] = true;
+                stack.push(q);
+            }
+        }
+    }
+    // Breadth-first through those holes from the known depth beside them (not the sky): each
+    // pixel's source is the nearest (by angle) of its neighbours' sources, the farther on a tie,
+    // so the front does not drift towards farther depth over many steps.
+    const NONE: usize = usize::MAX;
+    const SEEN: usize = usize::MAX - 1;
+    let w = nb.width();
+    let dir = |p: usize| nb.mapping().pixel_dir(p % w, p / w);
+    let ground = |q: usize| !unknown[q] && original[q] < SKY_LOG;
+    let mut source = vec![NONE; n];
+    let mut frontier: Vec<usize> =
+        (0..n).into_par_iter().filter(|&p| joined[p] && four(p).any(ground)).collect();
+    let mut steps = 0;
+    while !frontier.is_empty() {
+        steps += 1;
+        let chosen: Vec<usize> = frontier
+            .par_iter()
+            .map(|&p| {
+                let d = dir(p);
+                four(p)
+                    .filter_map(|q| if ground(q) { Some(q) } else { Some(source[q]).filter(|&s| s < SEEN) })
+                    .max_by(|&a, &b| {
+                        d.dot(dir(a)).total_cmp(&d.dot(dir(b))).then(original[a].total_cmp(&original[b]))
+                    })
+                    .unwrap_or(NONE)
+            })
+            .collect();
+        for (&p, &q) in frontier.iter().zip(&chosen) {
+            if q == NONE {
+                // Not reached (no symmetric neighbour): seen, so that the search ends.
+                source[p] = SEEN;
+                continue;
+            }
+            source[p] = q;
+            // Continued as level ground only from below (more up than across) and past the
+            // first two steps: a wall beside the hole, or a scan line's gap, continues as it is.
+            let (dp, dq) = (dir(p), dir(q));
+            let across = dp
+                .truncate()
+                .normalize_or_zero()
+                .dot(dq.truncate().normalize_or_zero())
+                .clamp(-1.0, 1.0)
+                .acos();
+            let up = dp.z.asin() - dq.z.asin();
+            let lift = if steps > 2 && up > 2.0 * across { (dq.z / dp.z).ln() as f32 } else { 0.0 };
+            log[p] = (original[q] + lift).min(SKY_LOG - 0.01);
+        }
+        frontier =
+            frontier.iter().flat_map(|&p| four(p)).filter(|&q| joined[q] && source[q] == NONE).collect();
+        frontier.sort_unstable();
+        frontier.dedup();
+    }
+}
+
+/// Relaxation sweeps after the push-pull.
+pub(crate) const RELAX_SWEEPS: usize = 24;
+
+/// Unknown pixels at most this many steps from known depth are a thin hole ([`nearest_across_steps`]).
+const THIN: usize = 4;
+
+/// Thin holes across a depth step (a scanner's shadows beside jumps, dropouts at an outline) are
+/// not bridged: each unknown pixel within [`THIN`] steps of known depth whose completed value
+/// (`log`) is more than half `jump_log` from the known depth that reaches it first through the
+/// hole (the farther on a tie: shadows lie on the far side), or where the depths so reached span
+/// a step within two steps of it, takes that depth instead, then is smoothed within its side. The push-pull's
+/// blend of both sides would hang in mid-air between them. The sky reaches no pixel below the
+/// horizon. Returns how many pixels changed.
+pub(crate) fn nearest_across_steps(
+    nb: &Neighbours,
+    log: &mut [f32],
+    original: &[f32],
+    unknown: &[bool],
+    jump_log: f32,
+) -> usize {
+    let four = |p: usize| (0..4).filter_map(move |k| nb.get(p, k));
+    let (w, m) = (nb.width(), nb.mapping());
+    let below = |p: usize| m.pixel_dir(p % w, p / w).z <= -HORIZON_DIP_SIN;
+    let mut reach: Vec<f32> =
+        original.iter().zip(unknown).map(|(&o, &u)| if u { f32::NAN } else { o }).collect();
+    let mut frontier: Vec<usize> =
+        (0..unknown.len()).into_par_iter().filter(|&p| unknown[p] && four(p).any(|q| !unknown[q])).collect();
+    let mut reached = Vec::new();
+    for _ in 0..THIN {
+        if frontier.is_empty() {
+            break;
+        }
+        let values: Vec<(usize, f32)> = frontier
+            .par_iter()
+            .filter_map(|&p| {
+                four(p)
+                    .map(|q| reach[q])
+                    .filter(|v| !(v.is_nan() || (*v >= SKY_LOG && below(p))))
+                    .reduce(f32::max)
+                    .map(|v| (p, v))
+            })
+            .collect();
+        for &(p, v) in &values {
+            reach[p] = v;
+        }
+        reached.extend(values.iter().map(|&(p, _)| p));
+        frontier =
+            values.iter().flat_map(|&(p, _)| four(p)).filter(|&q| unknown[q] && reach[q].is_nan()).collect();
+        frontier.sort_unstable();
+        frontier.dedup();
+    }
+    let two = |p: usize| four(p).flat_map(move |q| four(q).chain(std::iter::once(q)));
+    let across: Vec<usize> = reached
+        .into_par_iter()
+        .filter(|&p| {
+            let (lo, hi) = two(p)
+                .map(|q| reach[q])
+                .filter(|v| !v.is_nan())
+                .fold((reach[p], reach[p]), |(lo, hi), v| (lo.min(v), hi.max(v)));
+            hi - lo > jump_log || (log[p] - reach[p]).abs() > 0.5 * jump_log
+        })
+        .collect();
+    for &p in &across {
+        log[p] = reach[p];
+    }
+    // Then smooth within each side: the mean of the neighbours within a step of the pixel, so
+    // that a gap over a slanted surface is not left in terraces and no step is bridged.
+    for _ in 0..SIDE_SWEEPS {
+        let next: Vec<f32> = across
+            .par_iter()
+            .map(|&p| {
+                let (sum, k) = four(p)
+                    .map(|q| log[q])
+                    .filter(|v| (v - log[p]).abs() < jump_log)
+                    .fold((0.0f32, 0.0f32), |(s, k), v| (s + v, k + 1.0));
+                if k > 0.0 {
+                    sum / k
+                } else {
+                    log[p]
+                }
+            })
+            .collect();
+        for (&p, v) in across.iter().zip(next) {
+            log[p] = v;
+        }
+    }
+    across.len()
+}
+
+/// Sweeps of [`nearest_across_steps`]' smoothing within a side.
+const SIDE_SWEEPS: usize = 8;
 
 /// Log depth given to infinitely far pixels while completing (10 km), so a hole beside the sky
 /// completes towards it; completed values this far are infinitely far again.

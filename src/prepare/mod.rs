@@ -555,10 +555,11 @@ fn refine_depth<'a>(
 }
 
 /// Complete the `unknown` pixels of `log` (push-pull, then relaxation), never nearer or farther
-/// than the finite depth known (`original`): completion interpolates.
+/// than the finite depth known (`original`): completion interpolates, except across a step, where
+/// a thin hole takes the nearest known depth.
 fn complete_unknown(nb: &Neighbours, log: &mut [f32], original: &[f32], unknown: &[bool]) {
     complete::push_pull(log, nb.width(), nb.height());
-    complete::relax(nb, log, unknown, RELAX_SWEEPS);
+    complete::relax(nb, log, unknown, complete::RELAX_SWEEPS);
     let (lo, hi) = original
         .iter()
         .filter(|l| l.is_finite() && **l < complete::SKY_LOG)
@@ -566,6 +567,8 @@ fn complete_unknown(nb: &Neighbours, log: &mut [f32], original: &[f32], unknown:
     if lo <= hi {
         log.par_iter_mut().zip(unknown).filter(|(_, &u)| u).for_each(|(l, _)| *l = l.clamp(lo, hi));
     }
+    complete::nearest_across_steps(nb, log, original, unknown, (1.0 + JUMP).ln() as f32);
+    complete::ground_to_the_horizon(nb, log, original, unknown);
 }
 
 /// Refine `log` (measured noise smoothed; soft edges reported, snapped with `on`; specks of
@@ -622,9 +625,6 @@ fn refine_known<'a>(
         report.speck_pixels = specks::remove(nb, log, guide(), max);
     }
 }
-
-/// Relaxation sweeps after the push-pull.
-const RELAX_SWEEPS: usize = 24;
 
 /// Pieces of surface smaller than this share of the canvas (1 / it), or [`MIN_SPECK`] pixels, are
 /// specks when they are behind something on their border.

@@ -164,6 +164,95 @@ fn unknown_depth_is_completed() {
     assert!(p.depth[..20 * W].iter().all(|d| d.is_infinite()));
 }
 
+/// Whether `d` lies on a surface of `truth` near pixel `p` (within 5 % of the truth of a pixel at
+/// most 2 px away): depth_quality.py's test for a pixel that does not fly, without its parallax term.
+fn on_a_surface_near(d: f32, truth: &[f32], p: usize) -> bool {
+    let (x, y) = ((p % W) as isize, (p / W) as isize);
+    (-2..=2isize).any(|dy| {
+        (-2..=2isize).any(|dx| {
+            let (i, j) = ((x + dx).rem_euclid(W as isize), (y + dy).clamp(0, (W / 2 - 1) as isize));
+            let t = truth[j as usize * W + i as usize];
+            (d / t - 1.0).abs() <= 0.05
+        })
+    })
+}
+
+/// A scanner's shadows (the 3 px on the far side of every step over 8 %, unknown) are completed
+/// with the depth of a side, never with a blend of both that hangs between them.
+#[test]
+fn shadows_beside_steps_take_a_side() {
+    let (_, _, input) = room();
+    let d = &input.depth;
+    // Occlusions only (a step over 25 %): the room's grazing floor steps 8 % from row to row.
+    let far_of = |p: usize, q: usize| d[p] > 1.25 * d[q];
+    let mut shadow = vec![false; d.len()];
+    for (p, shadowed) in shadow.iter_mut().enumerate() {
+        let (x, y) = (p % W, p / W);
+        for (dx, dy) in [(1isize, 0isize), (-1, 0), (0, 1), (0, -1)] {
+            for k in 1..=3isize {
+                let (i, j) = ((x as isize - k * dx).rem_euclid(W as isize), y as isize - k * dy);
+                let (i1, j1) = ((i + dx).rem_euclid(W as isize), j + dy);
+                if (0..W as isize / 2).contains(&j) && (0..W as isize / 2).contains(&j1) {
+                    let (q, q1) = (j as usize * W + i as usize, j1 as usize * W + i1 as usize);
+                    // `q` is the far side of the step from `q1`; `p` lies k − 1 px beyond `q`.
+                    if far_of(q, q1) {
+                        *shadowed = true;
+                    }
+                }
+            }
+        }
+    }
+    let holes = shadow.iter().filter(|&&s| s).count();
+    assert!(holes > 2000, "the room has steps: {holes} shadow pixels");
+    let holed: Vec<f32> = d.iter().zip(&shadow).map(|(&v, &s)| if s { 0.0 } else { v }).collect();
+    let off = PrepareOptions { refine: pomc::prepare::Refine::Off, ..Default::default() };
+    let p = prepare(&input, samples(W, holed, SampleFormat::F32), &DepthEncoding::default(), &off);
+    let mid_air: Vec<usize> =
+        (0..d.len()).filter(|&q| shadow[q] && !on_a_surface_near(p.depth[q], d, q)).collect();
+    assert!(
+        mid_air.len() * 1000 <= holes,
+        "{} of {holes} shadow pixels between the sides, e.g. {:?}",
+        mid_air.len(),
+        mid_air.iter().take(4).map(|&q| (q % W, q / W, p.depth[q], d[q])).collect::<Vec<_>>()
+    );
+}
+
+/// `UnknownDepth::Sky` makes the sky of what is open to the zenith only above the horizon: unknown
+/// depth below it (ground beyond a scanner's range) is completed, even where it joins the sky.
+#[test]
+fn the_sky_stays_above_the_horizon() {
+    let (_, r, input) = room();
+    // A strip 12 px wide from the top row down to three quarters of the height, on the room alone
+    // (where it crossed an object, no completion could know where the object's outline runs).
+    let (rows, cols) = (W * 3 / 8, 12);
+    let x0 = (0..W - cols)
+        .find(|&x0| {
+            (20..rows + 3).all(|y| (x0.max(3) - 3..x0 + cols + 3).all(|x| r.first_hit.object[y * W + x] == 0))
+        })
+        .expect("a strip of wall and floor");
+    let mut open = input.depth.clone();
+    open[..20 * W].fill(f32::NAN);
+    for y in 0..rows {
+        open[y * W + x0..y * W + x0 + cols].fill(f32::NAN);
+    }
+    let sky = PrepareOptions { unknown: UnknownDepth::Sky, ..Default::default() };
+    let p = prepare(&input, samples(W, open, SampleFormat::F32), &DepthEncoding::default(), &sky);
+    // 1° below the horizontal is 1.4 rows below the middle of 256 rows.
+    let horizon = W / 4 + 2;
+    assert!(p.depth[..20 * W].iter().all(|d| d.is_infinite()), "the top is the sky");
+    assert!(
+        p.depth[30 * W + x0 + cols / 2].is_infinite(),
+        "the strip above the horizon is open to the zenith"
+    );
+    let below: Vec<usize> = (horizon..rows).flat_map(|y| (x0..x0 + cols).map(move |x| y * W + x)).collect();
+    assert!(below.iter().all(|&q| p.depth[q].is_finite()), "no sky below the horizon");
+    let worst = below.iter().map(|&q| (p.depth[q] / input.depth[q] - 1.0).abs()).fold(0.0, f32::max);
+    for &q in below.iter().filter(|&&q| (p.depth[q] / input.depth[q] - 1.0).abs() > 0.04) {
+        eprintln!("{} {} {} {}", q % W - x0, q / W, p.depth[q], input.depth[q]);
+    }
+    assert!(worst < 0.05, "completed below the horizon within {worst}");
+}
+
 /// Noise growing with the square of the distance (a scanner's) is measured and smoothed without
 /// adding layers: the build from it has as many layers as from exact depth, give or take one.
 #[test]

@@ -311,7 +311,7 @@ def degrade(src, work, kind, scene):
         args = ["--depth-kind", "inverse", "--camera-height", str(CAMERA_HEIGHT[scene])]
     elif kind in ("scanner", "lidar"):
         d = np.where(np.isfinite(z), z + rng.normal(0, 1, z.shape) * 0.0015 * z ** 2, 0)
-        bad = edge_shadows(z, 3) | (rng.random(z.shape) < 0.01) | (d > 65.0)
+        bad = edge_shadows(z, 3) | (rng.random(z.shape) < 0.01) | (d > 65.0) | ~(z <= 65.0)  # no return past range
         if kind == "lidar":
             rows = np.arange(z.shape[0]) % 10
             bad |= ~np.isin(rows, (0, 3, 6))[:, None]
