@@ -209,25 +209,7 @@ pub(crate) fn nearest_across_steps(
     }
     // Then smooth within each side: the mean of the neighbours within a step of the pixel, so
     // that a gap over a slanted surface is not left in terraces and no step is bridged.
-    for _ in 0..SIDE_SWEEPS {
-        let next: Vec<f32> = across
-            .par_iter()
-            .map(|&p| {
-                let (sum, k) = four(p)
-                    .map(|q| log[q])
-                    .filter(|v| (v - log[p]).abs() < jump_log)
-                    .fold((0.0f32, 0.0f32), |(s, k), v| (s + v, k + 1.0));
-                if k > 0.0 {
-                    sum / k
-                } else {
-                    log[p]
-                }
-            })
-            .collect();
-        for (&p, v) in across.iter().zip(next) {
-            log[p] = v;
-        }
-    }
+    mean_sweeps(nb, log, &across, SIDE_SWEEPS, jump_log);
     across.len()
 }
 
@@ -255,15 +237,20 @@ pub(crate) fn push_pull(log: &mut [f32], w: usize, h: usize) {
 /// (harmonic) surface through the hole's rim.
 pub(crate) fn relax(nb: &Neighbours, log: &mut [f32], unknown: &[bool], sweeps: usize) {
     let holes: Vec<usize> = (0..unknown.len()).filter(|&p| unknown[p]).collect();
+    mean_sweeps(nb, log, &holes, sweeps, f32::INFINITY);
+}
+
+/// Jacobi sweeps over `pixels` of the mean of their 4-neighbours within `within` of them.
+fn mean_sweeps(nb: &Neighbours, log: &mut [f32], pixels: &[usize], sweeps: usize, within: f32) {
     for _ in 0..sweeps {
-        let next: Vec<f32> = holes
+        let next: Vec<f32> = pixels
             .par_iter()
             .map(|&p| {
-                let (mut sum, mut n) = (0.0f32, 0.0f32);
-                for q in (0..4).filter_map(|k| nb.get(p, k)) {
-                    sum += log[q];
-                    n += 1.0;
-                }
+                let (sum, n) = (0..4)
+                    .filter_map(|k| nb.get(p, k))
+                    .map(|q| log[q])
+                    .filter(|v| (v - log[p]).abs() < within)
+                    .fold((0.0f32, 0.0f32), |(s, n), v| (s + v, n + 1.0));
                 if n > 0.0 {
                     sum / n
                 } else {
@@ -271,7 +258,7 @@ pub(crate) fn relax(nb: &Neighbours, log: &mut [f32], unknown: &[bool], sweeps: 
                 }
             })
             .collect();
-        for (&p, v) in holes.iter().zip(next) {
+        for (&p, v) in pixels.iter().zip(next) {
             log[p] = v;
         }
     }
