@@ -152,16 +152,16 @@ const THIN: usize = 4;
 /// not bridged: each unknown pixel within [`THIN`] steps of known depth whose completed value
 /// (`log`) is more than half `jump_log` from the known depth that reaches it first through the
 /// hole (the farther on a tie: shadows lie on the far side), or where the depths so reached span
-/// a step within two steps of it, takes that depth instead, then is smoothed within its side. The push-pull's
-/// blend of both sides would hang in mid-air between them. The sky reaches no pixel below the
-/// horizon. Returns how many pixels changed.
+/// a step within two steps of it, takes that depth instead, then is smoothed within its side.
+/// The push-pull's blend of both sides would hang in mid-air between them. The sky reaches no
+/// pixel below the horizon.
 pub(crate) fn nearest_across_steps(
     nb: &Neighbours,
     log: &mut [f32],
     original: &[f32],
     unknown: &[bool],
     jump_log: f32,
-) -> usize {
+) {
     let four = |p: usize| (0..4).filter_map(move |k| nb.get(p, k));
     let (w, m) = (nb.width(), nb.mapping());
     let below = |p: usize| m.pixel_dir(p % w, p / w).z <= -HORIZON_DIP_SIN;
@@ -210,7 +210,6 @@ pub(crate) fn nearest_across_steps(
     // Then smooth within each side: the mean of the neighbours within a step of the pixel, so
     // that a gap over a slanted surface is not left in terraces and no step is bridged.
     mean_sweeps(nb, log, &across, SIDE_SWEEPS, jump_log);
-    across.len()
 }
 
 /// Sweeps of [`nearest_across_steps`]' smoothing within a side.
