@@ -34,15 +34,19 @@ pub(super) fn trusted_plane(cx: &FillContext, p: usize) -> bool {
     })
 }
 
+/// Share of the plane tolerance within which [`planar_reach`] takes a turned normal for noise.
+const TURN_FIT: f32 = 0.25;
+
 /// Steps along each of the 8 directions within which [`planar_reach`] looks.
 pub(super) const REACH_STEPS: usize = 48;
 
 /// How far (an angle) the tangent plane at seed `s` may be continued behind an occluder: as far
 /// as it fits the seed's own visible surface (within the plane tolerance, relative, and with
-/// normals within 20° of its own), looking along the 8 directions over the layer's pixels of the
-/// same segment. A wall fits its plane all the way; the tangent plane of a sphere or of a table
-/// leg leaves the surface within a few pixels, and continued far beyond (along a thin pole in
-/// front of it) it draws a sliver of the object where there is none. A seed without a normal
+/// normals within 20° of its own: two turned in a row, where the depth leaves the plane by a
+/// quarter of the tolerance, end it), looking along the 8 directions over the layer's pixels of
+/// the same segment. A wall fits its plane all the way; the tangent plane of a sphere or of a
+/// table leg leaves the surface within a few pixels, and continued far beyond (along a thin pole
+/// in front of it) it draws a sliver of the object where there is none. A seed without a normal
 /// walks with the one it borrows, else its neighbours' mean; unlimited when there is none either
 /// or nothing contradicts it.
 pub(super) fn planar_reach(cx: &FillContext, surfaces: &Surfaces, k: u32, s: usize) -> f64 {
@@ -68,6 +72,7 @@ pub(super) fn planar_reach(cx: &FillContext, surfaces: &Surfaces, k: u32, s: usi
     let mut reach = f64::INFINITY;
     for j in 0..8 {
         let mut p = s;
+        let mut turned_at: Option<f64> = None;
         for _ in 0..REACH_STEPS {
             let Some(q) = cx.nb.get(p, j) else { break };
             if cx.layer_of[q] != k || cx.surface[q] != cx.surface[s] || !cx.links.continuous(p, j) {
@@ -75,16 +80,21 @@ pub(super) fn planar_reach(cx: &FillContext, surfaces: &Surfaces, k: u32, s: usi
             }
             let dq = cx.depth[q];
             let t = plane_depth(cx, s, n, q);
-            let turned = cx.normals[q] != Vec3::ZERO && cx.normals[q].dot(n) < SAME_PLANE_COS;
-            if turned
-                || !(n.dot(cx.dirs.at(q)) < 0.0
-                    && t.is_finite()
-                    && (t - dq).abs() <= cx.plane_tol as f32 * dq)
-            {
-                let angle = cx.dirs.at(q).dot(cx.dirs.at(s)).clamp(-1.0, 1.0).acos() as f64;
-                reach = reach.min(angle);
+            let angle = || cx.dirs.at(q).dot(cx.dirs.at(s)).clamp(-1.0, 1.0).acos() as f64;
+            let fits =
+                n.dot(cx.dirs.at(q)) < 0.0 && t.is_finite() && (t - dq).abs() <= cx.plane_tol as f32 * dq;
+            // A normal turned where the depth still fits the plane closely, or at one pixel only,
+            // is noise (real depth's normals scatter by 20° and more); a curved surface's stay
+            // turned and leave the plane.
+            let nq = surfaces.normal(cx, q);
+            let turned = nq != Vec3::ZERO
+                && nq.dot(n) < SAME_PLANE_COS
+                && (t - dq).abs() > TURN_FIT * cx.plane_tol as f32 * dq;
+            if !fits || (turned && turned_at.is_some()) {
+                reach = reach.min(if fits { turned_at.unwrap_or_else(angle) } else { angle() });
                 break;
             }
+            turned_at = turned.then(angle);
             p = q;
         }
     }
