@@ -69,12 +69,13 @@ impl PrepareSummary {
     pub fn summary(&self) -> String {
         let r = &self.report;
         format!(
-            "prepared {}x{} depth from {}x{}: {} px completed, {} made sky, {} px snapped (radius {}), {} px of specks, noise {:.4}{} -> {}",
+            "prepared {}x{} depth from {}x{}: {} px completed ({} of them blends with holes), {} made sky, {} px snapped (radius {}), {} px of specks, noise {:.4}{} -> {}",
             self.size.0,
             self.size.1,
             r.source_size.0,
             r.source_size.1,
             r.completed_pixels,
+            r.rim_pixels,
             r.sky_pixels,
             r.snapped_pixels,
             r.snap_radius,

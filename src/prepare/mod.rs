@@ -93,6 +93,9 @@ pub struct PrepareReport {
     pub unknown_share: f64,
     /// Pixels of the depth file whose metric depth is zero or negative: unknown depth.
     pub non_positive_pixels: usize,
+    /// Known pixels made unknown as blends of their surface with unknown depth (the rim that
+    /// interpolated resizing leaves around holes stored as zero).
+    pub rim_pixels: usize,
     /// Pixels whose depth was completed.
     pub completed_pixels: usize,
     /// Unknown pixels made the sky (`--unknown-depth sky`).
@@ -324,11 +327,21 @@ pub fn prepare_depth(
         depth = resize::resize(&depth, &source, mapping, guide());
     }
     let n = depth.len();
-    let unknown: Vec<bool> = depth.par_iter().map(|d| d.is_nan()).collect();
+    let mut unknown: Vec<bool> = depth.par_iter().map(|d| d.is_nan()).collect();
+    let nb = Neighbours::new(*mapping);
+    let rim = if unknown.contains(&true) {
+        complete::blends_with_unknown(&nb, &depth, &unknown, JUMP as f32)
+    } else {
+        Vec::new()
+    };
+    for &p in &rim {
+        (depth[p], unknown[p]) = (f32::NAN, true);
+    }
     let unknown_count = unknown.iter().filter(|&&u| u).count();
     let unknown_share = unknown_count as f64 / n.max(1) as f64;
     let mut report = PrepareReport::new((sw, sh), resized, unknown_share, metric, warnings);
     report.non_positive_pixels = non_positive;
+    report.rim_pixels = rim.len();
     if all_sky {
         report.sky_pixels = n;
     }
@@ -339,8 +352,6 @@ pub fn prepare_depth(
         report.sky_pixels = n;
         return Ok(PreparedDepth { width: mapping.width(), height: mapping.height(), depth, report });
     }
-    let nb = Neighbours::new(*mapping);
-    let mut unknown = unknown;
     if s.unknown == UnknownDepth::Sky {
         for p in complete::open_to_zenith(&nb, &unknown) {
             (depth[p], unknown[p]) = (f32::INFINITY, false);
@@ -460,6 +471,7 @@ impl PrepareReport {
             resized,
             unknown_share,
             non_positive_pixels: 0,
+            rim_pixels: 0,
             completed_pixels: 0,
             sky_pixels: 0,
             edges: EdgeScan::default(),

@@ -217,6 +217,61 @@ fn shadows_beside_steps_take_a_side() {
     );
 }
 
+/// Depth resized with interpolation blends the zeros of its holes into the pixels around them (a
+/// ramp down to zero one or two pixels wide): those pixels are unknown, not surfaces hanging near the
+/// camera, and the holes are completed on the surface around them.
+#[test]
+fn blends_with_zero_around_holes_are_not_depth() {
+    let (_, r, input) = room();
+    let d = &input.depth;
+    let plain = |x0: usize, y0: usize, w: usize, h: usize| {
+        (y0..y0 + h).all(|y| (x0..x0 + w).all(|x| r.first_hit.object[y * W + x] == 0))
+    };
+    // Holes of 10 × 8 px on the room alone, with 4 px of it around them.
+    let mut holes = Vec::new();
+    for y0 in (30..W / 2 - 30).step_by(23) {
+        for x0 in (10..W - 30).step_by(37) {
+            if plain(x0 - 4, y0 - 4, 18, 16) && holes.len() < 40 {
+                holes.push((x0, y0));
+            }
+        }
+    }
+    assert!(holes.len() >= 20, "{} holes", holes.len());
+    let in_hole = |x: usize, y: usize| {
+        holes.iter().any(|&(x0, y0)| (x0..x0 + 10).contains(&x) && (y0..y0 + 8).contains(&y))
+    };
+    // Chebyshev distance to the nearest hole, up to 3.
+    let dist = |x: usize, y: usize| {
+        (0..=3).find(|&k| {
+            (y.saturating_sub(k)..=(y + k).min(W / 2 - 1))
+                .any(|j| (x.saturating_sub(k)..=(x + k).min(W - 1)).any(|i| in_hole(i, j)))
+        })
+    };
+    let blended: Vec<f32> = (0..d.len())
+        .map(|p| match dist(p % W, p / W) {
+            Some(0) => 0.0,
+            Some(1) => 0.4 * d[p],
+            Some(2) => 0.75 * d[p],
+            _ => d[p],
+        })
+        .collect();
+    let near: Vec<usize> = (0..d.len()).filter(|&p| dist(p % W, p / W).is_some()).collect();
+    let off = PrepareOptions { refine: pomc::prepare::Refine::Off, ..Default::default() };
+    let p = prepare(&input, samples(W, blended, SampleFormat::F32), &DepthEncoding::default(), &off);
+    // Nothing hangs in front of the room; a hole over a crease may be completed a little off it.
+    let hanging: Vec<usize> = near.iter().copied().filter(|&q| p.depth[q] < 0.9 * d[q]).collect();
+    assert!(
+        hanging.is_empty(),
+        "{} of {} pixels in and around the holes in front of the room, e.g. {:?}",
+        hanging.len(),
+        near.len(),
+        hanging.iter().take(4).map(|&q| (q % W, q / W, p.depth[q], d[q])).collect::<Vec<_>>()
+    );
+    let off = near.iter().filter(|&&q| (p.depth[q] / d[q] - 1.0).abs() > 0.05).count();
+    assert!(off * 100 <= near.len(), "{off} of {} pixels off the room by over 5 %", near.len());
+    assert!(p.report.rim_pixels > 0 && p.report.rim_pixels < near.len(), "rim {}", p.report.rim_pixels);
+}
+
 /// `UnknownDepth::Sky` makes the sky of what is open to the zenith only above the horizon: unknown
 /// depth below it (ground beyond a scanner's range) is completed, even where it joins the sky.
 #[test]
