@@ -61,12 +61,19 @@ pub struct Links {
 impl Links {
     /// Classify every pixel's 8 links (in parallel).
     pub fn compute(nb: &Neighbours, depth: &[f32], o: &EdgeOptions) -> Links {
+        // The test is symmetric: where two steps along every offset are plain (most pixels), a
+        // pixel's links backwards are its neighbours' forwards, classified once and copied below.
+        const BACKWARD: [usize; 4] = [1, 3, 6, 7];
         let (usable, jump): (Vec<u8>, Vec<u8>) = (0..nb.len())
             .into_par_iter()
             .map(|p| {
                 let (x, y) = (p % nb.width(), p / nb.width());
                 let (mut u, mut j) = (0u8, 0u8);
+                let interior = nb.is_interior2(x, y);
                 for k in 0..8 {
+                    if interior && BACKWARD.contains(&k) {
+                        continue;
+                    }
                     match depth_link(nb, depth, x, y, k, o) {
                         Some(Link::Jump) => {
                             u |= 1 << k;
@@ -79,14 +86,29 @@ impl Links {
                 (u, j)
             })
             .unzip();
+        // Each pixel's links in full: its own, and those backwards copied from its neighbours.
+        let full = |p: usize| -> (u8, u8) {
+            let (mut u, mut j) = (usable[p], jump[p]);
+            if nb.is_interior2(p % nb.width(), p / nb.width()) {
+                for k in BACKWARD {
+                    let (q, back) = (p.wrapping_add_signed(nb.offset(k)), opposite(k));
+                    u |= (usable[q] >> back & 1) << k;
+                    j |= (jump[q] >> back & 1) << k;
+                }
+            }
+            (u, j)
+        };
         // A diagonal step is one surface when it is by the 4-neighbours around it: the last row of
         // a grazing floor beside a wall has no plane to follow along the diagonal (the pixel behind
         // is the wall, the one beyond is past the floor's end), but does along the row and column.
-        let straight = |p: usize, k: usize| (usable[p] & !jump[p]) >> k & 1 == 1;
-        let jump: Vec<u8> = (0..nb.len())
+        let straight = |p: usize, k: usize| {
+            let (u, j) = full(p);
+            (u & !j) >> k & 1 == 1
+        };
+        let (usable, jump): (Vec<u8>, Vec<u8>) = (0..nb.len())
             .into_par_iter()
             .map(|p| {
-                let mut j = jump[p];
+                let (u, mut j) = full(p);
                 for (k, &(dx, dy)) in OFFSETS.iter().enumerate().skip(4) {
                     if j >> k & 1 == 0 {
                         continue;
@@ -102,9 +124,9 @@ impl Links {
                         j &= !(1 << k);
                     }
                 }
-                j
+                (u, j)
             })
-            .collect();
+            .unzip();
         Links { usable, jump, fold_cos: o.fold_deg.map(|a| a.to_radians().cos() as f32) }
     }
 

@@ -31,6 +31,17 @@ impl Dsu {
         union_in(&mut self.parent, 0, a, b);
     }
 
+    /// Every element pointed straight at its root, in one forward pass: a parent never comes after
+    /// its child (roots are the smallest index; `split` links to a segment's first pixel or a
+    /// root). The sets and roots stay; a walk over all pixels then needs no search.
+    fn flatten(&mut self) {
+        for p in 0..self.parent.len() {
+            let q = self.parent[p] as usize;
+            debug_assert!(q <= p, "parent {q} after {p}");
+            self.parent[p] = self.parent[q];
+        }
+    }
+
     /// The sets of `nb`'s pixels joined by their smooth links (bit i of `masks[p].0`: `p` and its
     /// neighbour along `HALF[i]`). Bands of rows are joined in parallel, each in its own slice of
     /// the table (a set's root, its smallest pixel, lies in its band until bands meet); the links
@@ -241,11 +252,12 @@ fn sized_ids(dsu: &mut Dsu, depth: &[f32], finite: &dyn Fn(usize) -> bool) -> (V
     let mut root_to_id = vec![NO_SEGMENT; n];
     let mut size: Vec<u32> = Vec::new();
     let mut depth_sum: Vec<f64> = Vec::new();
+    dsu.flatten();
     for p in 0..n {
         if !finite(p) {
             continue;
         }
-        let r = dsu.find(p as u32) as usize;
+        let r = dsu.parent[p] as usize;
         if root_to_id[r] == NO_SEGMENT {
             root_to_id[r] = size.len() as u32;
             size.push(0);
@@ -362,12 +374,13 @@ fn segment_count(id: &[u32]) -> usize {
 fn compact(dsu: &mut Dsu, n: usize, finite: &dyn Fn(usize) -> bool) -> Vec<u32> {
     let mut root_to_id = vec![NO_SEGMENT; n];
     let mut next = 0u32;
+    dsu.flatten();
     (0..n)
         .map(|p| {
             if !finite(p) {
                 return NO_SEGMENT;
             }
-            let r = dsu.find(p as u32) as usize;
+            let r = dsu.parent[p] as usize;
             if root_to_id[r] == NO_SEGMENT {
                 root_to_id[r] = next;
                 next += 1;
