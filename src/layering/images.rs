@@ -85,14 +85,37 @@ pub(super) fn layer_heads(
     depth: &[f32],
     layer_of: &[u32],
 ) -> (Vec<BuiltLayer>, Vec<fill::Fill>, Vec<u32>) {
-    let mut own = vec![0usize; fills.len()];
-    let mut range: Vec<Option<(f32, f32)>> = vec![None; fills.len()];
-    for (&l, &d) in layer_of.iter().zip(depth) {
-        if let (Some(c), Some(r)) = (own.get_mut(l as usize), range.get_mut(l as usize)) {
-            *c += 1;
-            widen(r, d);
-        }
-    }
+    // Counts and depth ranges per layer, in parallel over the canvas (a minimum and maximum come
+    // out the same in any order).
+    let count = fills.len();
+    let (own, mut range) = layer_of
+        .par_iter()
+        .zip(depth)
+        .fold(
+            || (vec![0usize; count], vec![None; count]),
+            |(mut own, mut range): (Vec<usize>, Vec<Option<(f32, f32)>>), (&l, &d)| {
+                if let (Some(c), Some(r)) = (own.get_mut(l as usize), range.get_mut(l as usize)) {
+                    *c += 1;
+                    widen(r, d);
+                }
+                (own, range)
+            },
+        )
+        .reduce(
+            || (vec![0usize; count], vec![None; count]),
+            |(mut own, mut range), (own_b, range_b)| {
+                for (c, b) in own.iter_mut().zip(own_b) {
+                    *c += b;
+                }
+                for (r, b) in range.iter_mut().zip(range_b) {
+                    if let Some((lo, hi)) = b {
+                        widen(r, lo);
+                        widen(r, hi);
+                    }
+                }
+                (own, range)
+            },
+        );
     let (mut heads, mut kept, mut index) = (Vec::new(), Vec::new(), Vec::new());
     let mut name_count = std::collections::BTreeMap::<String, u32>::new();
     for (k, f) in fills.into_iter().enumerate() {

@@ -354,7 +354,7 @@ pub fn layer(mut input: RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) ->
     let classified = classify(&input, o, &nb);
     input.depth = Vec::new();
     let Classified { mut depth, links, mixed_pixels, dmin } = classified;
-    let unknown_pixels = depth.iter().filter(|d| d.is_nan()).count();
+    let unknown_pixels = depth.par_iter().filter(|d| d.is_nan()).count();
 
     // (2) Normals.
     stages.start("normals");
@@ -549,7 +549,7 @@ fn keyed_layers(
     depth: &[f32],
 ) -> (Vec<LayerKey>, Vec<u32>, u32) {
     let n = depth.len();
-    let has_infinity = depth.iter().any(|d| d.is_infinite());
+    let has_infinity = depth.par_iter().any(|d| d.is_infinite());
     // Keys as indices into the distinct keys before parts (4 bytes a pixel, not 16).
     let key_of = keys_of_pixels(o, seg, normals, dirs, depth);
     let unparted = distinct(n, &key_of);
@@ -614,12 +614,20 @@ fn keys_of_pixels<'a>(
 fn distinct(n: usize, key_of: &(impl Fn(usize) -> Option<LayerKey> + Sync)) -> Vec<LayerKey> {
     (0..n)
         .into_par_iter()
-        .fold(std::collections::BTreeSet::new, |mut set, p| {
-            if let Some(k) = key_of(p) {
-                set.insert(k);
-            }
-            set
-        })
+        // Runs of pixels share a key: the last one inserted is skipped without a tree search.
+        .fold(
+            || (std::collections::BTreeSet::new(), None),
+            |(mut set, mut last), p| {
+                if let Some(k) = key_of(p) {
+                    if last != Some(k) {
+                        set.insert(k);
+                        last = Some(k);
+                    }
+                }
+                (set, last)
+            },
+        )
+        .map(|(set, _)| set)
         .reduce(std::collections::BTreeSet::new, |mut a, b| {
             a.extend(b);
             a

@@ -44,8 +44,11 @@ pub(super) fn mixed_pixels_of(nb: &Neighbours, depth: &[f32], links: &edges::Lin
 /// depth anywhere, pixels become direction-only (+inf) in the first finite layer.
 pub(super) fn assign_unknown(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [u32], first_finite: u32) {
     let n = layer_of.len();
-    let mut frontier: Vec<usize> =
-        (0..n).filter(|&p| layer_of[p] == u32::MAX && nb.all(p).any(|q| layer_of[q] != u32::MAX)).collect();
+    let known = &*layer_of;
+    let mut frontier: Vec<usize> = (0..n)
+        .into_par_iter()
+        .filter(|&p| known[p] == u32::MAX && nb.all(p).any(|q| known[q] != u32::MAX))
+        .collect();
     while !frontier.is_empty() {
         let mut next = Vec::new();
         let updates: Vec<(usize, usize)> = frontier
