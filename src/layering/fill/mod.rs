@@ -117,24 +117,41 @@ const RIVALS: usize = 5;
 pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     // Seeds across a jump first; seeds along a fold only (the floor a box stands on) reach what
     // the former leave.
-    let (mut seeds, mut fold_seeds) = (Vec::new(), Vec::new());
-    for p in 0..cx.nb.len() {
-        // NaN (unknown) depth never seeds a fill.
-        if cx.layer_of[p] != k || cx.depth[p].is_nan() || cx.depth[p] <= 0.0 {
-            continue;
-        }
-        let mut borders = (0..8).filter(|&j| cx.nb.get(p, j).is_some_and(|q| hidden(cx, k, q)));
-        let Some(first) = borders.next() else { continue };
-        if !trusted_plane(cx, p) {
-            continue;
-        }
-        if cx.links.is_jump(p, first) || borders.any(|j| cx.links.is_jump(p, j)) {
+    // The seeds (in pixel order, found in parallel) beside the layer's surfaces (a serial sum).
+    let (found, mut surfaces) = rayon::join(
+        || -> Vec<(usize, bool)> {
+            let w = cx.nb.width();
+            (0..cx.nb.height())
+                .into_par_iter()
+                .flat_map_iter(|y| {
+                    (0..w).filter_map(move |x| {
+                        let p = y * w + x;
+                        // NaN (unknown) depth never seeds a fill.
+                        if cx.layer_of[p] != k || cx.depth[p].is_nan() || cx.depth[p] <= 0.0 {
+                            return None;
+                        }
+                        let mut borders =
+                            (0..8).filter(|&j| cx.nb.get_at(x, y, j).is_some_and(|q| hidden(cx, k, q)));
+                        let first = borders.next()?;
+                        if !trusted_plane(cx, p) {
+                            return None;
+                        }
+                        Some((p, cx.links.is_jump(p, first) || borders.any(|j| cx.links.is_jump(p, j))))
+                    })
+                })
+                .collect()
+        },
+        || Surfaces::of_layer(cx, k),
+    );
+    let (mut seeds, mut fold_seeds): (Vec<usize>, Vec<usize>) = (Vec::new(), Vec::new());
+    for (p, jump) in found {
+        if jump {
             seeds.push(p);
         } else {
             fold_seeds.push(p);
         }
     }
-    let surfaces = Surfaces::new(cx, k, seeds.iter().chain(&fold_seeds).copied());
+    surfaces.borrow_normals(cx, seeds.iter().chain(&fold_seeds).copied());
     // A speck without a plane (a few in-between depths on a resized edge) is no surface to
     // continue: kept, its depth would stand as a wall behind the occluder.
     // Pixels of unknown depth (given their neighbour's depth, on no segment) are not specks.
@@ -301,9 +318,16 @@ fn claim_angle(
 /// before [`add_borders`].
 pub fn yield_to_farther(fills: &mut [Fill]) {
     let mut nearest: HashMap<usize, f32> = HashMap::new();
-    for fill in fills.iter_mut() {
+    for i in 0..fills.len() {
+        let (done, nearer) = fills.split_at_mut(i + 1);
+        let fill = &mut done[i];
         if !nearest.is_empty() {
             fill.pixels.retain(|f| f.level || nearest.get(&f.pixel).is_none_or(|&a| a >= f.angle));
+        }
+        // Only nearer fills read the angles: none left, none to record (the nearest layer's
+        // fill is often most of the pixels).
+        if nearer.iter().all(|f| f.pixels.is_empty()) {
+            break;
         }
         for f in &fill.pixels {
             let a = nearest.entry(f.pixel).or_insert(f32::INFINITY);

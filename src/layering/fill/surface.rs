@@ -138,7 +138,16 @@ impl Surfaces {
     }
 
     /// The surfaces of layer `k` (finite depths only) and the normals `seeds` borrow.
+    #[cfg(test)]
     pub(super) fn new(cx: &FillContext, k: u32, seeds: impl Iterator<Item = usize>) -> Surfaces {
+        let mut surfaces = Surfaces::of_layer(cx, k);
+        surfaces.borrow_normals(cx, seeds);
+        surfaces
+    }
+
+    /// [`Surfaces::new`] before any seed borrows a normal: needs no seeds, so it runs beside
+    /// their search.
+    pub(super) fn of_layer(cx: &FillContext, k: u32) -> Surfaces {
         let mut sums: Vec<(Vec3, u32)> = Vec::new();
         let mut far: Vec<f32> = Vec::new();
         for p in 0..cx.nb.len() {
@@ -154,12 +163,17 @@ impl Surfaces {
             }
         }
         let centroid = sums.iter().map(|&(sum, c)| if c > 0 { sum / c as f32 } else { Vec3::NAN }).collect();
-        let borrowed = seeds
-            .filter(|&s| cx.normals[s] == Vec3::ZERO && cx.depth[s].is_finite())
-            .filter_map(|s| Some((s, borrow_normal(cx, s)?)))
-            .collect();
         let size = sums.iter().map(|&(_, c)| c).collect();
-        Surfaces { centroid, far, size, borrowed }
+        Surfaces { centroid, far, size, borrowed: HashMap::new() }
+    }
+
+    /// The normals `seeds` without one of their own borrow ([`borrow_normal`]).
+    pub(super) fn borrow_normals(&mut self, cx: &FillContext, seeds: impl Iterator<Item = usize>) {
+        self.borrowed.extend(
+            seeds
+                .filter(|&s| cx.normals[s] == Vec3::ZERO && cx.depth[s].is_finite())
+                .filter_map(|s| Some((s, borrow_normal(cx, s)?))),
+        );
     }
 }
 

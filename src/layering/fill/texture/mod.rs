@@ -114,9 +114,15 @@ pub fn synthesise(tx: &FillContext, k: u32, fill: &mut Fill) {
         return;
     }
     let n = tx.nb.len();
-    let slot = slots(tx, fill);
-    let clean = clean_pixels(tx, k);
-    let groups = surface_groups(tx, fill, &slot);
+    // The fill's parts (a serial walk) beside the clean pixels (a parallel scan of the canvas).
+    let (clean, (slot, groups)) = rayon::join(
+        || clean_pixels(tx, k),
+        || {
+            let slot = slots(tx, fill);
+            let groups = surface_groups(tx, fill, &slot);
+            (slot, groups)
+        },
+    );
     let alpha = (4.0 * std::f32::consts::PI / n as f32).sqrt();
     let copies: Vec<Transfer> =
         groups.par_iter().map(|g| copy_group(tx, k, fill, &clean, g, alpha)).collect();
