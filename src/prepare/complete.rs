@@ -11,7 +11,9 @@ use crate::mapping::{opposite, Mapping, Neighbours};
 /// resized with interpolation leaves a rim around every hole, one to several pixels wide, whose
 /// values fall towards zero (a Matterport3D map: 19 200, 13 112, 0 mm). Each would be a sliver
 /// hanging near the camera. A known pixel is a blend when, across an unknown 4-neighbour, the
-/// known pixel opposite it is farther by more than `jump` (relative); peeled a ring at a time,
+/// known pixel opposite it is farther by more than `jump` (relative) and the plane through that
+/// pixel and the one beyond does not run on to it (grazing ground steps as much, on a plane; a ramp
+/// down to zero is far from linear in 1/d); peeled a ring at a time,
 /// up to [`RIM`] rings, so a ramp down to the hole goes whole. Returns the pixels to make unknown.
 pub(crate) fn blends_with_unknown(nb: &Neighbours, depth: &[f32], unknown: &[bool], jump: f32) -> Vec<usize> {
     let mut gone = unknown.to_vec();
@@ -26,7 +28,18 @@ pub(crate) fn blends_with_unknown(nb: &Neighbours, depth: &[f32], unknown: &[boo
                     && (0..4).any(|k| {
                         nb.get(p, k).is_some_and(|h| gone[h])
                             && nb.get(p, opposite(k)).is_some_and(|o| {
-                                !gone[o] && depth[o].is_finite() && depth[p] * (1.0 + jump) < depth[o]
+                                !gone[o]
+                                    && depth[o].is_finite()
+                                    && depth[p] * (1.0 + jump) < depth[o]
+                                    && !nb.get(o, opposite(k)).is_some_and(|b| {
+                                        !gone[b]
+                                            && crate::continuity::continues_plane(
+                                                f64::from(depth[o]),
+                                                f64::from(depth[p]),
+                                                f64::from(depth[b]),
+                                                crate::continuity::PLANAR,
+                                            )
+                                    })
                             })
                     })
             })

@@ -258,6 +258,7 @@ fn blends_with_zero_around_holes_are_not_depth() {
     let near: Vec<usize> = (0..d.len()).filter(|&p| dist(p % W, p / W).is_some()).collect();
     let off = PrepareOptions { refine: pomc::prepare::Refine::Off, ..Default::default() };
     let p = prepare(&input, samples(W, blended, SampleFormat::F32), &DepthEncoding::default(), &off);
+    assert!(p.depth.iter().all(|d| d.is_finite() && *d > 0.0), "every pixel has a depth");
     // Nothing hangs in front of the room; a hole over a crease may be completed a little off it.
     let hanging: Vec<usize> = near.iter().copied().filter(|&q| p.depth[q] < 0.9 * d[q]).collect();
     assert!(
@@ -270,6 +271,37 @@ fn blends_with_zero_around_holes_are_not_depth() {
     let off = near.iter().filter(|&&q| (p.depth[q] / d[q] - 1.0).abs() > 0.05).count();
     assert!(off * 100 <= near.len(), "{off} of {} pixels off the room by over 5 %", near.len());
     assert!(p.report.rim_pixels > 0 && p.report.rim_pixels < near.len(), "rim {}", p.report.rim_pixels);
+}
+
+/// Grazing ground steps more than a jump from row to row near the horizon, as a blend with zero
+/// does, but runs on as a plane: a hole on its near side peels nothing off it.
+#[test]
+fn grazing_ground_beside_a_hole_is_not_a_blend() {
+    let m = AnyMapping::new(MappingKind::Equirect, W, W / 2).unwrap();
+    let r = render_on(&Scene::open_sky(), &m);
+    let input = rgbd_input(&r, m, false);
+    let (top, rows) = (W / 4 + 4, 6);
+    let cols: Vec<usize> =
+        (0..W).filter(|&x| (top - 10..top + rows + 2).all(|y| r.first_hit.object[y * W + x] == 0)).collect();
+    assert!(cols.len() > W / 4, "{} columns of plain floor", cols.len());
+    let holed: Vec<f32> = (0..input.depth.len())
+        .map(|p| {
+            let (x, y) = (p % W, p / W);
+            if (top..top + rows).contains(&y) && cols.binary_search(&x).is_ok() {
+                f32::NAN
+            } else {
+                input.depth[p]
+            }
+        })
+        .collect();
+    let steep = cols
+        .iter()
+        .filter(|&&x| input.depth[(top - 2) * W + x] > 1.08 * input.depth[(top - 1) * W + x])
+        .count();
+    assert!(steep > 0, "the ground steps more than a jump a row above the hole");
+    let off = PrepareOptions { refine: pomc::prepare::Refine::Off, ..Default::default() };
+    let p = prepare(&input, samples(W, holed, SampleFormat::F32), &DepthEncoding::default(), &off);
+    assert_eq!(p.report.rim_pixels, 0, "ground peeled beside the hole");
 }
 
 /// `UnknownDepth::Sky` makes the sky of what is open to the zenith only above the horizon: unknown
