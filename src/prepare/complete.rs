@@ -9,7 +9,7 @@ use crate::mapping::{opposite, Mapping, Neighbours};
 
 /// Known pixels that are blends of their surface with unknown depth (stored as zero): depth
 /// resized with interpolation leaves a rim around every hole, one to several pixels wide, whose
-/// values fall towards zero (a Matterport3D map: 19 200, 13 112, 0 mm). Each would be a sliver
+/// values fall towards zero (a Matterport3D map, ¼ mm units: 19 200, 13 112, 0). Each would be a sliver
 /// hanging near the camera. A known pixel is a blend when, across an unknown 4-neighbour, the
 /// known pixel opposite it is farther by more than `jump` (relative) and the plane through that
 /// pixel and the one beyond does not run on to it (grazing ground steps as much, on a plane; a ramp
