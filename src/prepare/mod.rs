@@ -94,7 +94,7 @@ pub struct PrepareReport {
     /// Pixels of the depth file whose metric depth is zero or negative: unknown depth.
     pub non_positive_pixels: usize,
     /// Known pixels made unknown as blends of their surface with unknown depth (the rim that
-    /// interpolated resizing leaves around holes stored as zero).
+    /// interpolated resizing leaves around holes stored as zero), counted on the depth's own grid.
     pub rim_pixels: usize,
     /// Pixels whose depth was completed.
     pub completed_pixels: usize,
@@ -322,6 +322,9 @@ pub fn prepare_depth(
     // The colour guide of the resize, the snap and the specks, made once when one needs it.
     let guide_cell = std::cell::OnceCell::new();
     let guide = || guide_cell.get_or_init(|| refine::guide(rgb)).as_slice();
+    // Peeled on the depth's own grid, where a rim is as wide as the map made it; a resize first
+    // would widen it past the peel's rings.
+    let rim = peel_blends(&source, &mut depth);
     let resized = (sw, sh) != (mapping.width(), mapping.height());
     if resized {
         depth = resize::resize(&depth, &source, mapping, guide());
@@ -329,19 +332,11 @@ pub fn prepare_depth(
     let n = depth.len();
     let mut unknown: Vec<bool> = depth.par_iter().map(|d| d.is_nan()).collect();
     let nb = Neighbours::new(*mapping);
-    let rim = if unknown.contains(&true) {
-        complete::blends_with_unknown(&nb, &depth, &unknown, JUMP as f32)
-    } else {
-        Vec::new()
-    };
-    for &p in &rim {
-        (depth[p], unknown[p]) = (f32::NAN, true);
-    }
     let unknown_count = unknown.iter().filter(|&&u| u).count();
     let unknown_share = unknown_count as f64 / n.max(1) as f64;
     let mut report = PrepareReport::new((sw, sh), resized, unknown_share, metric, warnings);
     report.non_positive_pixels = non_positive;
-    report.rim_pixels = rim.len();
+    report.rim_pixels = rim;
     if all_sky {
         report.sky_pixels = n;
     }
@@ -373,6 +368,26 @@ pub fn prepare_depth(
     }
     refine_depth(&nb, &guide, &mut depth, &unknown, s, &mut report);
     Ok(PreparedDepth { width: mapping.width(), height: mapping.height(), depth, report })
+}
+
+/// Make unknown the known pixels that are blends with unknown depth
+/// ([`complete::blends_with_unknown`]); returns how many. A peel that would leave less than
+/// [`MIN_KNOWN`] of the pixels known (sparse depth that is all rims) is not made: the rims are
+/// then the only depth there is.
+fn peel_blends(canvas: &AnyMapping, depth: &mut [f32]) -> usize {
+    let known = depth.par_iter().filter(|d| !d.is_nan()).count();
+    if known == depth.len() || known == 0 {
+        return 0;
+    }
+    let unknown: Vec<bool> = depth.par_iter().map(|d| d.is_nan()).collect();
+    let rim = complete::blends_with_unknown(&Neighbours::new(*canvas), depth, &unknown, JUMP as f32);
+    if ((known - rim.len()) as f64) < MIN_KNOWN * depth.len() as f64 {
+        return 0;
+    }
+    for &p in &rim {
+        depth[p] = f32::NAN;
+    }
+    rim.len()
 }
 
 /// Refuse depth with too little known to build from: every metric value zero or negative, or
