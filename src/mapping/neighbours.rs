@@ -90,6 +90,12 @@ impl Neighbours {
         self.interior2_col[x] && self.interior2_row[y]
     }
 
+    /// Whether row `y` has pixels two steps from any edge ([`Neighbours::is_interior2`] for some column).
+    #[inline]
+    pub fn is_interior2_row(&self, y: usize) -> bool {
+        self.interior2_row[y]
+    }
+
     /// The pixel-index step of offset `k` where it is plain (inside the canvas or a face).
     #[inline]
     pub fn offset(&self, k: usize) -> isize {
