@@ -233,7 +233,7 @@ fn band(
     surfaces: &Surfaces,
     reach: &HashMap<usize, f64>,
 ) -> (Vec<u32>, Vec<f32>, Vec<usize>) {
-    let n = cx.nb.len();
+    let (n, w) = (cx.nb.len(), cx.nb.width());
     // (1) The band: nearest seed within the parallax a camera in the freedom radius can open.
     // Breadth-first from the seeds; a pixel already claimed switches to a nearer (in angle)
     // seed of the same kind reaching it later and passes the improvement on. Without that the
@@ -261,8 +261,11 @@ fn band(
             continue;
         };
         let s = src[p] as usize;
+        // What a claim needs of the seed, looked up once for the 8 neighbours.
+        let seed = (s, cx.dirs.at(s), reach[&s]);
+        let (x, y) = (p % w, p / w);
         for j in 0..8 {
-            let Some(q) = cx.nb.get(p, j) else { continue };
+            let Some(q) = cx.nb.get_at(x, y, j) else { continue };
             if !hidden(cx, k, q)
                 || (src[q] != NONE && (src[q] as usize == q || kind[src[q] as usize] != kind[s]))
             {
@@ -270,7 +273,7 @@ fn band(
             }
             let first = src[q] == NONE;
             let held = (!first).then(|| f64::from(angle_of[q]));
-            let Some(angle) = claim_angle(cx, surfaces, reach, s, q, held) else {
+            let Some(angle) = claim_angle(cx, surfaces, seed, q, held) else {
                 continue;
             };
             src[q] = s as u32;
@@ -285,22 +288,22 @@ fn band(
 }
 
 /// The angle from seed `s` to pixel `q` when `s` claims `q` (held at angle `held` by another seed,
-/// if any): within the parallax band and `s`'s reach, where `s`'s surface continues.
+/// if any): within the parallax band and `s`'s reach, where `s`'s surface continues. `s` comes
+/// with its direction and reach.
 fn claim_angle(
     cx: &FillContext,
     surfaces: &Surfaces,
-    reach: &HashMap<usize, f64>,
-    s: usize,
+    (s, dir, reach): (usize, Vec3, f64),
     q: usize,
     held: Option<f64>,
 ) -> Option<f64> {
-    let angle = cx.dirs.at(q).dot(cx.dirs.at(s)).clamp(-1.0, 1.0).acos() as f64;
+    let angle = cx.dirs.at(q).dot(dir).clamp(-1.0, 1.0).acos() as f64;
     // Strictly nearer (beyond rounding) or no switch: every switch lowers a pixel's angle, so the
     // propagation ends.
     let refused = held.is_some_and(|h| angle >= h - 1e-9)
         || angle > parallax_band(cx.freedom_radius, cx.depth[q] as f64, cx.depth[s] as f64) + cx.margin
         // The reach is looked up only past its floor (most pixels stay within it).
-        || (angle > 2.0 * cx.margin && angle > reach[&s])
+        || (angle > 2.0 * cx.margin && angle > reach)
         // A seed claims only where its surface continues: one whose plane misses (the in-between
         // depths of a resized edge, whose plane runs along the ray) leaves the pixel to seeds
         // that can fill it.
@@ -342,26 +345,36 @@ type Rivals = Vec<[u32; RIVALS]>;
 /// nearest seeds of other surfaces through the whole occluder.
 fn rivals(cx: &FillContext, k: u32, seeds: &[usize]) -> (Vec<u32>, Rivals) {
     let n = cx.nb.len();
-    // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder. Slots are
-    // kept for hidden pixels only (compact index), the seeds being their own first rival.
-    let mut slot_of = vec![NONE; n];
-    let mut rivals: Vec<[u32; RIVALS]> = Vec::new();
-    let mut queue: VecDeque<(u32, u8)> = VecDeque::new();
     // Directions only (the infinity layer): there is no plane to continue, so no rival to
     // weigh; skipping the search spares a flood through everything finite.
-    let planes = seeds.iter().any(|&p| cx.depth[p].is_finite());
-    for &p in seeds.iter().filter(|_| planes) {
-        slot_of[p] = rivals.len() as u32;
-        let mut r = [NONE; RIVALS];
-        r[0] = p as u32;
-        rivals.push(r);
-        queue.push_back((p as u32, 0));
+    if !seeds.iter().any(|&p| cx.depth[p].is_finite()) {
+        return (vec![NONE; n], Vec::new());
     }
-    while let Some((p, slot)) = queue.pop_front() {
-        let s = rivals[slot_of[p as usize] as usize][slot as usize];
+    // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder. Slots are
+    // kept for hidden pixels only (compact index), the seeds being their own first rival. While
+    // searching, a pixel's slot also tells whether it is hidden (`OUT`: not), one lookup instead
+    // of three, and the slots hold seed indices, whose surfaces and normals sit in a small table
+    // (the canvas-wide ones miss the cache); both are put back as the result wants them after.
+    const OUT: u32 = NONE - 1;
+    let mut slot_of: Vec<u32> =
+        (0..n).into_par_iter().map(|q| if hidden(cx, k, q) { NONE } else { OUT }).collect();
+    let planes: Vec<(u32, Vec3)> = seeds.iter().map(|&p| (cx.surface[p], cx.normals[p])).collect();
+    let mut rivals: Vec<[u32; RIVALS]> = Vec::with_capacity(seeds.len());
+    // A pixel and the seed (index) it passes on, as `rivals[slot_of[pixel]]` holds it.
+    let mut queue: VecDeque<(u32, u32)> = VecDeque::with_capacity(seeds.len());
+    for (i, &p) in seeds.iter().enumerate() {
+        let mut r = [NONE; RIVALS];
+        r[0] = i as u32;
+        rivals.push(r);
+        queue.push_back((p as u32, i as u32));
+    }
+    let w = cx.nb.width();
+    while let Some((p, s)) = queue.pop_front() {
+        let (x, y) = (p as usize % w, p as usize / w);
+        let (surface, normal) = planes[s as usize];
         for j in 0..8 {
-            let Some(q) = cx.nb.get(p as usize, j) else { continue };
-            if !hidden(cx, k, q) {
+            let Some(q) = cx.nb.get_at(x, y, j) else { continue };
+            if slot_of[q] == OUT {
                 continue;
             }
             if slot_of[q] == NONE {
@@ -369,14 +382,33 @@ fn rivals(cx: &FillContext, k: u32, seeds: &[usize]) -> (Vec<u32>, Rivals) {
                 rivals.push([NONE; RIVALS]);
             }
             let r = &mut rivals[slot_of[q] as usize];
-            if r.iter().any(|&t| t != NONE && same_surface(cx, t as usize, s as usize)) {
+            // `same_surface(t, s)`, from the table.
+            let same = |t: u32| {
+                let (ts, tn) = planes[t as usize];
+                ts == surface && tn.dot(normal) >= SAME_PLANE_COS
+            };
+            if r.iter().any(|&t| t != NONE && same(t)) {
                 continue;
             }
             let Some(free) = r.iter().position(|&t| t == NONE) else { continue };
             r[free] = s;
-            queue.push_back((q as u32, free as u8));
+            queue.push_back((q as u32, s));
         }
     }
+    slot_of.par_iter_mut().for_each(|s| {
+        if *s == OUT {
+            *s = NONE;
+        }
+    });
+    // Seeds are not hidden: their own slots, the last one where a pixel is listed twice.
+    for (i, &p) in seeds.iter().enumerate() {
+        slot_of[p] = i as u32;
+    }
+    rivals
+        .par_iter_mut()
+        .flat_map_iter(|r| r.iter_mut())
+        .filter(|t| **t != NONE)
+        .for_each(|t| *t = seeds[*t as usize] as u32);
     (slot_of, rivals)
 }
 
