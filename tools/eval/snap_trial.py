@@ -19,6 +19,7 @@ Methods:
 - `oracle-plane`: the bounds of taking any settled depth within R, and of each side's plane in
   disparity continued into the pixel.
 - `oracle-wide`: the bound of a side choice between the nearest and farthest settled depth within R.
+- `wmf`: a weighted mode filter (colour, distance and settledness weights) on pixels inside a step.
 - `segplane`: colour superpixels, a plane in disparity per superpixel from its settled pixels, the
   in-between pixels near steps take their superpixel's plane (see `segplane`; needs scikit-image).
 """
@@ -427,6 +428,100 @@ def side_plane(d, rgb, radius, jump, tol):
     return out, cand
 
 
+WMF_BIN = float(os.environ.get("WMF_BIN", "0.02"))  # wmf: histogram bin, log depth
+WMF_COLOUR = float(os.environ.get("WMF_COLOUR", "0.06"))  # wmf: colour sigma (sqrt linear RGB)
+WMF_SETTLE = float(os.environ.get("WMF_SETTLE", "0.01"))  # wmf: ramp weight falls past this step
+WMF_EYE = float(os.environ.get("WMF_EYE", "0.5"))  # wmf: m, parallax gate (0.5: the flying test's)
+WMF_RUNS = float(os.environ.get("WMF_RUNS", "0"))  # wmf: >0: planes (2nd difference under this share of the 1st) count as settled
+WMF_SPAN = int(os.environ.get("WMF_SPAN", "2"))  # wmf: the plane test's second span (px)
+WMF_PLANE = float(os.environ.get("WMF_PLANE", "0.05"))  # wmf: line-fit residual / span under which a window is a plane
+
+
+def wmf(d, rgb, radius, jump, tol):
+    """Weighted mode filter (Min, Lu and Do 2012) on the pixels inside a step of their window:
+    a histogram of the window's log depths, each weighted by distance, colour likeness and how
+    settled it is (ramp values count less), smoothed by one bin; the pixel takes the weighted mean
+    of the values in the mode's bin and its neighbours. Never an in-between value unless the
+    window's own weights put one first."""
+    L = log_depth(d)
+    lo, hi, _, _ = extremes(L, rgb, radius, disc=True)
+    band = (hi - lo > np.log(1 + jump)) & (L - lo > np.log(1 + tol)) & (hi - L > np.log(1 + tol))
+    h, w = L.shape
+    inv = np.exp(-L) * (L < SKY_LOG - 1e-6)
+    # Only where the sides' parallax for an eye WMF_EYE out is over a pixel: elsewhere no choice
+    # moves anything (far mountains against the sky).
+    band &= (np.exp(-lo) - np.where(hi >= SKY_LOG - 1e-6, 0.0, np.exp(-hi))) * WMF_EYE > 2 * np.pi / w
+    if WMF_PLANE > 0:
+        # Not a plane: disparity along the steeper axis is not a line over the window (grazing
+        # ground is; a blurred step is flat, ramp, flat).
+        gx = np.abs(dq.shifted(inv, 0, -1) - dq.shifted(inv, 0, 1))
+        gy = np.abs(dq.shifted(inv, -1, 0) - dq.shifted(inv, 1, 0))
+        t = np.arange(-radius, radius + 1, dtype=float)
+        t -= t.mean()
+        for axis_x in (True, False):
+            sel = band & ((gx >= gy) == axis_x)
+            ii = np.flatnonzero(sel)
+            if len(ii) == 0:
+                continue
+            yy, xx = np.unravel_index(ii, L.shape)
+            prof = np.stack([inv[yy, (xx + o) % w] if axis_x else inv[np.clip(yy + o, 0, h - 1), xx]
+                             for o in range(-radius, radius + 1)], axis=1)
+            slope = prof @ t / (t @ t)
+            res = prof - prof.mean(axis=1, keepdims=True) - slope[:, None] * t[None, :]
+            span = prof.max(axis=1) - prof.min(axis=1)
+            plane = np.sqrt((res ** 2).mean(axis=1)) < WMF_PLANE * np.maximum(span, 1e-12)
+            band.flat[ii[plane]] = False
+    idx = np.flatnonzero(band)
+    if len(idx) == 0:
+        return d, band
+    g = log_step(L)
+    settled = np.exp(-(g / WMF_SETTLE) ** 2)
+    if WMF_RUNS > 0:
+        # Grazing ground steps as much as a ramp but runs on as a plane (disparity linear over
+        # +-2 px along both axes): settled too, or the sky beside the horizon outweighs it.
+        flat = np.ones(L.shape, bool)
+        for dy, dx in ((0, 1), (1, 0)):
+            for k in (2, WMF_SPAN):
+                a, b = dq.shifted(inv, k * dy, k * dx), dq.shifted(inv, -k * dy, -k * dx)
+                flat &= np.abs(a + b - 2 * inv) <= WMF_RUNS * np.abs(a - b) + 1e-9
+        settled = np.where(flat & (L < SKY_LOG - 1e-6), 1.0, settled)
+    L0 = L.min()
+    nb = int((max(SKY_LOG, L.max()) - L0) / WMF_BIN) + 3
+    by, bx = np.unravel_index(idx, L.shape)
+    c0 = rgb.reshape(-1, 3)[idx]
+    sig = max(radius / 2, 1.0)
+    offsets = [(dy, dx) for dy in range(-radius, radius + 1) for dx in range(-radius, radius + 1)
+               if dx * dx + dy * dy <= radius * radius]
+    out = L.copy()
+    for start in range(0, len(idx), 20000):
+        sl = slice(start, start + 20000)
+        n = len(idx[sl])
+        hist = np.zeros((n, nb))
+        vals = []
+        for dy, dx in offsets:
+            yy = np.clip(by[sl] + dy, 0, h - 1)
+            xx = (bx[sl] + dx) % w
+            v = L[yy, xx]
+            cw = np.exp(-np.sum((rgb[yy, xx] - c0[sl]) ** 2, axis=-1) / (2 * WMF_COLOUR ** 2))
+            wt = np.exp(-(dx * dx + dy * dy) / (2 * sig * sig)) * cw * settled[yy, xx]
+            b = ((v - L0) / WMF_BIN).astype(int) + 1
+            np.add.at(hist, (np.arange(n), b), wt)
+            vals.append((v, wt, b))
+        sm = hist.copy()
+        sm[:, 1:] += hist[:, :-1]
+        sm[:, :-1] += hist[:, 1:]
+        mode = sm.argmax(axis=1)
+        num = np.zeros(n)
+        den = np.zeros(n)
+        for v, wt, b in vals:
+            m = np.abs(b - mode) <= 1
+            num += np.where(m, wt * v, 0)
+            den += np.where(m, wt, 0)
+        out.flat[idx[sl]] = np.where(den > 0, num / np.maximum(den, 1e-30), L.flat[idx[sl]])
+    res = np.where(out >= SKY_LOG - 1e-6, np.inf, np.exp(out))
+    return np.where(np.isnan(d), np.nan, np.where(band, res, d)), band
+
+
 def where(prep, truth):
     """Where the flying pixels are: shares by distance to the nearest exact occlusion edge (< 1, 1–2,
     2–5, 5–20 px and more), and the share whose truth is the sky."""
@@ -494,6 +589,8 @@ def main():
                 out, moved = settle(prep, rgb, a.radius, a.tol, changed)
             elif a.method == "sideplane":
                 out, moved = side_plane(prep, rgb, a.radius, a.jump, a.tol)
+            elif a.method == "wmf":
+                out, moved = wmf(prep, rgb, a.radius, a.jump, a.tol)
             elif a.method == "segplane":
                 out, moved = segplane(prep, rgb, a.jump, a.tol, a.radius)
             else:
