@@ -432,8 +432,8 @@ WMF_BIN = float(os.environ.get("WMF_BIN", "0.02"))  # wmf: histogram bin, log de
 WMF_COLOUR = float(os.environ.get("WMF_COLOUR", "0.06"))  # wmf: colour sigma (sqrt linear RGB)
 WMF_SETTLE = float(os.environ.get("WMF_SETTLE", "0.01"))  # wmf: ramp weight falls past this step
 WMF_EYE = float(os.environ.get("WMF_EYE", "0.5"))  # wmf: m, parallax gate (0.5: the flying test's)
-WMF_RUNS = float(os.environ.get("WMF_RUNS", "0"))  # wmf: >0: planes (2nd difference under this share of the 1st) count as settled
-WMF_SPAN = int(os.environ.get("WMF_SPAN", "2"))  # wmf: the plane test's second span (px)
+WMF_RUNS = float(os.environ.get("WMF_RUNS", "0"))  # wmf: >0: settled too where the +-1 px slope is within this share of the +-WMF_SPAN one
+WMF_SPAN = int(os.environ.get("WMF_SPAN", "5"))  # wmf: the slope test's wide span (px)
 WMF_PLANE = float(os.environ.get("WMF_PLANE", "0.05"))  # wmf: line-fit residual / span under which a window is a plane
 
 
@@ -480,10 +480,13 @@ def wmf(d, rgb, radius, jump, tol):
         # Grazing ground steps as much as a ramp but runs on as a plane (disparity linear over
         # +-2 px along both axes): settled too, or the sky beside the horizon outweighs it.
         flat = np.ones(L.shape, bool)
+        # The local slope equals the slope over +-WMF_SPAN (a ramp's middle is steeper than its
+        # span's mean, even where its second differences vanish by symmetry).
         for dy, dx in ((0, 1), (1, 0)):
-            for k in (2, WMF_SPAN):
-                a, b = dq.shifted(inv, k * dy, k * dx), dq.shifted(inv, -k * dy, -k * dx)
-                flat &= np.abs(a + b - 2 * inv) <= WMF_RUNS * np.abs(a - b) + 1e-9
+            k = WMF_SPAN
+            s1 = (dq.shifted(inv, -dy, -dx) - dq.shifted(inv, dy, dx)) / 2
+            sk = (dq.shifted(inv, -k * dy, -k * dx) - dq.shifted(inv, k * dy, k * dx)) / (2 * k)
+            flat &= np.abs(s1 - sk) <= WMF_RUNS * np.abs(sk) + 1e-9
         settled = np.where(flat & (L < SKY_LOG - 1e-6), 1.0, settled)
     L0 = L.min()
     nb = int((max(SKY_LOG, L.max()) - L0) / WMF_BIN) + 3
