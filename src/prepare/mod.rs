@@ -8,6 +8,7 @@
 
 pub(crate) mod complete;
 pub mod decode;
+mod mode;
 pub(crate) mod refine;
 pub(crate) mod resize;
 pub(crate) mod specks;
@@ -37,6 +38,10 @@ crate::choice::choices! {
         ///
         /// Sharper depth, not yet better layers.
         On = "on",
+        /// Smooth measured noise; settle soft steps by a weighted mode filter (experimental).
+        ///
+        /// Each in-between pixel takes the most weighted depth within 6 pixels.
+        Mode = "mode",
         /// Neither smooth nor snap.
         ///
         /// The depth as decoded and resized (holes still completed).
@@ -643,6 +648,10 @@ fn refine_known<'a>(
             report.snapped_pixels += refine::snap(nb, log, guide, radius, jump_log);
         }
         (report.snapped, report.snap_radius) = (true, radius);
+    }
+    if refine == Refine::Mode {
+        report.snapped_pixels += mode::mode_filter(nb, log, guide());
+        (report.snapped, report.snap_radius) = (true, mode::RADIUS as usize);
     }
     // Resampled depth only: the guided upsampling leaves pieces of neither side along
     // silhouettes. In blurred depth at full resolution such pieces break ramps that would

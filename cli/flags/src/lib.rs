@@ -57,7 +57,7 @@ pub struct DepthArgs {
     #[arg(long, value_name = "X,Y,METRES", value_parser = parse_known_distance)]
     pub known_distance: Option<KnownDistance>,
     /// Snap soft depth edges onto colour edges and smooth depth noise: auto (when measured soft,
-    /// noisy, resized or completed), on, off.
+    /// noisy, resized or completed), on, mode (soft steps settled by a weighted mode filter), off.
     #[arg(long, value_parser = choice::<Refine>(), default_value = "auto")]
     pub refine: Refine,
     /// What unknown depth means: complete (a surface, completed from around it) or sky (nothing there).

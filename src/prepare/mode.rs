@@ -1,0 +1,216 @@
+//! Soft depth steps settled by a weighted mode filter (Min, Lu and Do 2012; `--refine mode`): a
+//! pixel inside a step of its disc takes the most weighted depth of the disc, the weights favouring
+//! near pixels of like colour whose depth is settled, so it goes to one side's depth instead of an
+//! in-between one. Measured in docs/build.md ("Weighted mode filter").
+
+use rayon::prelude::*;
+
+use super::complete::SKY_LOG;
+use crate::mapping::{MappingKind, Neighbours};
+
+/// Disc radius, pixels.
+pub(super) const RADIUS: isize = 6;
+/// Histogram bin, log depth.
+const BIN: f32 = 0.02;
+/// Colour likeness scale (square root of linear RGB, 3 × 3 mean).
+const COLOUR_SIGMA: f32 = 0.06;
+/// Log-depth step per pixel past which a depth counts as a ramp's, not a side's.
+const SETTLED_STEP: f32 = 0.01;
+/// A pixel whose slope in disparity over ±1 px is within this share of its slope over
+/// ±`SLOPE_SPAN` px along both axes runs on as a plane (grazing ground): settled however steep.
+const SLOPE_MATCH: f32 = 0.1;
+const SLOPE_SPAN: isize = 5;
+/// A disc whose disparity along the steeper axis fits a line within this share of its span
+/// (rms) is a plane: nothing to settle.
+const PLANE_FIT: f32 = 0.05;
+/// Metres: a choice between sides that moves nothing by a pixel for an eye this far out is not made.
+const EYE: f32 = 0.5;
+
+/// The canvas as a grid: equirect wraps its columns and repeats its pole rows; a cube's face
+/// keeps its own pixels.
+#[derive(Clone, Copy)]
+struct Grid {
+    w: usize,
+    h: usize,
+    /// Face size of a cube canvas; 0 for equirect.
+    face: usize,
+}
+
+impl Grid {
+    fn at(&self, x: usize, y: usize, dx: isize, dy: isize) -> Option<usize> {
+        let (xx, yy) = (x as isize + dx, y as isize + dy);
+        if self.face == 0 {
+            let yy = yy.clamp(0, self.h as isize - 1) as usize;
+            return Some(yy * self.w + xx.rem_euclid(self.w as isize) as usize);
+        }
+        let f = self.face as isize;
+        let (fx, fy) = (x as isize / f * f, y as isize / f * f);
+        ((fx..fx + f).contains(&xx) && (fy..fy + f).contains(&yy)).then(|| yy as usize * self.w + xx as usize)
+    }
+}
+
+fn inverse(l: f32) -> f32 {
+    if l >= SKY_LOG - 1e-3 {
+        0.0
+    } else {
+        (-l).exp()
+    }
+}
+
+/// Settle the soft steps of `log` (log depth, the sky at [`SKY_LOG`]); `guide` is the colour
+/// guide (square root of linear RGB). Returns how many pixels moved.
+pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) -> usize {
+    let (w, h) = (nb.width(), nb.height());
+    let face = if nb.mapping().kind() == MappingKind::Cube3x2 { w / 3 } else { 0 };
+    let g = Grid { w, h, face };
+    let pixel_angle =
+        if face == 0 { std::f32::consts::TAU / w as f32 } else { std::f32::consts::FRAC_PI_2 / face as f32 };
+    let src: Vec<f32> = log.iter().map(|&l| l.min(SKY_LOG)).collect();
+    let inv: Vec<f32> = src.par_iter().map(|&l| inverse(l)).collect();
+    let colour: Vec<[f32; 3]> = (0..w * h)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % w, p / w);
+            let (mut sum, mut n) = ([0f32; 3], 0f32);
+            for (dx, dy) in (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (dx, dy))) {
+                if let Some(q) = g.at(x, y, dx, dy) {
+                    (0..3).for_each(|c| sum[c] += guide[q][c]);
+                    n += 1.0;
+                }
+            }
+            sum.map(|s| s / n)
+        })
+        .collect();
+    let settled: Vec<f32> = (0..w * h)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % w, p / w);
+            let step = |dx, dy| match (g.at(x, y, dx, dy), g.at(x, y, -dx, -dy)) {
+                (Some(a), Some(b)) => (src[a] - src[b]).abs() / 2.0,
+                _ => 0.0,
+            };
+            let slope = |dx: isize, dy: isize, k: isize| match (
+                g.at(x, y, k * dx, k * dy),
+                g.at(x, y, -k * dx, -k * dy),
+            ) {
+                (Some(a), Some(b)) => Some((inv[a] - inv[b]) / (2 * k) as f32),
+                _ => None,
+            };
+            let runs_on = |dx, dy| match (slope(dx, dy, 1), slope(dx, dy, SLOPE_SPAN)) {
+                (Some(s1), Some(sk)) => (s1 - sk).abs() <= SLOPE_MATCH * sk.abs() + 1e-9,
+                _ => false,
+            };
+            if src[p] < SKY_LOG - 1e-3 && runs_on(1, 0) && runs_on(0, 1) {
+                return 1.0;
+            }
+            let s = step(1, 0).max(step(0, 1)) / SETTLED_STEP;
+            (-s * s).exp()
+        })
+        .collect();
+    let disc: Vec<(isize, isize, f32)> = (-RADIUS..=RADIUS)
+        .flat_map(|dy| (-RADIUS..=RADIUS).map(move |dx| (dx, dy)))
+        .filter(|&(dx, dy)| dx * dx + dy * dy <= RADIUS * RADIUS)
+        .map(|(dx, dy)| {
+            let sigma = (RADIUS as f32 / 2.0).max(1.0);
+            (dx, dy, (-((dx * dx + dy * dy) as f32) / (2.0 * sigma * sigma)).exp())
+        })
+        .collect();
+    let low = src.par_iter().copied().reduce(|| f32::INFINITY, f32::min);
+    let (jump, tol) = (1.1f32.ln(), 1.03f32.ln());
+    let out: Vec<Option<f32>> = (0..h)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            let mut hist: Vec<f32> = Vec::new();
+            let (g, src, inv, colour, settled, disc) = (&g, &src, &inv, &colour, &settled, &disc);
+            (0..w).map(move |x| {
+                let p = y * w + x;
+                let l = src[p];
+                let (mut lo, mut hi) = (l, l);
+                for &(dx, dy, _) in disc {
+                    if let Some(q) = g.at(x, y, dx, dy) {
+                        lo = lo.min(src[q]);
+                        hi = hi.max(src[q]);
+                    }
+                }
+                if !(hi - lo > jump && l - lo > tol && hi - l > tol) {
+                    return None;
+                }
+                if ((-lo).exp() - inverse(hi)) * EYE <= pixel_angle {
+                    return None;
+                }
+                if is_plane(g, inv, x, y) {
+                    return None;
+                }
+                let bin = |v: f32| ((v - low) / BIN) as usize + 1;
+                let (b0, b1) = (bin(lo), bin(hi));
+                hist.clear();
+                hist.resize(b1 - b0 + 3, 0.0);
+                let c0 = colour[p];
+                let weight = |q: usize, ws: f32| {
+                    let c = colour[q];
+                    let d2: f32 = (0..3).map(|k| (c[k] - c0[k]).powi(2)).sum();
+                    ws * (-d2 / (2.0 * COLOUR_SIGMA * COLOUR_SIGMA)).exp() * settled[q]
+                };
+                for &(dx, dy, ws) in disc {
+                    if let Some(q) = g.at(x, y, dx, dy) {
+                        hist[bin(src[q]) - b0 + 1] += weight(q, ws);
+                    }
+                }
+                // Smoothed by one bin; the first (nearest) of equal maxima.
+                let mut mode = 0;
+                let mut best = f32::NEG_INFINITY;
+                for i in 1..hist.len() - 1 {
+                    let v = hist[i - 1] + hist[i] + hist[i + 1];
+                    if v > best {
+                        (best, mode) = (v, i);
+                    }
+                }
+                let (mut num, mut den) = (0f64, 0f64);
+                for &(dx, dy, ws) in disc {
+                    if let Some(q) = g.at(x, y, dx, dy) {
+                        if (bin(src[q]) - b0 + 1).abs_diff(mode) <= 1 {
+                            let wq = f64::from(weight(q, ws));
+                            num += wq * f64::from(src[q]);
+                            den += wq;
+                        }
+                    }
+                }
+                (den > 0.0).then(|| (num / den) as f32)
+            })
+        })
+        .collect();
+    let mut moved = 0;
+    for (l, o) in log.iter_mut().zip(out) {
+        if let Some(v) = o {
+            if v.to_bits() != l.to_bits() {
+                *l = v;
+                moved += 1;
+            }
+        }
+    }
+    moved
+}
+
+/// Disparity along the steeper axis at `(x, y)` over the disc's diameter fits a line (a plane
+/// seen along it), within [`PLANE_FIT`] of its span.
+fn is_plane(g: &Grid, inv: &[f32], x: usize, y: usize) -> bool {
+    let diff = |dx, dy| match (g.at(x, y, dx, dy), g.at(x, y, -dx, -dy)) {
+        (Some(a), Some(b)) => (inv[a] - inv[b]).abs(),
+        _ => 0.0,
+    };
+    let (dx, dy) = if diff(1, 0) >= diff(0, 1) { (1, 0) } else { (0, 1) };
+    let mut prof = [0f32; (2 * RADIUS + 1) as usize];
+    for (i, o) in (-RADIUS..=RADIUS).enumerate() {
+        match g.at(x, y, o * dx, o * dy) {
+            Some(q) => prof[i] = inv[q],
+            None => return false,
+        }
+    }
+    let n = prof.len() as f32;
+    let mean = prof.iter().sum::<f32>() / n;
+    let tt: f32 = (-RADIUS..=RADIUS).map(|t| (t * t) as f32).sum();
+    let slope = (-RADIUS..=RADIUS).zip(&prof).map(|(t, v)| t as f32 * v).sum::<f32>() / tt;
+    let rss: f32 = (-RADIUS..=RADIUS).zip(&prof).map(|(t, v)| (v - mean - slope * t as f32).powi(2)).sum();
+    let (lo, hi) = prof.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    (rss / n).sqrt() < PLANE_FIT * (hi - lo).max(1e-12)
+}
