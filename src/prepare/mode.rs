@@ -165,17 +165,15 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
                         (best, mode) = (v, i);
                     }
                 }
-                let (mut num, mut den) = (0f64, 0f64);
+                let mut side = Side::default();
                 for &(dx, dy, ws) in disc {
                     if let Some(q) = g.at(x, y, dx, dy) {
                         if (bin(src[q]) - b0 + 1).abs_diff(mode) <= 1 {
-                            let wq = f64::from(weight(q, ws));
-                            num += wq * f64::from(src[q]);
-                            den += wq;
+                            side.add(dx, dy, f64::from(weight(q, ws)), src[q], inv[q]);
                         }
                     }
                 }
-                (den > 0.0).then(|| (num / den) as f32)
+                side.at_centre()
             })
         })
         .collect();
@@ -189,6 +187,62 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
         }
     }
     moved
+}
+
+/// The side a pixel goes to: the disc's pixels in the mode's bins, weighted. The pixel takes that
+/// side's surface continued to it (a weighted plane in disparity, `inv = a + b·dx + c·dy`, at the
+/// centre) rather than the side's mean, which would leave a flat ring on a sloped surface and a
+/// crease (a fold between segments) where the ring meets the rest of the side.
+#[derive(Default)]
+struct Side {
+    /// Weighted sums of 1, dx, dy, dx², dx·dy, dy², inv, dx·inv, dy·inv.
+    s: [f64; 9],
+    log_sum: f64,
+    lo: f32,
+    hi: f32,
+    sky: bool,
+}
+
+impl Side {
+    fn add(&mut self, dx: isize, dy: isize, w: f64, log: f32, inv: f32) {
+        if self.s[0] == 0.0 {
+            (self.lo, self.hi) = (log, log);
+        }
+        let (x, y, v) = (dx as f64, dy as f64, f64::from(inv));
+        for (acc, t) in self.s.iter_mut().zip([1.0, x, y, x * x, x * y, y * y, v, x * v, y * v]) {
+            *acc += w * t;
+        }
+        self.log_sum += w * f64::from(log);
+        (self.lo, self.hi) = (self.lo.min(log), self.hi.max(log));
+        self.sky |= inv == 0.0;
+    }
+
+    /// Log depth of the side at the centre: the plane's where it is well posed and lands within a
+    /// bin of the side's depths, else the side's weighted mean log depth.
+    fn at_centre(&self) -> Option<f32> {
+        let [n, sx, sy, sxx, sxy, syy, sv, sxv, syv] = self.s;
+        if n <= 0.0 {
+            return None;
+        }
+        let mean = (self.log_sum / n) as f32;
+        if self.sky {
+            return Some(mean);
+        }
+        // Centred normal equations: the slopes from the 2 × 2 covariance, then the intercept.
+        let (mx, my, mv) = (sx / n, sy / n, sv / n);
+        let (cxx, cxy, cyy) = (sxx / n - mx * mx, sxy / n - mx * my, syy / n - my * my);
+        let (cxv, cyv) = (sxv / n - mx * mv, syv / n - my * mv);
+        let det = cxx * cyy - cxy * cxy;
+        // Samples along a line or a point: no plane, the mean.
+        if !(det > 1e-3 * (cxx + cyy).powi(2) && det > 0.25) {
+            return Some(mean);
+        }
+        let b = (cxv * cyy - cyv * cxy) / det;
+        let c = (cyv * cxx - cxv * cxy) / det;
+        let a = mv - b * mx - c * my;
+        let l = -(a as f32).ln();
+        (a > 0.0 && (self.lo - BIN..=self.hi + BIN).contains(&l)).then_some(l).or(Some(mean))
+    }
 }
 
 /// Disparity along the steeper axis at `(x, y)` over the disc's diameter fits a line (a plane
