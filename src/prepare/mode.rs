@@ -121,6 +121,9 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
         .into_par_iter()
         .flat_map_iter(|y| {
             let mut hist: Vec<f32> = Vec::new();
+            // Each disc pixel's (pixel, offset, bin, weight), once per candidate pixel: the
+            // histogram and the side both read them.
+            let mut cells: Vec<(usize, isize, isize, usize, f32)> = Vec::with_capacity(disc.len());
             let (g, src, inv, colour, settled, disc) = (&g, &src, &inv, &colour, &settled, &disc);
             (0..w).map(move |x| {
                 let p = y * w + x;
@@ -151,9 +154,12 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
                     let d2: f32 = (0..3).map(|k| (c[k] - c0[k]).powi(2)).sum();
                     ws * (-d2 / (2.0 * COLOUR_SIGMA * COLOUR_SIGMA)).exp() * settled[q]
                 };
+                cells.clear();
                 for &(dx, dy, ws) in disc {
                     if let Some(q) = g.at(x, y, dx, dy) {
-                        hist[bin(src[q]) - b0 + 1] += weight(q, ws);
+                        let (b, wq) = (bin(src[q]) - b0 + 1, weight(q, ws));
+                        hist[b] += wq;
+                        cells.push((q, dx, dy, b, wq));
                     }
                 }
                 // Smoothed by one bin; the first (nearest) of equal maxima.
@@ -165,12 +171,10 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
                         (best, mode) = (v, i);
                     }
                 }
-                let mut side = Side::default();
-                for &(dx, dy, ws) in disc {
-                    if let Some(q) = g.at(x, y, dx, dy) {
-                        if (bin(src[q]) - b0 + 1).abs_diff(mode) <= 1 {
-                            side.add(dx, dy, f64::from(weight(q, ws)), src[q], inv[q]);
-                        }
+                let mut side = Side::new();
+                for &(q, dx, dy, b, wq) in &cells {
+                    if b.abs_diff(mode) <= 1 {
+                        side.add(dx, dy, f64::from(wq), src[q], inv[q]);
                     }
                 }
                 side.at_centre()
@@ -193,7 +197,6 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
 /// side's surface continued to it (a weighted plane in disparity, `inv = a + b·dx + c·dy`, at the
 /// centre) rather than the side's mean, which would leave a flat ring on a sloped surface and a
 /// crease (a fold between segments) where the ring meets the rest of the side.
-#[derive(Default)]
 struct Side {
     /// Weighted sums of 1, dx, dy, dx², dx·dy, dy², inv, dx·inv, dy·inv.
     s: [f64; 9],
@@ -204,10 +207,11 @@ struct Side {
 }
 
 impl Side {
+    fn new() -> Side {
+        Side { s: [0.0; 9], log_sum: 0.0, lo: f32::INFINITY, hi: f32::NEG_INFINITY, sky: false }
+    }
+
     fn add(&mut self, dx: isize, dy: isize, w: f64, log: f32, inv: f32) {
-        if self.s[0] == 0.0 {
-            (self.lo, self.hi) = (log, log);
-        }
         let (x, y, v) = (dx as f64, dy as f64, f64::from(inv));
         for (acc, t) in self.s.iter_mut().zip([1.0, x, y, x * x, x * y, y * y, v, x * v, y * v]) {
             *acc += w * t;
