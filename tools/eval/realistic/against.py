@@ -2,9 +2,10 @@
 """Each tag's views against the build from exact depth (docs/build.md, "Depth preparation"): per scene
 the mean PSNR gap of `pomc render` (splat and mesh) to the `exact` tag's, the worst view's (mesh), the
 worst hole ratio, the layer counts and `pomc validate`'s errors/warnings; first the mean gap over both
-methods and every view.
+methods and every view. With `--views`, then every view's mesh gap and hole share, a column per tag
+(which views a change moves, and by how much).
 
-    python3 tools/eval/realistic/against.py target/realistic-eval/<corpus> [--exact exact] TAG [TAG ...]
+    python3 tools/eval/realistic/against.py target/realistic-eval/<corpus> [--exact exact] [--views] TAG [TAG ...]
 """
 import argparse
 import json
@@ -20,6 +21,7 @@ def main():
     ap.add_argument("base")
     ap.add_argument("tags", nargs="+")
     ap.add_argument("--exact", default="exact", help="the tag built from exact depth")
+    ap.add_argument("--views", action="store_true", help="also every view's mesh gap and holes, per tag")
     o = ap.parse_args()
     ex = load(o.base, o.exact)
     for tag in o.tags:
@@ -39,6 +41,21 @@ def main():
                          f"layers {r[sc]['build']['layers']}/{e['build']['layers']} "
                          f"validate {val['errors']}E/{val['warnings']}W")
         print(f"{tag:12s} mean {sum(gaps) / len(gaps):+.2f} | " + " | ".join(cells))
+    if o.views:
+        per_view(o, ex)
+
+
+def per_view(o, ex):
+    runs = [load(o.base, t) for t in o.tags]
+    print("view | exact mesh dB | " + " | ".join(f"{t}: gap dB, holes %" for t in o.tags))
+    for sc, e in ex.items():
+        for i, v in enumerate(e["views"]):
+            ref = v["pomc_mesh"]["psnr"]
+            cells = []
+            for r in runs:
+                m = r[sc]["views"][i]["pomc_mesh"] if sc in r else {}
+                cells.append(f"{m.get('psnr', 0) - ref:+6.2f} {100 * m.get('hole_ratio', 1):5.2f}" if m else "–")
+            print(f"{sc} {i} | {ref:6.2f} | " + " | ".join(cells))
 
 
 if __name__ == "__main__":
