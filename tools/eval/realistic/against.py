@@ -24,8 +24,8 @@ def main():
     ap.add_argument("--views", action="store_true", help="also every view's mesh gap and holes, per tag")
     o = ap.parse_args()
     ex = load(o.base, o.exact)
-    for tag in o.tags:
-        r = load(o.base, tag)
+    runs = [load(o.base, tag) for tag in o.tags]
+    for tag, r in zip(o.tags, runs):
         cells, gaps = [], []
         for sc, e in ex.items():
             if sc not in r:
@@ -42,12 +42,11 @@ def main():
                          f"validate {val['errors']}E/{val['warnings']}W")
         print(f"{tag:12s} mean {sum(gaps) / len(gaps):+.2f} | " + " | ".join(cells))
     if o.views:
-        per_view(o, ex)
+        per_view(o.tags, runs, ex)
 
 
-def per_view(o, ex):
-    runs = [load(o.base, t) for t in o.tags]
-    print("view | exact mesh dB | " + " | ".join(f"{t}: gap dB, holes %" for t in o.tags))
+def per_view(tags, runs, ex):
+    print("view | exact mesh dB | " + " | ".join(f"{t}: gap dB, holes %" for t in tags))
     for sc, e in ex.items():
         for i, v in enumerate(e["views"]):
             ref = v["pomc_mesh"]["psnr"]
