@@ -120,7 +120,7 @@ pub fn build_panorama_with_progress(
     let t = Instant::now();
     let (rgbd, prepare, prepare_s) = prepare_stage(files, depth, s, progress)?;
     let kind = rgbd.mapping.kind();
-    let layered = layering::layer(rgbd, &s.options, progress)?;
+    let layered = layering::layer(rgbd, &layering_options(s, &prepare), progress)?;
     let build_s = t.elapsed().as_secs_f64();
     progress(WRITING_STAGE);
     let t = Instant::now();
@@ -221,10 +221,17 @@ pub fn build_arrays(
         colour_channels: false,
     };
     let files = input::RgbdFiles { mapping, rgb, depth: samples, normals };
-    let (rgbd, _, prepare_s) = prepare_stage(files, name, s, progress)?;
-    let mut built = build_rgbd(rgbd, s, progress)?;
+    let (rgbd, prepare, prepare_s) = prepare_stage(files, name, s, progress)?;
+    let s = BuildSettings { options: layering_options(s, &prepare), ..s.clone() };
+    let mut built = build_rgbd(rgbd, &s, progress)?;
     built.report.stages.insert(0, (PREPARE_STAGE, prepare_s));
     Ok(built)
+}
+
+/// The layering's options for depth as `prepared`: `s`'s, soft when the depth was.
+fn layering_options(s: &BuildSettings, prepared: &PrepareReport) -> BuildOptions {
+    let soft_depth = s.options.soft_depth || prepared.soft();
+    BuildOptions { soft_depth, ..s.options.clone() }
 }
 
 /// The `prepare` stage: the build's input, what preparing found, and its time (the report's

@@ -61,6 +61,11 @@ pub struct BuildOptions {
     /// Also treat depth edges spread over a few pixels (resized or estimated depth) as mixed pixels
     /// (`edges::ramp_pixels`). Off by default: the limb of a near curved object looks the same.
     pub soft_edges: bool,
+    /// The depth is soft (estimated, blurred or resized): its outlines keep small pieces of
+    /// in-between depth, whose own planes the fill does not continue (the plane of their layer a
+    /// few pixels inside instead). [`crate::jobs::build_panorama`] sets it when `prepare` measured
+    /// the depth soft or refined it; exact depth builds as without it.
+    pub soft_depth: bool,
     /// Extra fill band in pixels beyond the parallax band (reconstruction filters reach ~1-2 px).
     pub margin_px: f64,
     /// How layers are separated beyond the occlusion levels (default [`Classify::Depth`]).
@@ -79,6 +84,7 @@ impl Default for BuildOptions {
             infinity: true,
             drop_mixed: true,
             soft_edges: false,
+            soft_depth: false,
             margin_px: 2.0,
             classify: Classify::Depth,
             fill_colour: FillColour::default(),
@@ -385,6 +391,7 @@ pub fn layer(mut input: RgbdInput, o: &BuildOptions, progress: &dyn Fn(&str)) ->
         jump: o.segment.edges.jump,
         plane_tol: o.segment.edges.extrapolation,
         rgb: &input.rgb,
+        soft_depth: o.soft_depth,
     };
     let fills = fill_all(&cx, count, o.fill_colour, &mut stages);
     let segments = seg.size.len();

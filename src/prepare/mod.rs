@@ -126,6 +126,15 @@ pub struct PrepareReport {
     pub warnings: Vec<Warning>,
 }
 
+impl PrepareReport {
+    /// Whether the depth came soft (its edges measured spread over several pixels) or was
+    /// refined: the build then distrusts small pieces of its outlines
+    /// ([`crate::layering::BuildOptions::soft_depth`]).
+    pub fn soft(&self) -> bool {
+        self.edges.is_soft() || self.snapped
+    }
+}
+
 /// Errors of depth preparation; each names the file and the fix.
 #[derive(Debug, thiserror::Error)]
 pub enum PrepareError {

@@ -89,6 +89,9 @@ pub struct FillContext<'a> {
     pub plane_tol: f64,
     /// Input linear RGB, planar.
     pub rgb: &'a [Vec<f32>; 3],
+    /// The depth was soft ([`super::BuildOptions::soft_depth`]): seeds on small surfaces
+    /// continue the plane of their layer a few pixels inside ([`surface::anchor`]).
+    pub soft_depth: bool,
 }
 
 /// Largest angle (radians) a camera within `r` of the centre can open between an occluding

@@ -110,6 +110,8 @@ pub(super) struct Surfaces {
     /// Pixels of each surface (finite depths).
     pub(super) size: Vec<u32>,
     pub(super) borrowed: HashMap<usize, Vec3>,
+    /// Per seed that continues the plane of another pixel of its layer ([`anchor`]), that pixel.
+    pub(super) anchor: HashMap<usize, usize>,
 }
 
 /// Surfaces of fewer pixels are specks: without a plane of their own they seed no fill.
@@ -122,6 +124,14 @@ pub(super) const FAR_SEEN: f32 = 1.5;
 pub(super) const BORROW_STEPS: usize = 3;
 /// Normals that must agree for a seed to borrow their plane.
 pub(super) const BORROW_MIN: usize = 3;
+
+/// Steps a seed on a small surface walks into its layer for the plane it continues ([`anchor`]).
+pub(super) const ANCHOR_STEPS: usize = 8;
+/// Surfaces under this many pixels are small pieces of an outline ([`anchor`]).
+pub(super) const ANCHOR_SMALL: u32 = 256;
+/// How far (relative) a seed lies off the plane of the pixel it walks to before it takes that
+/// pixel's plane ([`anchor`]).
+pub(super) const ANCHOR_OFF: f32 = 0.01;
 
 impl Surfaces {
     /// Pixels of the surface of `s` in its layer.
@@ -139,7 +149,7 @@ impl Surfaces {
 
     /// The surfaces of layer `k` (finite depths only) and the normals `seeds` borrow.
     #[cfg(test)]
-    pub(super) fn new(cx: &FillContext, k: u32, seeds: impl Iterator<Item = usize>) -> Surfaces {
+    pub(super) fn new(cx: &FillContext, k: u32, seeds: impl Iterator<Item = usize> + Clone) -> Surfaces {
         let mut surfaces = Surfaces::of_layer(cx, k);
         surfaces.borrow_normals(cx, seeds);
         surfaces
@@ -164,17 +174,66 @@ impl Surfaces {
         }
         let centroid = sums.iter().map(|&(sum, c)| if c > 0 { sum / c as f32 } else { Vec3::NAN }).collect();
         let size = sums.iter().map(|&(_, c)| c).collect();
-        Surfaces { centroid, far, size, borrowed: HashMap::new() }
+        Surfaces { centroid, far, size, borrowed: HashMap::new(), anchor: HashMap::new() }
     }
 
-    /// The normals `seeds` without one of their own borrow ([`borrow_normal`]).
-    pub(super) fn borrow_normals(&mut self, cx: &FillContext, seeds: impl Iterator<Item = usize>) {
+    /// The normals `seeds` without one of their own borrow ([`borrow_normal`]) and, from soft
+    /// depth, the pixels whose planes seeds on small surfaces continue ([`anchor`]).
+    pub(super) fn borrow_normals(&mut self, cx: &FillContext, seeds: impl Iterator<Item = usize> + Clone) {
         self.borrowed.extend(
             seeds
+                .clone()
                 .filter(|&s| cx.normals[s] == Vec3::ZERO && cx.depth[s].is_finite())
                 .filter_map(|s| Some((s, borrow_normal(cx, s)?))),
         );
+        if cx.soft_depth {
+            let anchors: Vec<(usize, usize)> =
+                seeds.filter_map(|s| Some((s, anchor(cx, self, s)?))).collect();
+            self.anchor.extend(anchors);
+        }
     }
+}
+
+/// The pixel whose plane seed `s` continues instead of its own, if any. Soft depth leaves a
+/// cone of in-between depths around an object that the layering cuts into small surfaces of the
+/// layer behind it, their normals turned outwards; continued, each tilts the fill behind the
+/// object away from the wall it hides (docs/build.md, "Tried on 2026-11-30"). A seed on a
+/// surface under [`ANCHOR_SMALL`] pixels walks up to [`ANCHOR_STEPS`] steps into its layer,
+/// over links that are not jumps, always to the neighbour most inside the layer; when it
+/// reaches a surface of at least [`ANCHOR_SMALL`] pixels and lies more than [`ANCHOR_OFF`] off
+/// that pixel's plane, it continues that plane.
+pub(super) fn anchor(cx: &FillContext, surfaces: &Surfaces, s: usize) -> Option<usize> {
+    if !cx.depth[s].is_finite() || surfaces.size(cx, s) >= ANCHOR_SMALL {
+        return None;
+    }
+    let k = cx.layer_of[s];
+    let inside = |p: usize| (0..8).filter(|&j| cx.nb.get(p, j).is_some_and(|q| cx.layer_of[q] == k)).count();
+    let mut seen = vec![s];
+    let mut p = s;
+    for _ in 0..ANCHOR_STEPS {
+        let step = (0..8)
+            .filter(|&j| cx.links.continuous(p, j))
+            .filter_map(|j| cx.nb.get(p, j))
+            .filter(|&q| cx.layer_of[q] == k && cx.depth[q].is_finite() && !seen.contains(&q))
+            // The first of the most inside, as the neighbours are ordered.
+            .fold(None, |best: Option<(usize, usize)>, q| {
+                let c = inside(q);
+                if best.is_none_or(|(bc, _)| c > bc) {
+                    Some((c, q))
+                } else {
+                    best
+                }
+            });
+        let Some((_, q)) = step else { break };
+        seen.push(q);
+        p = q;
+    }
+    let n = cx.normals[p];
+    if p == s || n == Vec3::ZERO || n.dot(cx.dirs.at(s)) > -1e-3 || surfaces.size(cx, p) < ANCHOR_SMALL {
+        return None;
+    }
+    let t = plane_depth(cx, p, n, s);
+    ((t - cx.depth[s]).abs() > ANCHOR_OFF * cx.depth[s]).then_some(p)
 }
 
 /// The normal of the plane around seed `s`, which has none of its own (the ground seen at a
@@ -248,7 +307,10 @@ pub(super) fn plane_hit_with(
     if nrm.dot(cx.dirs.at(q)) > -1e-3 {
         return None;
     }
-    let t = plane_depth(cx, s, nrm, q);
+    let t = match surfaces.anchor.get(&s) {
+        Some(&a) => plane_depth(cx, a, cx.normals[a], q),
+        None => plane_depth(cx, s, nrm, q),
+    };
     let seen = surfaces.far.get(cx.surface[s] as usize).map_or(f32::INFINITY, |&f| FAR_SEEN * f);
     (t.is_finite() && t > cx.depth[q] && t < 8.0 * ds && t <= seen).then_some(t)
 }
