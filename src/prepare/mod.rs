@@ -30,15 +30,15 @@ crate::choice::choices! {
     #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
     #[serde(rename_all = "lowercase")]
     pub enum Refine (default Auto) {
-        /// Smooth measured noise; do not snap edges.
+        /// Smooth measured noise; settle soft edges as `mode` does when the depth measures soft.
         ///
-        /// Snapping is measured to lose (docs/build.md).
+        /// Depth with sharp edges is left as it is.
         Auto = "auto",
         /// Also snap soft edges onto colour edges (experimental).
         ///
         /// Sharper depth, not yet better layers.
         On = "on",
-        /// Smooth measured noise; settle soft steps by a weighted mode filter (experimental).
+        /// Smooth measured noise; settle soft steps by a weighted mode filter, soft or not.
         ///
         /// Each in-between pixel takes the most weighted depth within 6 pixels.
         Mode = "mode",
@@ -585,8 +585,21 @@ fn refine_depth<'a>(
         complete_unknown(nb, &mut log, &original, unknown);
         report.completed_pixels = unknown.iter().filter(|&&u| u).count();
     }
+    report.edges = refine::scan_edges(&original, nb.width(), (1.0 + JUMP).ln() as f32);
+    if report.edges.is_soft() && s.refine == Refine::Off {
+        report.warnings.push(Warning::new(
+            crate::codes::INPUT_DEPTH_SOFT,
+            format!(
+                "the depth's edges are spread over up to {} pixels (the steepest step takes {:.0} % of an \
+                 edge) and `--refine off` leaves them: objects will stay joined to what is behind them as \
+                 stretched surfaces; `--refine auto` settles them (docs/build.md, \"Depth preparation\")",
+                report.edges.width,
+                100.0 * report.edges.sharpness
+            ),
+        ));
+    }
     if s.refine != Refine::Off {
-        refine_known(nb, guide, &mut log, &original, unknown, s.refine, report);
+        refine_known(nb, guide, &mut log, unknown, s.refine, report);
     }
     depth.par_iter_mut().zip(log.par_iter().zip(&original)).for_each(|(d, (&l, &o))| {
         if l.to_bits() != o.to_bits() {
@@ -612,13 +625,12 @@ fn complete_unknown(nb: &Neighbours, log: &mut [f32], original: &[f32], unknown:
     complete::ground_to_the_horizon(nb, log, original, unknown);
 }
 
-/// Refine `log` (measured noise smoothed; soft edges reported, snapped with `on`; specks of
-/// resized depth removed), `original` being the log depth as decoded.
+/// Refine `log` (measured noise smoothed; soft edges snapped with `on`, settled with `mode` and,
+/// when `report.edges` measured them soft, `auto`; specks of resized depth removed).
 fn refine_known<'a>(
     nb: &Neighbours,
     guide: &dyn Fn() -> &'a [[f32; 3]],
     log: &mut [f32],
-    original: &[f32],
     unknown: &[bool],
     refine: Refine,
     report: &mut PrepareReport,
@@ -632,24 +644,16 @@ fn refine_known<'a>(
         refine::smooth(log, w, h, &blocks, median, jump_log);
         report.smoothed = true;
     }
-    report.edges = refine::scan_edges(original, w, jump_log);
-    if report.edges.is_soft() && refine == Refine::Auto {
-        report.warnings.push(Warning::new(
-            crate::codes::INPUT_DEPTH_SOFT,
-            format!(
-                "the depth's edges are spread over up to {} pixels (the steepest step takes {:.0} % of an \
-                 edge): objects will stay joined to what is behind them as stretched surfaces; depth at \
-                 the colour's resolution with sharp edges layers better (docs/build.md, \"Depth preparation\")",
-                report.edges.width,
-                100.0 * report.edges.sharpness
-            ),
-        ));
-    }
+    // `auto` settles soft depth as `mode` does and leaves depth with sharp edges as it is
+    // (measured: docs/build.md, "`--refine auto` settles soft depth").
+    let refine = match refine {
+        Refine::Auto if report.edges.is_soft() => Refine::Mode,
+        r => r,
+    };
     // Measured on the path-traced corpus and the analytic room (docs/build.md, "Depth
     // preparation"): snapping loses there (objects stay joined to the floor at softened
     // contacts, and their sharpened outlines split off as shells), so only `on` snaps.
-    let soft = refine == Refine::On;
-    if soft {
+    if refine == Refine::On {
         let radius = MAX_RADIUS;
         let guide = guide();
         // A second pass takes what the first left of ramps it made shorter.

@@ -60,6 +60,11 @@ pub(crate) fn scan_edges(log: &[f32], w: usize, jump_log: f32) -> EdgeScan {
                 if len == 0 || len > 64 || total.abs() <= 1.5 * jump_log {
                     return;
                 }
+                // An edge to the sky stays a step under any blur (infinite depth blurs to itself):
+                // it tells nothing of how soft the depth is.
+                if row[start - 1].max(row[start + len - 1]) >= super::complete::SKY_LOG - 1e-3 {
+                    return;
+                }
                 let mean = total.abs() / len as f32;
                 let flat = |f: Option<f32>| f.is_some_and(|f| f < 0.25 * mean);
                 if flat(flank(start, true)) && flat(flank(start + len, false)) {

@@ -56,8 +56,9 @@ pub struct DepthArgs {
     /// scale of depth of unknown unit, or of inverse depth taken as having no shift.
     #[arg(long, value_name = "X,Y,METRES", value_parser = parse_known_distance)]
     pub known_distance: Option<KnownDistance>,
-    /// Snap soft depth edges onto colour edges and smooth depth noise: auto (when measured soft,
-    /// noisy, resized or completed), on, mode (soft steps settled by a weighted mode filter), off.
+    /// Settle soft depth edges onto colour edges and smooth depth noise: auto (mode's filter when
+    /// the edges measure soft; noise smoothed when noisy), mode (the filter on any depth), on (the
+    /// older snap), off.
     #[arg(long, value_parser = choice::<Refine>(), default_value = "auto")]
     pub refine: Refine,
     /// What unknown depth means: complete (a surface, completed from around it) or sky (nothing there).
