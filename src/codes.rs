@@ -227,7 +227,7 @@ declare_codes! {
     WARNINGS;
     INPUT_DEPTH_SENTINEL, Warning, "Float depth holds values of 1e7 m and more (a no-measurement sentinel): taken as unknown.";
     INPUT_DEPTH_MOSTLY_UNKNOWN, Warning, "Most pixels have no depth; what was made of them (sky, completion) is said.";
-    INPUT_DEPTH_SOFT, Warning, "The depth's edges are spread over many pixels and `--refine off` leaves them: objects stay joined to what is behind them.";
+    INPUT_DEPTH_SOFT, Warning, "The depth's edges are spread over many pixels and stay so (`--refine off`, or depth soft everywhere, which `auto` leaves): objects stay joined to what is behind them.";
 }
 
 /// Every code pomc can give, with its severity and meaning: the manifest's and the validator's
