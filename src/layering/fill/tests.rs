@@ -99,9 +99,8 @@ fn a_curved_surface_is_continued_only_as_far_as_its_plane_fits() {
     }
 }
 
-/// A wall (depth per pixel `wall`) on a 64 × 32 equirect canvas, a block of it (x 20–43, y 8–23)
-/// hidden by a nearer layer 1 m away: the planes of a fill context.
-struct Blocked {
+/// The planes of a fill context, made by [`Planes::blocked`] or [`Planes::facing_wall`].
+struct Planes {
     nb: Neighbours,
     dirs: PixelDirs,
     depth: Vec<f32>,
@@ -112,30 +111,66 @@ struct Blocked {
     rgb: [Vec<f32>; 3],
 }
 
-/// Whether pixel `p` of the [`Blocked`] canvas is in the hidden block.
+/// Whether pixel `p` of the [`Planes::blocked`] canvas is in the hidden block.
 fn in_block(p: usize) -> bool {
     (20..44).contains(&(p % 64)) && (8..24).contains(&(p / 64))
 }
 
-impl Blocked {
-    fn new(wall: impl Fn(usize) -> f32) -> Blocked {
+impl Planes {
+    /// A wall (depth per pixel `wall`) on a 64 × 32 equirect canvas, a block of it (x 20–43,
+    /// y 8–23) hidden by a nearer layer 1 m away.
+    fn blocked(wall: impl Fn(usize) -> f32) -> Planes {
         let (m, w, n, nb) = equirect(64);
         let depth: Vec<f32> = (0..n).map(|p| if in_block(p) { 1.0 } else { wall(p) }).collect();
-        Blocked {
-            dirs: PixelDirs::Full((0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect()),
-            layer_of: (0..n).map(|p| in_block(p) as u32).collect(),
+        let dirs = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+        let layer_of = (0..n).map(|p| in_block(p) as u32).collect();
+        Planes::of(nb, dirs, depth, layer_of, vec![0u32; n], vec![Vec3::ZERO; n])
+    }
+
+    /// A wall at x = 3 m seen on a 128 × 64 equirect canvas (the pixels facing it, `x > 0.05`;
+    /// the rest unknown), each pixel's depth, layer, surface and normal given by `at(p, wall
+    /// depth)`.
+    fn facing_wall(at: impl Fn(usize, f32) -> (f32, u32, u32, Vec3)) -> Planes {
+        let (m, w, n, nb) = equirect(128);
+        let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+        let mut depth = vec![f32::NAN; n];
+        let (mut normals, mut surface, mut layer_of) =
+            (vec![Vec3::ZERO; n], vec![u32::MAX; n], vec![u32::MAX; n]);
+        for p in (0..n).filter(|&p| dirs[p].x > 0.05) {
+            (depth[p], layer_of[p], surface[p], normals[p]) = at(p, 3.0 / dirs[p].x);
+        }
+        Planes::of(nb, dirs, depth, layer_of, surface, normals)
+    }
+
+    fn of(
+        nb: Neighbours,
+        dirs: Vec<Vec3>,
+        depth: Vec<f32>,
+        layer_of: Vec<u32>,
+        surface: Vec<u32>,
+        normals: Vec<Vec3>,
+    ) -> Planes {
+        let n = depth.len();
+        Planes {
             links: Links::compute(&nb, &depth, &EdgeOptions::default()),
-            normals: vec![Vec3::ZERO; n],
-            surface: vec![0u32; n],
             rgb: [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]],
-            depth,
+            dirs: PixelDirs::Full(dirs),
             nb,
+            depth,
+            layer_of,
+            normals,
+            surface,
         }
     }
 
     fn cx(&self) -> FillContext<'_> {
         let b = self;
         context(&b.nb, &b.dirs, &b.depth, &b.normals, &b.layer_of, &b.links, &b.surface, &b.rgb)
+    }
+
+    /// The wall's depth at pixel `p`.
+    fn wall(&self, p: usize) -> f32 {
+        3.0 / self.dirs.at(p).x
     }
 }
 
@@ -144,7 +179,7 @@ impl Blocked {
 /// fill, and an island cut off from everything (the fill pixels around it went).
 #[test]
 fn a_rival_plane_dropped_gives_back_the_nearest_seeds_plane_and_leaves_no_remnant() {
-    let b = Blocked::new(|_| 3.0);
+    let b = Planes::blocked(|_| 3.0);
     let (cx, w, n, hidden) = (b.cx(), 64, b.depth.len(), in_block);
     let band = |p: usize| (24..32).contains(&(p % w)) && (10..12).contains(&(p / w));
     let island = |p: usize| (36..40).contains(&(p % w)) && (18..20).contains(&(p / w));
@@ -229,30 +264,23 @@ fn specks_without_a_plane_seed_no_fill() {
 /// empty.
 #[test]
 fn a_seed_whose_plane_misses_leaves_the_pixel_to_one_whose_plane_meets_it() {
-    let (m, w, n, nb) = equirect(128);
-    let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+    let w = 128;
     let (x, y) = (|p: usize| p % w, |p: usize| p / w);
     let block = |p: usize| (4..12).contains(&x(p)) && (28..36).contains(&y(p));
-    let wall = |p: usize| 3.0 / dirs[p].x;
     let bad = |p: usize| !block(p) && (3..12).contains(&x(p)) && (27..37).contains(&y(p));
-    let mut depth = vec![f32::NAN; n];
-    let (mut normals, mut surface) = (vec![Vec3::ZERO; n], vec![u32::MAX; n]);
-    let mut layer_of = vec![u32::MAX; n];
-    for p in (0..n).filter(|&p| dirs[p].x > 0.05) {
-        (depth[p], layer_of[p], surface[p], normals[p]) = if block(p) {
+    let scene = Planes::facing_wall(|p, wall| {
+        if block(p) {
             // 1 m at its left edge, at the wall's depth (less 1 %) at its right.
             let t = (x(p) - 4) as f32 / 7.0;
-            (1.0 + t * (0.99 * wall(p) - 1.0), 1, 1, Vec3::new(-1.0, 0.0, 0.0))
+            (1.0 + t * (0.99 * wall - 1.0), 1, 1, Vec3::new(-1.0, 0.0, 0.0))
         } else if bad(p) {
-            (wall(p), 0, 5, Vec3::new(1.0, 0.0, 0.0))
+            (wall, 0, 5, Vec3::new(1.0, 0.0, 0.0))
         } else {
-            (wall(p), 0, 0, Vec3::new(-1.0, 0.0, 0.0))
-        };
-    }
-    let links = Links::compute(&nb, &depth, &EdgeOptions::default());
-    let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
-    let pdirs = PixelDirs::Full(dirs.clone());
-    let mut cx = context(&nb, &pdirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+            (wall, 0, 0, Vec3::new(-1.0, 0.0, 0.0))
+        }
+    });
+    let (n, wall) = (scene.depth.len(), |p| scene.wall(p));
+    let mut cx = scene.cx();
     // Every part of the block is within the radius: the whole of it may be filled.
     cx.freedom_radius = 2.95;
     let fill = fill_layer(&cx, 0);
@@ -281,7 +309,7 @@ fn band_is_the_parallax_difference() {
 #[test]
 fn a_crack_where_two_fronts_meet_is_closed() {
     let wall = |p: usize| if p % 64 < 32 { 3.0 } else { 3.45 };
-    let b = Blocked::new(wall);
+    let b = Planes::blocked(wall);
     let (cx, n, hidden, nb) = (b.cx(), b.depth.len(), in_block, &b.nb);
     let mut fill = Fill::default();
     for p in (0..n).filter(|&p| hidden(p)) {
@@ -372,31 +400,26 @@ fn scattered_normals_on_a_plane_do_not_end_its_reach() {
 /// block is the wall; continuing the cone's own planes, it is not.
 #[test]
 fn from_soft_depth_seeds_on_small_pieces_of_an_outline_continue_their_layer() {
-    let (m, w, n, nb) = equirect(128);
-    let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+    let w = 128;
     let (x, y) = (|p: usize| p % w, |p: usize| p / w);
     let block = |p: usize| (4..16).contains(&x(p)) && (26..38).contains(&y(p));
     let ring = |p: usize| !block(p) && (2..18).contains(&x(p)) && (24..40).contains(&y(p));
-    let wall = |p: usize| 3.0 / dirs[p].x;
-    let centre = dirs[31 * w + 10] * 3.0 / dirs[31 * w + 10].x;
-    let mut depth = vec![f32::NAN; n];
-    let (mut normals, mut surface, mut layer_of) =
-        (vec![Vec3::ZERO; n], vec![u32::MAX; n], vec![u32::MAX; n]);
-    for p in (0..n).filter(|&p| dirs[p].x > 0.05) {
-        (depth[p], layer_of[p], surface[p], normals[p]) = if block(p) {
+    let m = AnyMapping::new(MappingKind::Equirect, w, w / 2).unwrap();
+    let dir = |p: usize| m.pixel_dir(x(p), y(p)).as_vec3();
+    let centre = dir(31 * w + 10) * 3.0 / dir(31 * w + 10).x;
+    let scene = Planes::facing_wall(|p, wall| {
+        if block(p) {
             (1.0, 1, 1, Vec3::new(-1.0, 0.0, 0.0))
         } else if ring(p) {
-            let out = (dirs[p] * wall(p) - centre) * Vec3::new(0.0, 1.0, 1.0);
+            let out = (dir(p) * wall - centre) * Vec3::new(0.0, 1.0, 1.0);
             let n = (Vec3::new(-0.3, 0.0, 0.0) + 0.95 * out.normalize()).normalize();
-            (0.97 * wall(p), 0, 10 + (p / 3) as u32, n)
+            (0.97 * wall, 0, 10 + (p / 3) as u32, n)
         } else {
-            (wall(p), 0, 0, Vec3::new(-1.0, 0.0, 0.0))
-        };
-    }
-    let links = Links::compute(&nb, &depth, &EdgeOptions::default());
-    let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
-    let pdirs = PixelDirs::Full(dirs.clone());
-    let mut cx = context(&nb, &pdirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+            (wall, 0, 0, Vec3::new(-1.0, 0.0, 0.0))
+        }
+    });
+    let (n, wall) = (scene.depth.len(), |p| scene.wall(p));
+    let mut cx = scene.cx();
     cx.freedom_radius = 1.5;
     let at_wall = |cx: &FillContext| {
         let got: HashMap<usize, f32> = fill_layer(cx, 0).pixels.iter().map(|f| (f.pixel, f.depth)).collect();
