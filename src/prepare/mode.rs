@@ -41,7 +41,15 @@ impl Grid {
         let (xx, yy) = (x as isize + dx, y as isize + dy);
         if self.face == 0 {
             let yy = yy.clamp(0, self.h as isize - 1) as usize;
-            return Some(yy * self.w + xx.rem_euclid(self.w as isize) as usize);
+            let w = self.w as isize;
+            // Offsets are a few pixels: one wrap, without a division, where the canvas is wider.
+            let xx = match xx {
+                _ if (0..w).contains(&xx) => xx,
+                _ if (-w..0).contains(&xx) => xx + w,
+                _ if (w..2 * w).contains(&xx) => xx - w,
+                _ => xx.rem_euclid(w),
+            };
+            return Some(yy * self.w + xx as usize);
         }
         let f = self.face as isize;
         let (fx, fy) = (x as isize / f * f, y as isize / f * f);
@@ -116,6 +124,9 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
         })
         .collect();
     let low = src.par_iter().copied().reduce(|| f32::INFINITY, f32::min);
+    // The range of the square around each pixel bounds its disc's: where the square's fails the
+    // test below, the disc's does too, and the disc is not scanned.
+    let (square_lo, square_hi) = square_range(&g, &src);
     let (jump, tol) = (1.1f32.ln(), 1.03f32.ln());
     let out: Vec<Option<f32>> = (0..h)
         .into_par_iter()
@@ -125,9 +136,14 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
             // histogram and the side both read them.
             let mut cells: Vec<(usize, isize, isize, usize, f32)> = Vec::with_capacity(disc.len());
             let (g, src, inv, colour, settled, disc) = (&g, &src, &inv, &colour, &settled, &disc);
+            let (square_lo, square_hi) = (&square_lo, &square_hi);
             (0..w).map(move |x| {
                 let p = y * w + x;
                 let l = src[p];
+                let (lo, hi) = (square_lo[p], square_hi[p]);
+                if !(hi - lo > jump && l - lo > tol && hi - l > tol) {
+                    return None;
+                }
                 let (mut lo, mut hi) = (l, l);
                 for &(dx, dy, _) in disc {
                     if let Some(q) = g.at(x, y, dx, dy) {
@@ -191,6 +207,30 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
         }
     }
     moved
+}
+
+/// Per pixel, the least and greatest of `src` over the square of radius [`RADIUS`] around it as
+/// [`Grid::at`] reaches it (a row pass, then a column pass over the rows' results).
+fn square_range(g: &Grid, src: &[f32]) -> (Vec<f32>, Vec<f32>) {
+    let pass = |v: &[f32], lo: &[f32], along_x: bool| -> (Vec<f32>, Vec<f32>) {
+        (0..g.w * g.h)
+            .into_par_iter()
+            .map(|p| {
+                let (x, y) = (p % g.w, p / g.w);
+                let (mut a, mut b) = (f32::INFINITY, f32::NEG_INFINITY);
+                for o in -RADIUS..=RADIUS {
+                    let (dx, dy) = if along_x { (o, 0) } else { (0, o) };
+                    if let Some(q) = g.at(x, y, dx, dy) {
+                        a = a.min(lo[q]);
+                        b = b.max(v[q]);
+                    }
+                }
+                (a, b)
+            })
+            .unzip()
+    };
+    let (row_lo, row_hi) = pass(src, src, true);
+    pass(&row_hi, &row_lo, false)
 }
 
 /// The side a pixel goes to: the disc's pixels in the mode's bins, weighted. The pixel takes that
@@ -271,4 +311,32 @@ fn is_plane(g: &Grid, inv: &[f32], x: usize, y: usize) -> bool {
     let rss: f32 = (-RADIUS..=RADIUS).zip(&prof).map(|(t, v)| (v - mean - slope * t as f32).powi(2)).sum();
     let (lo, hi) = prof.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     (rss / n).sqrt() < PLANE_FIT * (hi - lo).max(1e-12)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The separable square range equals the square's taken pixel by pixel through [`Grid::at`],
+    /// on an equirect canvas (wrapping, narrower than the square on the smallest) and on a cube's
+    /// faces, so the pre-check skips no pixel the disc's test would take.
+    #[test]
+    fn square_range_is_the_squares_range() {
+        for g in
+            [Grid { w: 8, h: 4, face: 0 }, Grid { w: 40, h: 20, face: 0 }, Grid { w: 48, h: 32, face: 16 }]
+        {
+            let src: Vec<f32> = (0..g.w * g.h).map(|p| ((p * 7919 + 13) % 101) as f32 / 17.0).collect();
+            let (lo, hi) = square_range(&g, &src);
+            for p in 0..g.w * g.h {
+                let (x, y) = (p % g.w, p / g.w);
+                let values = (-RADIUS..=RADIUS)
+                    .flat_map(|dy| (-RADIUS..=RADIUS).map(move |dx| (dx, dy)))
+                    .filter_map(|(dx, dy)| g.at(x, y, dx, dy))
+                    .map(|q| src[q]);
+                let (a, b) =
+                    values.fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+                assert_eq!((lo[p], hi[p]), (a, b), "pixel {p} of {}x{} (face {})", g.w, g.h, g.face);
+            }
+        }
+    }
 }
