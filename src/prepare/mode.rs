@@ -29,15 +29,30 @@ const EYE: f32 = 0.5;
 /// The canvas as a grid: equirect wraps its columns and repeats its pole rows; a cube's face
 /// keeps its own pixels.
 #[derive(Clone, Copy)]
-struct Grid {
-    w: usize,
-    h: usize,
+pub(super) struct Grid {
+    pub(super) w: usize,
+    pub(super) h: usize,
     /// Face size of a cube canvas; 0 for equirect.
-    face: usize,
+    pub(super) face: usize,
 }
 
 impl Grid {
-    fn at(&self, x: usize, y: usize, dx: isize, dy: isize) -> Option<usize> {
+    pub(super) fn new(nb: &Neighbours) -> Grid {
+        let (w, h) = (nb.width(), nb.height());
+        let face = if nb.mapping().kind() == MappingKind::Cube3x2 { w / 3 } else { 0 };
+        Grid { w, h, face }
+    }
+
+    /// One pixel's angle, radians.
+    pub(super) fn pixel_angle(&self) -> f32 {
+        if self.face == 0 {
+            std::f32::consts::TAU / self.w as f32
+        } else {
+            std::f32::consts::FRAC_PI_2 / self.face as f32
+        }
+    }
+
+    pub(super) fn at(&self, x: usize, y: usize, dx: isize, dy: isize) -> Option<usize> {
         let (xx, yy) = (x as isize + dx, y as isize + dy);
         if self.face == 0 {
             let yy = yy.clamp(0, self.h as isize - 1) as usize;
@@ -57,7 +72,26 @@ impl Grid {
     }
 }
 
-fn inverse(l: f32) -> f32 {
+/// The colour guide averaged over each pixel's 3 × 3 neighbourhood.
+pub(super) fn colour_mean(g: &Grid, guide: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    (0..g.w * g.h)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % g.w, p / g.w);
+            let (mut sum, mut n) = ([0f32; 3], 0f32);
+            for (dx, dy) in (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (dx, dy))) {
+                if let Some(q) = g.at(x, y, dx, dy) {
+                    (0..3).for_each(|c| sum[c] += guide[q][c]);
+                    n += 1.0;
+                }
+            }
+            sum.map(|s| s / n)
+        })
+        .collect()
+}
+
+/// Disparity of a log depth, 0 for the sky.
+pub(super) fn inverse(l: f32) -> f32 {
     if l >= SKY_LOG - 1e-3 {
         0.0
     } else {
@@ -68,27 +102,12 @@ fn inverse(l: f32) -> f32 {
 /// Settle the soft steps of `log` (log depth, the sky at [`SKY_LOG`]); `guide` is the colour
 /// guide (square root of linear RGB). Returns how many pixels moved.
 pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) -> usize {
-    let (w, h) = (nb.width(), nb.height());
-    let face = if nb.mapping().kind() == MappingKind::Cube3x2 { w / 3 } else { 0 };
-    let g = Grid { w, h, face };
-    let pixel_angle =
-        if face == 0 { std::f32::consts::TAU / w as f32 } else { std::f32::consts::FRAC_PI_2 / face as f32 };
+    let g = Grid::new(nb);
+    let (w, h) = (g.w, g.h);
+    let pixel_angle = g.pixel_angle();
     let src: Vec<f32> = log.iter().map(|&l| l.min(SKY_LOG)).collect();
     let inv: Vec<f32> = src.par_iter().map(|&l| inverse(l)).collect();
-    let colour: Vec<[f32; 3]> = (0..w * h)
-        .into_par_iter()
-        .map(|p| {
-            let (x, y) = (p % w, p / w);
-            let (mut sum, mut n) = ([0f32; 3], 0f32);
-            for (dx, dy) in (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (dx, dy))) {
-                if let Some(q) = g.at(x, y, dx, dy) {
-                    (0..3).for_each(|c| sum[c] += guide[q][c]);
-                    n += 1.0;
-                }
-            }
-            sum.map(|s| s / n)
-        })
-        .collect();
+    let colour = colour_mean(&g, guide);
     let settled: Vec<f32> = (0..w * h)
         .into_par_iter()
         .map(|p| {

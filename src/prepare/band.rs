@@ -1,0 +1,324 @@
+//! Soft bands split at their colour edge (issue 51's 1-D cut across the band): along the depth's
+//! gradient through a pixel inside a soft step, the profile's band (the steps of one monotone run
+//! over [`TAIL`] of its steepest) is cut once, where the colours on either side best match each
+//! side's colour just past the band; each pixel takes its side's surface continued (a line in
+//! disparity through the side's first samples). Bands wider than the mode filter's disc settle so.
+//! Measured in docs/build.md ("Soft bands cut at their colour edge").
+
+use rayon::prelude::*;
+
+use super::complete::SKY_LOG;
+use super::mode::{colour_mean, inverse, Grid};
+use crate::mapping::Neighbours;
+
+/// Pixels a band spans (its ends included) before it is cut here; narrower bands are the mode
+/// filter's, whose disc reaches both sides of them.
+const MIN_WIDTH: usize = super::mode::RADIUS as usize;
+/// Pixels along the gradient each way that a band and its sides are sought within.
+pub(super) const REACH: usize = 24;
+/// Least log-depth step per pixel at a band's steepest.
+const MIN_STEP: f32 = 0.005;
+/// A band ends where its steps fall under this share of its steepest.
+const TAIL: f32 = 0.02;
+/// Past half its steepest, a band's steps decay by at least this ratio per pixel.
+const DECAY: f32 = 0.8;
+/// Samples past each end of a band that give its side.
+const SIDE: usize = 3;
+/// Least change across a band (log depth): a jump of 10 %.
+const JUMP: f32 = 0.0953;
+/// A pixel within this of a side (log depth, 3 %) is on it already.
+const TOL: f32 = 0.0296;
+/// Sides whose colours differ by less than this (square root of linear RGB) show no edge: the
+/// band is cut at its steepest depth step.
+const COLOUR_EDGE: f32 = 0.03;
+/// Neighbours (of 8) that a moved pixel's new depth must be shared by, within [`TOL`].
+const ALIKE: usize = 2;
+/// Metres: a band whose sides land within a pixel of each other for an eye this far out is left.
+const EYE: f32 = 0.5;
+
+/// Cut the soft bands of `log` (log depth, the sky at [`SKY_LOG`]) within [`REACH`] pixels of each
+/// pixel along its gradient; `guide` is the colour guide. Returns how many pixels moved.
+pub(super) fn split_bands(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) -> usize {
+    let g = Grid::new(nb);
+    let (w, h) = (g.w, g.h);
+    let angle = g.pixel_angle();
+    let src: Vec<f32> = log.iter().map(|&l| l.min(SKY_LOG)).collect();
+    let colour = colour_mean(&g, guide);
+    let out: Vec<Option<f32>> = (0..w * h)
+        .into_par_iter()
+        .map_init(Profile::default, |prof, p| {
+            let (x, y) = (p % w, p / w);
+            if src[p] >= SKY_LOG - 1e-3 {
+                return None;
+            }
+            let (ux, uy) = gradient(&g, &src, x, y)?;
+            prof.sample(&g, &src, &colour, x, y, ux, uy, REACH as isize);
+            prof.cut(angle)
+        })
+        .collect();
+    // Each pixel cuts its own profile: a pixel whose new depth none of its neighbours shares
+    // (a profile that met another edge) keeps its depth.
+    let value = |q: usize| out[q].unwrap_or(src[q]);
+    let kept: Vec<Option<f32>> = (0..w * h)
+        .into_par_iter()
+        .map(|p| {
+            let v = out[p]?;
+            let (x, y) = (p % w, p / w);
+            let alike = (-1..=1)
+                .flat_map(|dy| (-1..=1).map(move |dx| (dx, dy)))
+                .filter(|&(dx, dy)| (dx, dy) != (0, 0))
+                .filter_map(|(dx, dy)| g.at(x, y, dx, dy))
+                .filter(|&q| (value(q) - v).abs() <= TOL)
+                .count();
+            (alike >= ALIKE).then_some(v)
+        })
+        .collect();
+    let mut moved = 0;
+    for (l, o) in log.iter_mut().zip(kept) {
+        if let Some(v) = o {
+            if v.to_bits() != l.to_bits() {
+                *l = v;
+                moved += 1;
+            }
+        }
+    }
+    moved
+}
+
+/// The unit step, along the major axis one pixel, towards farther depth at `(x, y)` (Sobel), or
+/// `None` where the depth is flat.
+fn gradient(g: &Grid, src: &[f32], x: usize, y: usize) -> Option<(f32, f32)> {
+    let at = |dx, dy| g.at(x, y, dx, dy).map(|q| src[q]);
+    let (mut gx, mut gy) = (0f32, 0f32);
+    for (o, wt) in [(-1isize, 1f32), (0, 2.0), (1, 1.0)] {
+        if let (Some(a), Some(b)) = (at(1, o), at(-1, o)) {
+            gx += wt * (a - b) / 8.0;
+        }
+        if let (Some(a), Some(b)) = (at(o, 1), at(o, -1)) {
+            gy += wt * (a - b) / 8.0;
+        }
+    }
+    let m = gx.abs().max(gy.abs());
+    (m >= MIN_STEP / 2.0 && m.is_finite()).then(|| (gx / m, gy / m))
+}
+
+/// The depth and colour along a line through the pixel, at `centre`.
+#[derive(Default)]
+struct Profile {
+    log: Vec<f32>,
+    /// Disparity of `log`.
+    inv: Vec<f32>,
+    colour: Vec<[f32; 3]>,
+    centre: usize,
+}
+
+impl Profile {
+    #[allow(clippy::too_many_arguments)]
+    fn sample(
+        &mut self,
+        g: &Grid,
+        src: &[f32],
+        colour: &[[f32; 3]],
+        x: usize,
+        y: usize,
+        ux: f32,
+        uy: f32,
+        r: isize,
+    ) {
+        let at = |t: isize| g.at(x, y, (t as f32 * ux).round() as isize, (t as f32 * uy).round() as isize);
+        let back = (1..=r).take_while(|&t| at(-t).is_some()).count() as isize;
+        let ahead = (1..=r).take_while(|&t| at(t).is_some()).count() as isize;
+        self.log.clear();
+        self.inv.clear();
+        self.colour.clear();
+        for t in -back..=ahead {
+            let q = at(t).expect("within the face");
+            self.log.push(src[q]);
+            self.inv.push(inverse(src[q]));
+            self.colour.push(colour[q]);
+        }
+        self.centre = back as usize;
+    }
+
+    /// The centre's new log depth, if it lies inside a band.
+    fn cut(&self, angle: f32) -> Option<f32> {
+        let (l, c) = (&self.log, self.centre);
+        let n = l.len();
+        // Steps in disparity, where grazing ground and walls run on as lines (in log depth the
+        // ground's steps shrink away from the horizon as a blur's tail does).
+        let step = |i: usize| self.inv[i] - self.inv[i + 1];
+        // The monotone (rising) run of pixels a0..=b0 through the centre.
+        let mut a0 = c;
+        while a0 > 0 && step(a0 - 1) > 0.0 {
+            a0 -= 1;
+        }
+        let mut b0 = c;
+        while b0 + 1 < n && step(b0) > 0.0 {
+            b0 += 1;
+        }
+        if b0 == a0 {
+            return None;
+        }
+        let k = (a0..b0).max_by(|&i, &j| step(i).total_cmp(&step(j)))?;
+        let peak = step(k);
+        if peak <= 0.0 || l[k + 1] - l[k] < MIN_STEP {
+            return None;
+        }
+        // The band: steps i..=j, pixels i (near end) to j + 1 (far end).
+        // A step past half the peak is the band's while the steps still decay beyond it (a blur's
+        // tail); where they level off, a surface turning away begins (its steps run on alike).
+        let in_band = |s: f32, beyond: Option<f32>| {
+            s > TAIL * peak && (s >= 0.5 * peak || beyond.is_none_or(|b| b < DECAY * s))
+        };
+        let (mut i, mut j) = (k, k);
+        while i > a0 && in_band(step(i - 1), (i >= 2).then(|| step(i - 2))) {
+            i -= 1;
+        }
+        while j + 1 < b0 && in_band(step(j + 1), (j + 2 < n - 1).then(|| step(j + 2))) {
+            j += 1;
+        }
+        // A band ends on sides flatter than it, inside the profile: a surface turning away runs
+        // on to the profile's end.
+        // A ramp that keeps its slope to its ends is a surface (a plane between two corners).
+        if step(i) >= 0.5 * peak || step(j) >= 0.5 * peak {
+            return None;
+        }
+        if j + 1 - i < MIN_WIDTH
+            || i < SIDE - 1
+            || j + SIDE > n - 1
+            || !(i < c && c <= j)
+            || l[j + 1] - l[i] < JUMP
+        {
+            return None;
+        }
+        if (inverse(l[i]) - inverse(l[j + 1])) * EYE <= angle {
+            return None;
+        }
+        let near_side: Vec<usize> = (i.saturating_sub(SIDE - 1)..=i).collect();
+        let far_side: Vec<usize> = (j + 1..=(j + SIDE).min(n - 1)).collect();
+        let mean = |idx: &[usize]| {
+            let mut s = [0f32; 3];
+            idx.iter().for_each(|&q| (0..3).for_each(|ch| s[ch] += self.colour[q][ch]));
+            s.map(|v| v / idx.len() as f32)
+        };
+        let (cn, cf) = (mean(&near_side), mean(&far_side));
+        let d2 = |a: [f32; 3], b: [f32; 3]| (0..3).map(|ch| (a[ch] - b[ch]).powi(2)).sum::<f32>();
+        // The cut after pixel m: pixels i..=m near, m + 1..=j + 1 far.
+        let m = if d2(cn, cf).sqrt() < COLOUR_EDGE {
+            k
+        } else {
+            let (mut best, mut at) = (f32::INFINITY, k);
+            // Running cost: near-side misfit of pixels up to m plus far-side misfit after it.
+            let far_total: f32 = (i..=j + 1).map(|q| d2(self.colour[q], cf)).sum();
+            let (mut near_acc, mut far_acc) = (0f32, far_total);
+            for m in i..=j {
+                near_acc += d2(self.colour[m], cn);
+                far_acc -= d2(self.colour[m], cf);
+                if near_acc + far_acc < best {
+                    (best, at) = (near_acc + far_acc, m);
+                }
+            }
+            at
+        };
+        let (side, end) = if c <= m { (&near_side, i) } else { (&far_side, j + 1) };
+        let v = self.continued(side, end);
+        // A line from three samples carried across a wide band can overshoot: no further than
+        // half the band's change past its end.
+        let v = if (v - l[end]).abs() > 0.5 * (l[j + 1] - l[i]) { l[end] } else { v };
+        let on_side = if c <= m { v < l[c] - TOL } else { v > l[c] + TOL };
+        on_side.then_some(v)
+    }
+
+    /// The side's surface at the centre: a line in disparity through its samples, or the end
+    /// sample's depth where the line does not land on the side of the band it continues.
+    fn continued(&self, side: &[usize], end: usize) -> f32 {
+        let (l, c) = (&self.log, self.centre as f32);
+        if l[end] >= SKY_LOG - 1e-3 || side.len() < 2 {
+            return l[end];
+        }
+        let pts: Vec<(f32, f32)> = side.iter().map(|&q| (q as f32, inverse(l[q]))).collect();
+        if pts.iter().any(|&(_, v)| v <= 0.0) {
+            return l[end];
+        }
+        let n = pts.len() as f32;
+        let (mt, mv) = (pts.iter().map(|p| p.0).sum::<f32>() / n, pts.iter().map(|p| p.1).sum::<f32>() / n);
+        let stt: f32 = pts.iter().map(|p| (p.0 - mt).powi(2)).sum();
+        let slope = pts.iter().map(|p| (p.0 - mt) * (p.1 - mv)).sum::<f32>() / stt;
+        let v = mv + slope * (c - mt);
+        if v > 0.0 {
+            -v.ln()
+        } else {
+            l[end]
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mapping::{AnyMapping, MappingKind};
+
+    const W: usize = 256;
+    const H: usize = 128;
+
+    fn canvas() -> Neighbours {
+        Neighbours::new(AnyMapping::new(MappingKind::Equirect, W, H).unwrap())
+    }
+
+    /// Log depth of each row blurred along it by a Gaussian of `sigma` pixels.
+    fn blurred(log: &[f32], sigma: f32) -> Vec<f32> {
+        let r = (3.0 * sigma).ceil() as isize;
+        let k: Vec<f32> = (-r..=r).map(|t| (-(t * t) as f32 / (2.0 * sigma * sigma)).exp()).collect();
+        let sum: f32 = k.iter().sum();
+        (0..W * H)
+            .map(|p| {
+                let (x, y) = (p % W, p / W);
+                (-r..=r)
+                    .zip(&k)
+                    .map(|(t, kt)| kt * log[y * W + (x as isize + t).rem_euclid(W as isize) as usize])
+                    .sum::<f32>()
+                    / sum
+            })
+            .collect()
+    }
+
+    /// An object 1.5 m out before a wall 4 m out, its depth blurred σ 4 px (bands of 16 px, wider
+    /// than the mode filter's disc) and its colour sharp: the cut puts every pixel of the band on
+    /// the side its colour is of, at that side's depth.
+    #[test]
+    fn a_wide_band_is_cut_at_its_colour_edge() {
+        let object = |x: usize| (80..140).contains(&x);
+        let exact: Vec<f32> =
+            (0..W * H).map(|p| if object(p % W) { 1.5f32.ln() } else { 4f32.ln() }).collect();
+        let guide: Vec<[f32; 3]> =
+            (0..W * H).map(|p| if object(p % W) { [0.8, 0.2, 0.2] } else { [0.4, 0.5, 0.45] }).collect();
+        let mut log = blurred(&exact, 4.0);
+        let off = |log: &[f32]| log.iter().zip(&exact).filter(|(l, e)| (*l - *e).abs() > 0.05).count();
+        let before = off(&log);
+        assert!(before >= 10 * H, "the blur makes bands ({before} pixels off)");
+        let moved = split_bands(&canvas(), &mut log, &guide);
+        assert!(moved >= before / 2, "{moved} moved of {before}");
+        assert!(off(&log) <= H, "{} pixels still more than 5 % off (of {before})", off(&log));
+    }
+
+    /// A wall turning away between two corners keeps its slope to its ends: no band. A sharp
+    /// step has no pixel inside it. Neither moves.
+    #[test]
+    fn surfaces_and_sharp_steps_are_left() {
+        let guide: Vec<[f32; 3]> =
+            (0..W * H).map(|p| [0.3 + (p % W) as f32 / W as f32 * 0.4, 0.4, 0.4]).collect();
+        let turning: Vec<f32> = (0..W * H)
+            .map(|p| {
+                let x = (p % W) as f32;
+                (1.0 + 0.5 * ((x - 80.0) / 60.0).clamp(0.0, 1.0)).ln()
+            })
+            .collect();
+        let sharp: Vec<f32> =
+            (0..W * H).map(|p| if (80..140).contains(&(p % W)) { 1.5f32.ln() } else { 4f32.ln() }).collect();
+        for (name, depth) in [("turning", turning), ("sharp", sharp)] {
+            let mut log = depth.clone();
+            assert_eq!(split_bands(&canvas(), &mut log, &guide), 0, "{name}");
+            assert!(log.iter().zip(&depth).all(|(a, b)| a.to_bits() == b.to_bits()), "{name}");
+        }
+    }
+}
