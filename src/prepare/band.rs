@@ -43,6 +43,7 @@ pub(super) fn split_bands(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
     let (w, h) = (g.w, g.h);
     let angle = g.pixel_angle();
     let src: Vec<f32> = log.iter().map(|&l| l.min(SKY_LOG)).collect();
+    let inv: Vec<f32> = src.par_iter().map(|&l| inverse(l)).collect();
     let colour = colour_mean(&g, guide);
     let out: Vec<Option<f32>> = (0..w * h)
         .into_par_iter()
@@ -52,7 +53,7 @@ pub(super) fn split_bands(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
                 return None;
             }
             let (ux, uy) = gradient(&g, &src, x, y)?;
-            prof.sample(&g, &src, &colour, x, y, ux, uy, REACH as isize);
+            prof.sample(&g, (&src, &inv, &colour), x, y, (ux, uy), REACH as isize);
             prof.cut(angle)
         })
         .collect();
@@ -102,6 +103,9 @@ fn gradient(g: &Grid, src: &[f32], x: usize, y: usize) -> Option<(f32, f32)> {
     (m >= MIN_STEP / 2.0 && m.is_finite()).then(|| (gx / m, gy / m))
 }
 
+/// Log depth, disparity and colour of the canvas.
+type Maps<'a> = (&'a [f32], &'a [f32], &'a [[f32; 3]]);
+
 /// The depth and colour along a line through the pixel, at `centre`.
 #[derive(Default)]
 struct Profile {
@@ -113,18 +117,11 @@ struct Profile {
 }
 
 impl Profile {
-    #[allow(clippy::too_many_arguments)]
-    fn sample(
-        &mut self,
-        g: &Grid,
-        src: &[f32],
-        colour: &[[f32; 3]],
-        x: usize,
-        y: usize,
-        ux: f32,
-        uy: f32,
-        r: isize,
-    ) {
+    /// Sample `maps` (log depth, disparity, colour) through `(x, y)` along `u`, `r` steps each
+    /// way or to the face's edge.
+    fn sample(&mut self, g: &Grid, maps: Maps, x: usize, y: usize, u: (f32, f32), r: isize) {
+        let (src, inv, colour) = maps;
+        let (ux, uy) = u;
         let at = |t: isize| g.at(x, y, (t as f32 * ux).round() as isize, (t as f32 * uy).round() as isize);
         let back = (1..=r).take_while(|&t| at(-t).is_some()).count() as isize;
         let ahead = (1..=r).take_while(|&t| at(t).is_some()).count() as isize;
@@ -134,7 +131,7 @@ impl Profile {
         for t in -back..=ahead {
             let q = at(t).expect("within the face");
             self.log.push(src[q]);
-            self.inv.push(inverse(src[q]));
+            self.inv.push(inv[q]);
             self.colour.push(colour[q]);
         }
         self.centre = back as usize;
