@@ -158,7 +158,7 @@ impl Profile {
         }
         let k = (a0..b0).max_by(|&i, &j| step(i).total_cmp(&step(j)))?;
         let peak = step(k);
-        if peak <= 0.0 || l[k + 1] - l[k] < MIN_STEP {
+        if l[k + 1] - l[k] < MIN_STEP {
             return None;
         }
         // The band: steps i..=j, pixels i (near end) to j + 1 (far end).
@@ -174,12 +174,11 @@ impl Profile {
         while j + 1 < b0 && in_band(step(j + 1), (j + 2 < n - 1).then(|| step(j + 2))) {
             j += 1;
         }
-        // A band ends on sides flatter than it, inside the profile: a surface turning away runs
-        // on to the profile's end.
         // A ramp that keeps its slope to its ends is a surface (a plane between two corners).
         if step(i) >= 0.5 * peak || step(j) >= 0.5 * peak {
             return None;
         }
+        // A band ends inside the profile, with its sides' samples past both ends.
         if j + 1 - i < MIN_WIDTH
             || i < SIDE - 1
             || j + SIDE > n - 1
@@ -233,7 +232,7 @@ impl Profile {
         if l[end] >= SKY_LOG - 1e-3 || side.len() < 2 {
             return l[end];
         }
-        let pts: Vec<(f32, f32)> = side.iter().map(|&q| (q as f32, inverse(l[q]))).collect();
+        let pts: Vec<(f32, f32)> = side.iter().map(|&q| (q as f32, self.inv[q])).collect();
         if pts.iter().any(|&(_, v)| v <= 0.0) {
             return l[end];
         }

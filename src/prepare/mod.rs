@@ -648,9 +648,10 @@ fn refine_known<'a>(
     }
     // `auto` settles soft depth as `mode` does and leaves depth with sharp edges as it is
     // (measured: docs/build.md, "`--refine auto` settles soft depth").
+    let wide = report.edges.is_soft() && report.edges.sharpness < BAND_SHARPNESS;
     if refine == Refine::Auto && report.edges.is_soft() {
         let mut settled = log.to_vec();
-        let moved = settle(nb, &mut settled, guide(), report.edges.sharpness < BAND_SHARPNESS);
+        let moved = settle(nb, &mut settled, guide(), wide);
         let known = unknown.iter().filter(|&&u| !u).count();
         if moved as f64 <= MAX_SETTLED_SHARE * known as f64 {
             log.copy_from_slice(&settled);
@@ -681,8 +682,7 @@ fn refine_known<'a>(
         (report.snapped, report.snap_radius) = (true, radius);
     }
     if refine == Refine::Mode {
-        report.snapped_pixels +=
-            settle(nb, log, guide(), report.edges.is_soft() && report.edges.sharpness < BAND_SHARPNESS);
+        report.snapped_pixels += settle(nb, log, guide(), wide);
         (report.snapped, report.snap_radius) = (true, mode::RADIUS as usize);
     }
     // Resampled depth only: the guided upsampling leaves pieces of neither side along
