@@ -8,7 +8,7 @@
 use rayon::prelude::*;
 
 use super::complete::SKY_LOG;
-use super::mode::{colour_mean, inverse, Grid};
+use super::mode::{inverse, Grid};
 use crate::mapping::Neighbours;
 
 /// Pixels a band spans (its ends included) before it is cut here; narrower bands are the mode
@@ -37,14 +37,14 @@ const ALIKE: usize = 2;
 const EYE: f32 = 0.5;
 
 /// Cut the soft bands of `log` (log depth, the sky at [`SKY_LOG`]) within [`REACH`] pixels of each
-/// pixel along its gradient; `guide` is the colour guide. Returns how many pixels moved.
-pub(super) fn split_bands(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) -> usize {
+/// pixel along its gradient; `colour` is the colour guide's 3 × 3 mean
+/// ([`super::mode::colour_mean`]). Returns how many pixels moved.
+pub(super) fn split_bands(nb: &Neighbours, log: &mut [f32], colour: &[[f32; 3]]) -> usize {
     let g = Grid::new(nb);
     let (w, h) = (g.w, g.h);
     let angle = g.pixel_angle();
     let src: Vec<f32> = log.iter().map(|&l| l.min(SKY_LOG)).collect();
     let inv: Vec<f32> = src.par_iter().map(|&l| inverse(l)).collect();
-    let colour = colour_mean(&g, guide);
     let out: Vec<Option<f32>> = (0..w * h)
         .into_par_iter()
         .map_init(Profile::default, |prof, p| {
@@ -53,7 +53,7 @@ pub(super) fn split_bands(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
                 return None;
             }
             let (ux, uy) = gradient(&g, &src, x, y)?;
-            prof.sample(&g, (&src, &inv, &colour), x, y, (ux, uy), REACH as isize);
+            prof.sample(&g, (&src, &inv, colour), x, y, (ux, uy), REACH as isize);
             prof.cut(angle)
         })
         .collect();
@@ -122,18 +122,45 @@ impl Profile {
     fn sample(&mut self, g: &Grid, maps: Maps, x: usize, y: usize, u: (f32, f32), r: isize) {
         let (src, inv, colour) = maps;
         let (ux, uy) = u;
-        let at = |t: isize| g.at(x, y, (t as f32 * ux).round() as isize, (t as f32 * uy).round() as isize);
-        let back = (1..=r).take_while(|&t| at(-t).is_some()).count() as isize;
-        let ahead = (1..=r).take_while(|&t| at(t).is_some()).count() as isize;
+        let offset = |t: isize| ((t as f32 * ux).round() as isize, (t as f32 * uy).round() as isize);
         self.log.clear();
         self.inv.clear();
         self.colour.clear();
-        for t in -back..=ahead {
-            let q = at(t).expect("within the face");
+        let mut push = |q: usize| {
             self.log.push(src[q]);
             self.inv.push(inv[q]);
             self.colour.push(colour[q]);
-        }
+        };
+        let (xi, yi, ri) = (x as isize, y as isize, r);
+        let back = if g.face == 0 && ri <= xi && xi + ri < g.w as isize && ri <= yi && yi + ri < g.h as isize
+        {
+            // Inside the canvas by the reach: plain offsets (the common case; same pixels as `at`).
+            let p = (y * g.w + x) as isize;
+            for t in -r..=r {
+                let (dx, dy) = offset(t);
+                push((p + dy * g.w as isize + dx) as usize);
+            }
+            r
+        } else {
+            let at = |t: isize| {
+                let (dx, dy) = offset(t);
+                g.at(x, y, dx, dy)
+            };
+            // An equirect canvas has a pixel at every offset (rows clamp, columns wrap); a cube
+            // face ends.
+            let reach = |sign: isize| {
+                if g.face == 0 {
+                    r
+                } else {
+                    (1..=r).take_while(|&t| at(sign * t).is_some()).count() as isize
+                }
+            };
+            let (back, ahead) = (reach(-1), reach(1));
+            for t in -back..=ahead {
+                push(at(t).expect("within the face"));
+            }
+            back
+        };
         self.centre = back as usize;
     }
 
@@ -292,7 +319,8 @@ mod tests {
         let off = |log: &[f32]| log.iter().zip(&exact).filter(|(l, e)| (*l - *e).abs() > 0.05).count();
         let before = off(&log);
         assert!(before >= 10 * H, "the blur makes bands ({before} pixels off)");
-        let moved = split_bands(&canvas(), &mut log, &guide);
+        let colour = super::super::mode::colour_mean(&Grid::new(&canvas()), &guide);
+        let moved = split_bands(&canvas(), &mut log, &colour);
         assert!(moved >= before / 2, "{moved} moved of {before}");
         assert!(off(&log) <= H, "{} pixels still more than 5 % off (of {before})", off(&log));
     }
@@ -313,7 +341,8 @@ mod tests {
             (0..W * H).map(|p| if (80..140).contains(&(p % W)) { 1.5f32.ln() } else { 4f32.ln() }).collect();
         for (name, depth) in [("turning", turning), ("sharp", sharp)] {
             let mut log = depth.clone();
-            assert_eq!(split_bands(&canvas(), &mut log, &guide), 0, "{name}");
+            let colour = super::super::mode::colour_mean(&Grid::new(&canvas()), &guide);
+            assert_eq!(split_bands(&canvas(), &mut log, &colour), 0, "{name}");
             assert!(log.iter().zip(&depth).all(|(a, b)| a.to_bits() == b.to_bits()), "{name}");
         }
     }

@@ -700,10 +700,11 @@ fn refine_known<'a>(
 /// many pixels moved.
 fn settle(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]], wide: bool) -> usize {
     let before = log.to_vec();
+    let colour = mode::colour_mean(&mode::Grid::new(nb), guide);
     if wide {
-        band::split_bands(nb, log, guide);
+        band::split_bands(nb, log, &colour);
     }
-    mode::mode_filter(nb, log, guide);
+    mode::mode_filter(nb, log, &colour);
     log.par_iter().zip(&before).filter(|(a, b)| a.to_bits() != b.to_bits()).count()
 }
 

@@ -74,11 +74,21 @@ impl Grid {
 
 /// The colour guide averaged over each pixel's 3 × 3 neighbourhood.
 pub(super) fn colour_mean(g: &Grid, guide: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    let w = g.w;
     (0..g.w * g.h)
         .into_par_iter()
         .map(|p| {
-            let (x, y) = (p % g.w, p / g.w);
+            let (x, y) = (p % w, p / w);
             let (mut sum, mut n) = ([0f32; 3], 0f32);
+            if g.face == 0 && (1..w.saturating_sub(1)).contains(&x) && (1..g.h.saturating_sub(1)).contains(&y)
+            {
+                // Inside the canvas: the same nine pixels in the same order, by plain offsets.
+                for q in [p - w - 1, p - w, p - w + 1, p - 1, p, p + 1, p + w - 1, p + w, p + w + 1] {
+                    (0..3).for_each(|c| sum[c] += guide[q][c]);
+                    n += 1.0;
+                }
+                return sum.map(|s| s / n);
+            }
             for (dx, dy) in (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (dx, dy))) {
                 if let Some(q) = g.at(x, y, dx, dy) {
                     (0..3).for_each(|c| sum[c] += guide[q][c]);
@@ -99,15 +109,14 @@ pub(super) fn inverse(l: f32) -> f32 {
     }
 }
 
-/// Settle the soft steps of `log` (log depth, the sky at [`SKY_LOG`]); `guide` is the colour
-/// guide (square root of linear RGB). Returns how many pixels moved.
-pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) -> usize {
+/// Settle the soft steps of `log` (log depth, the sky at [`SKY_LOG`]); `colour` is the colour
+/// guide's (square root of linear RGB) 3 × 3 mean, [`colour_mean`]. Returns how many pixels moved.
+pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], colour: &[[f32; 3]]) -> usize {
     let g = Grid::new(nb);
     let (w, h) = (g.w, g.h);
     let pixel_angle = g.pixel_angle();
     let src: Vec<f32> = log.iter().map(|&l| l.min(SKY_LOG)).collect();
     let inv: Vec<f32> = src.par_iter().map(|&l| inverse(l)).collect();
-    let colour = colour_mean(&g, guide);
     let settled: Vec<f32> = (0..w * h)
         .into_par_iter()
         .map(|p| {
@@ -154,7 +163,7 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]]) 
             // Each disc pixel's (pixel, offset, bin, weight), once per candidate pixel: the
             // histogram and the side both read them.
             let mut cells: Vec<(usize, isize, isize, usize, f32)> = Vec::with_capacity(disc.len());
-            let (g, src, inv, colour, settled, disc) = (&g, &src, &inv, &colour, &settled, &disc);
+            let (g, src, inv, settled, disc) = (&g, &src, &inv, &settled, &disc);
             let (square_lo, square_hi) = (&square_lo, &square_hi);
             (0..w).map(move |x| {
                 let p = y * w + x;
@@ -237,6 +246,22 @@ fn square_range(g: &Grid, src: &[f32]) -> (Vec<f32>, Vec<f32>) {
             .map(|p| {
                 let (x, y) = (p % g.w, p / g.w);
                 let (mut a, mut b) = (f32::INFINITY, f32::NEG_INFINITY);
+                let r = RADIUS as usize;
+                let inside = if along_x {
+                    (r..g.w.saturating_sub(r)).contains(&x)
+                } else {
+                    (r..g.h.saturating_sub(r)).contains(&y)
+                };
+                if g.face == 0 && inside {
+                    // Inside the canvas: the same pixels by plain offsets (min and max do not
+                    // depend on the order).
+                    let stride = if along_x { 1 } else { g.w };
+                    for q in (p - r * stride..=p + r * stride).step_by(stride) {
+                        a = a.min(lo[q]);
+                        b = b.max(v[q]);
+                    }
+                    return (a, b);
+                }
                 for o in -RADIUS..=RADIUS {
                     let (dx, dy) = if along_x { (o, 0) } else { (0, o) };
                     if let Some(q) = g.at(x, y, dx, dy) {
