@@ -47,15 +47,18 @@ pub(super) fn split_bands(nb: &Neighbours, log: &mut [f32], colour: &[[f32; 3]])
     let inv: Vec<f32> = src.par_iter().map(|&l| inverse(l)).collect();
     let out: Vec<Option<f32>> = (0..w * h)
         .into_par_iter()
-        .map_init(Profile::default, |prof, p| {
-            let (x, y) = (p % w, p / w);
-            if src[p] >= SKY_LOG - 1e-3 {
-                return None;
-            }
-            let (ux, uy) = gradient(&g, &src, x, y)?;
-            prof.sample(&g, (&src, &inv, colour), x, y, (ux, uy), REACH as isize);
-            prof.cut(angle)
-        })
+        .map_init(
+            || Profile::new((&src, &inv, colour)),
+            |prof, p| {
+                let (x, y) = (p % w, p / w);
+                if src[p] >= SKY_LOG - 1e-3 {
+                    return None;
+                }
+                let (ux, uy) = gradient(&g, &src, x, y)?;
+                prof.sample(&g, x, y, (ux, uy), REACH as isize);
+                prof.cut(angle)
+            },
+        )
         .collect();
     // Each pixel cuts its own profile: a pixel whose new depth none of its neighbours shares
     // (a profile that met another edge) keeps its depth.
@@ -106,40 +109,47 @@ fn gradient(g: &Grid, src: &[f32], x: usize, y: usize) -> Option<(f32, f32)> {
 /// Log depth, disparity and colour of the canvas.
 type Maps<'a> = (&'a [f32], &'a [f32], &'a [[f32; 3]]);
 
-/// The depth and colour along a line through the pixel, at `centre`.
-#[derive(Default)]
-struct Profile {
-    log: Vec<f32>,
-    /// Disparity of `log`.
-    inv: Vec<f32>,
-    colour: Vec<[f32; 3]>,
+/// The pixels along a line through the pixel, at `centre`, and the maps they are read from (only
+/// the samples a cut looks at are read).
+struct Profile<'a> {
+    idx: Vec<usize>,
+    maps: Maps<'a>,
     centre: usize,
 }
 
-impl Profile {
-    /// Sample `maps` (log depth, disparity, colour) through `(x, y)` along `u`, `r` steps each
-    /// way or to the face's edge.
-    fn sample(&mut self, g: &Grid, maps: Maps, x: usize, y: usize, u: (f32, f32), r: isize) {
-        let (src, inv, colour) = maps;
+impl<'a> Profile<'a> {
+    fn new(maps: Maps<'a>) -> Self {
+        Profile { idx: Vec::with_capacity(2 * REACH + 1), maps, centre: 0 }
+    }
+
+    /// Log depth of sample `i`.
+    fn l(&self, i: usize) -> f32 {
+        self.maps.0[self.idx[i]]
+    }
+
+    /// Disparity of sample `i`.
+    fn inv(&self, i: usize) -> f32 {
+        self.maps.1[self.idx[i]]
+    }
+
+    /// Colour (3 × 3 mean) of sample `i`.
+    fn colour(&self, i: usize) -> [f32; 3] {
+        self.maps.2[self.idx[i]]
+    }
+
+    /// The pixels through `(x, y)` along `u`, `r` steps each way or to the face's edge.
+    fn sample(&mut self, g: &Grid, x: usize, y: usize, u: (f32, f32), r: isize) {
         let (ux, uy) = u;
         let offset = |t: isize| ((t as f32 * ux).round() as isize, (t as f32 * uy).round() as isize);
-        self.log.clear();
-        self.inv.clear();
-        self.colour.clear();
-        let mut push = |q: usize| {
-            self.log.push(src[q]);
-            self.inv.push(inv[q]);
-            self.colour.push(colour[q]);
-        };
-        let (xi, yi, ri) = (x as isize, y as isize, r);
-        let back = if g.face == 0 && ri <= xi && xi + ri < g.w as isize && ri <= yi && yi + ri < g.h as isize
-        {
+        self.idx.clear();
+        let (xi, yi) = (x as isize, y as isize);
+        let back = if g.face == 0 && r <= xi && xi + r < g.w as isize && r <= yi && yi + r < g.h as isize {
             // Inside the canvas by the reach: plain offsets (the common case; same pixels as `at`).
             let p = (y * g.w + x) as isize;
-            for t in -r..=r {
+            self.idx.extend((-r..=r).map(|t| {
                 let (dx, dy) = offset(t);
-                push((p + dy * g.w as isize + dx) as usize);
-            }
+                (p + dy * g.w as isize + dx) as usize
+            }));
             r
         } else {
             let at = |t: isize| {
@@ -156,9 +166,7 @@ impl Profile {
                 }
             };
             let (back, ahead) = (reach(-1), reach(1));
-            for t in -back..=ahead {
-                push(at(t).expect("within the face"));
-            }
+            self.idx.extend((-back..=ahead).map(|t| at(t).expect("within the face")));
             back
         };
         self.centre = back as usize;
@@ -166,11 +174,11 @@ impl Profile {
 
     /// The centre's new log depth, if it lies inside a band.
     fn cut(&self, angle: f32) -> Option<f32> {
-        let (l, c) = (&self.log, self.centre);
-        let n = l.len();
+        let (l, c) = (|i| self.l(i), self.centre);
+        let n = self.idx.len();
         // Steps in disparity, where grazing ground and walls run on as lines (in log depth the
         // ground's steps shrink away from the horizon as a blur's tail does).
-        let step = |i: usize| self.inv[i] - self.inv[i + 1];
+        let step = |i: usize| self.inv(i) - self.inv(i + 1);
         // The monotone (rising) run of pixels a0..=b0 through the centre.
         let mut a0 = c;
         while a0 > 0 && step(a0 - 1) > 0.0 {
@@ -185,7 +193,7 @@ impl Profile {
         }
         let k = (a0..b0).max_by(|&i, &j| step(i).total_cmp(&step(j)))?;
         let peak = step(k);
-        if l[k + 1] - l[k] < MIN_STEP {
+        if l(k + 1) - l(k) < MIN_STEP {
             return None;
         }
         // The band: steps i..=j, pixels i (near end) to j + 1 (far end).
@@ -210,18 +218,18 @@ impl Profile {
             || i < SIDE - 1
             || j + SIDE > n - 1
             || !(i < c && c <= j)
-            || l[j + 1] - l[i] < JUMP
+            || l(j + 1) - l(i) < JUMP
         {
             return None;
         }
-        if (inverse(l[i]) - inverse(l[j + 1])) * EYE <= angle {
+        if (inverse(l(i)) - inverse(l(j + 1))) * EYE <= angle {
             return None;
         }
         let near_side: Vec<usize> = (i.saturating_sub(SIDE - 1)..=i).collect();
         let far_side: Vec<usize> = (j + 1..=(j + SIDE).min(n - 1)).collect();
         let mean = |idx: &[usize]| {
             let mut s = [0f32; 3];
-            idx.iter().for_each(|&q| (0..3).for_each(|ch| s[ch] += self.colour[q][ch]));
+            idx.iter().for_each(|&q| (0..3).for_each(|ch| s[ch] += self.colour(q)[ch]));
             s.map(|v| v / idx.len() as f32)
         };
         let (cn, cf) = (mean(&near_side), mean(&far_side));
@@ -232,11 +240,11 @@ impl Profile {
         } else {
             let (mut best, mut at) = (f32::INFINITY, k);
             // Running cost: near-side misfit of pixels up to m plus far-side misfit after it.
-            let far_total: f32 = (i..=j + 1).map(|q| d2(self.colour[q], cf)).sum();
+            let far_total: f32 = (i..=j + 1).map(|q| d2(self.colour(q), cf)).sum();
             let (mut near_acc, mut far_acc) = (0f32, far_total);
             for m in i..=j {
-                near_acc += d2(self.colour[m], cn);
-                far_acc -= d2(self.colour[m], cf);
+                near_acc += d2(self.colour(m), cn);
+                far_acc -= d2(self.colour(m), cf);
                 if near_acc + far_acc < best {
                     (best, at) = (near_acc + far_acc, m);
                 }
@@ -247,21 +255,21 @@ impl Profile {
         let v = self.continued(side, end);
         // A line from three samples carried across a wide band can overshoot: no further than
         // half the band's change past its end.
-        let v = if (v - l[end]).abs() > 0.5 * (l[j + 1] - l[i]) { l[end] } else { v };
-        let on_side = if c <= m { v < l[c] - TOL } else { v > l[c] + TOL };
+        let v = if (v - l(end)).abs() > 0.5 * (l(j + 1) - l(i)) { l(end) } else { v };
+        let on_side = if c <= m { v < l(c) - TOL } else { v > l(c) + TOL };
         on_side.then_some(v)
     }
 
     /// The side's surface at the centre: a line in disparity through its samples, or the end
     /// sample's depth where the line does not land on the side of the band it continues.
     fn continued(&self, side: &[usize], end: usize) -> f32 {
-        let (l, c) = (&self.log, self.centre as f32);
-        if l[end] >= SKY_LOG - 1e-3 || side.len() < 2 {
-            return l[end];
+        let (l, c) = (|i| self.l(i), self.centre as f32);
+        if l(end) >= SKY_LOG - 1e-3 || side.len() < 2 {
+            return l(end);
         }
-        let pts: Vec<(f32, f32)> = side.iter().map(|&q| (q as f32, self.inv[q])).collect();
+        let pts: Vec<(f32, f32)> = side.iter().map(|&q| (q as f32, self.inv(q))).collect();
         if pts.iter().any(|&(_, v)| v <= 0.0) {
-            return l[end];
+            return l(end);
         }
         let n = pts.len() as f32;
         let (mt, mv) = (pts.iter().map(|p| p.0).sum::<f32>() / n, pts.iter().map(|p| p.1).sum::<f32>() / n);
@@ -271,7 +279,7 @@ impl Profile {
         if v > 0.0 {
             -v.ln()
         } else {
-            l[end]
+            l(end)
         }
     }
 }
