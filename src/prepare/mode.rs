@@ -240,28 +240,15 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], colour: &[[f32; 3]])
 /// Per pixel, the least and greatest of `src` over the square of radius [`RADIUS`] around it as
 /// [`Grid::at`] reaches it (a row pass, then a column pass over the rows' results).
 fn square_range(g: &Grid, src: &[f32]) -> (Vec<f32>, Vec<f32>) {
+    if g.face == 0 {
+        return square_range_equirect(g, src);
+    }
     let pass = |v: &[f32], lo: &[f32], along_x: bool| -> (Vec<f32>, Vec<f32>) {
         (0..g.w * g.h)
             .into_par_iter()
             .map(|p| {
                 let (x, y) = (p % g.w, p / g.w);
                 let (mut a, mut b) = (f32::INFINITY, f32::NEG_INFINITY);
-                let r = RADIUS as usize;
-                let inside = if along_x {
-                    (r..g.w.saturating_sub(r)).contains(&x)
-                } else {
-                    (r..g.h.saturating_sub(r)).contains(&y)
-                };
-                if g.face == 0 && inside {
-                    // Inside the canvas: the same pixels by plain offsets (min and max do not
-                    // depend on the order).
-                    let stride = if along_x { 1 } else { g.w };
-                    for q in (p - r * stride..=p + r * stride).step_by(stride) {
-                        a = a.min(lo[q]);
-                        b = b.max(v[q]);
-                    }
-                    return (a, b);
-                }
                 for o in -RADIUS..=RADIUS {
                     let (dx, dy) = if along_x { (o, 0) } else { (0, o) };
                     if let Some(q) = g.at(x, y, dx, dy) {
@@ -275,6 +262,45 @@ fn square_range(g: &Grid, src: &[f32]) -> (Vec<f32>, Vec<f32>) {
     };
     let (row_lo, row_hi) = pass(src, src, true);
     pass(&row_hi, &row_lo, false)
+}
+
+/// [`square_range`] on an equirect canvas a row at a time, as [`Grid::at`] reaches the square
+/// (columns wrap, rows clamp at the poles): the least and greatest over shifted rows, which
+/// the compiler vectorises (min and max do not depend on the order).
+fn square_range_equirect(g: &Grid, src: &[f32]) -> (Vec<f32>, Vec<f32>) {
+    let (w, h, r) = (g.w, g.h, RADIUS as usize);
+    let (mut row_lo, mut row_hi) = (vec![0f32; w * h], vec![0f32; w * h]);
+    row_lo.par_chunks_mut(w).zip(row_hi.par_chunks_mut(w)).zip(src.par_chunks(w)).for_each(
+        |((lo, hi), row)| {
+            // The row with its wrapped columns either side: `ext[x + o]` is column x + o - r.
+            let ext: Vec<f32> = (0..w + 2 * r).map(|i| row[(i + w * (r / w + 1) - r) % w]).collect();
+            lo.copy_from_slice(&ext[..w]);
+            hi.copy_from_slice(&ext[..w]);
+            for o in 1..=2 * r {
+                for ((l, h), &v) in lo.iter_mut().zip(hi.iter_mut()).zip(&ext[o..o + w]) {
+                    *l = l.min(v);
+                    *h = h.max(v);
+                }
+            }
+        },
+    );
+    let (mut lo, mut hi) = (vec![0f32; w * h], vec![0f32; w * h]);
+    lo.par_chunks_mut(w).zip(hi.par_chunks_mut(w)).enumerate().for_each(|(y, (lo, hi))| {
+        let start = |o: isize| (y as isize + o).clamp(0, h as isize - 1) as usize * w;
+        let r = r as isize;
+        lo.copy_from_slice(&row_lo[start(-r)..start(-r) + w]);
+        hi.copy_from_slice(&row_hi[start(-r)..start(-r) + w]);
+        for o in 1 - r..=r {
+            let s = start(o);
+            for ((l, h), (&a, &b)) in
+                lo.iter_mut().zip(hi.iter_mut()).zip(row_lo[s..s + w].iter().zip(&row_hi[s..s + w]))
+            {
+                *l = l.min(a);
+                *h = h.max(b);
+            }
+        }
+    });
+    (lo, hi)
 }
 
 /// The side a pixel goes to: the disc's pixels in the mode's bins, weighted. The pixel takes that
