@@ -313,6 +313,30 @@ mod tests {
             .collect()
     }
 
+    /// A profile's plain offsets inside the canvas are the pixels [`Grid::at`] reaches, and
+    /// near the poles and the seam it takes the slow way: every direction, every pixel.
+    #[test]
+    fn a_profile_takes_the_pixels_along_its_line() {
+        let g = Grid::new(&canvas());
+        let maps: (Vec<f32>, Vec<f32>, Vec<[f32; 3]>) =
+            (vec![0.0; W * H], vec![0.0; W * H], vec![[0.0; 3]; W * H]);
+        let mut prof = Profile::new((&maps.0, &maps.1, &maps.2));
+        let dirs = [(1.0, 0.3), (-0.45, 1.0), (1.0, -1.0), (0.0, -1.0), (-1.0, 0.5)];
+        for p in (0..W * H).step_by(37) {
+            let (x, y) = (p % W, p / W);
+            for u in dirs {
+                prof.sample(&g, x, y, u, REACH as isize);
+                assert_eq!(prof.idx.len(), 2 * REACH + 1);
+                for (i, &q) in prof.idx.iter().enumerate() {
+                    let t = i as isize - prof.centre as isize;
+                    let want =
+                        g.at(x, y, (t as f32 * u.0).round() as isize, (t as f32 * u.1).round() as isize);
+                    assert_eq!(Some(q), want, "pixel ({x}, {y}), direction {u:?}, step {t}");
+                }
+            }
+        }
+    }
+
     /// An object 1.5 m out before a wall 4 m out, its depth blurred σ 4 px (bands of 16 px, wider
     /// than the mode filter's disc) and its colour sharp: the cut puts every pixel of the band on
     /// the side its colour is of, at that side's depth.

@@ -409,4 +409,30 @@ mod tests {
             }
         }
     }
+
+    /// The 3 × 3 mean's plain offsets inside the canvas give the bits of the mean taken through
+    /// [`Grid::at`] in the same order, at the poles, the seam and a cube's face edges too.
+    #[test]
+    fn colour_mean_is_the_nine_pixels_mean() {
+        for g in
+            [Grid { w: 2, h: 1, face: 0 }, Grid { w: 40, h: 20, face: 0 }, Grid { w: 48, h: 32, face: 16 }]
+        {
+            let guide: Vec<[f32; 3]> = (0..g.w * g.h)
+                .map(|p| [((p * 7919 + 13) % 101) as f32 / 17.0, (p % 7) as f32 * 0.1, 1.0 / (1 + p) as f32])
+                .collect();
+            let mean = colour_mean(&g, &guide);
+            for p in 0..g.w * g.h {
+                let (x, y) = (p % g.w, p / g.w);
+                let (mut sum, mut n) = ([0f32; 3], 0f32);
+                for (dx, dy) in (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (dx, dy))) {
+                    if let Some(q) = g.at(x, y, dx, dy) {
+                        (0..3).for_each(|c| sum[c] += guide[q][c]);
+                        n += 1.0;
+                    }
+                }
+                let want = sum.map(|s| s / n);
+                assert_eq!(mean[p].map(f32::to_bits), want.map(f32::to_bits), "pixel {p} of {}x{}", g.w, g.h);
+            }
+        }
+    }
 }
