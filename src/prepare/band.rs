@@ -142,8 +142,7 @@ impl<'a> Profile<'a> {
         let (ux, uy) = u;
         let offset = |t: isize| ((t as f32 * ux).round() as isize, (t as f32 * uy).round() as isize);
         self.idx.clear();
-        let (xi, yi) = (x as isize, y as isize);
-        let back = if g.face == 0 && r <= xi && xi + r < g.w as isize && r <= yi && yi + r < g.h as isize {
+        let back = if g.inside(x, y, r as usize) {
             // Inside the canvas by the reach: plain offsets (the common case; same pixels as `at`).
             let p = (y * g.w + x) as isize;
             self.idx.extend((-r..=r).map(|t| {

@@ -52,6 +52,14 @@ impl Grid {
         }
     }
 
+    /// Whether every offset of up to `r` pixels from `(x, y)` stays on an equirect canvas without
+    /// wrapping or clamping, so plain index offsets reach the pixels [`Grid::at`] does.
+    pub(super) fn inside(&self, x: usize, y: usize, r: usize) -> bool {
+        self.face == 0
+            && (r..self.w.saturating_sub(r)).contains(&x)
+            && (r..self.h.saturating_sub(r)).contains(&y)
+    }
+
     pub(super) fn at(&self, x: usize, y: usize, dx: isize, dy: isize) -> Option<usize> {
         let (xx, yy) = (x as isize + dx, y as isize + dy);
         if self.face == 0 {
@@ -80,8 +88,7 @@ pub(super) fn colour_mean(g: &Grid, guide: &[[f32; 3]]) -> Vec<[f32; 3]> {
         .map(|p| {
             let (x, y) = (p % w, p / w);
             let (mut sum, mut n) = ([0f32; 3], 0f32);
-            if g.face == 0 && (1..w.saturating_sub(1)).contains(&x) && (1..g.h.saturating_sub(1)).contains(&y)
-            {
+            if g.inside(x, y, 1) {
                 // Inside the canvas: the same nine pixels in the same order, by plain offsets.
                 for q in [p - w - 1, p - w, p - w + 1, p - 1, p, p + 1, p + w - 1, p + w, p + w + 1] {
                     (0..3).for_each(|c| sum[c] += guide[q][c]);
