@@ -171,6 +171,12 @@ pub fn segment(
     let (id, size, depth_sum) = sized_ids(&mut dsu, depth, &finite);
     let count = size.len();
     let (mut jumps, folds) = border_relations(nb, depth, &masks, &id);
+    // Each segment's border with others, jumps and folds, before bridges add links across rims.
+    let mut border = vec![0u32; count];
+    for (&(a, b), &c) in jumps.iter().chain(&folds) {
+        border[a as usize] += c;
+        border[b as usize] += c;
+    }
     bridge_jumps(nb, depth, &id, &size, o.edges.jump, &mut jumps);
     let mean: Vec<f64> = depth_sum.iter().zip(&size).map(|(s, &c)| s / c as f64).collect();
     // Keep a relation only if it is long enough and dominant over its reverse.
@@ -180,7 +186,7 @@ pub fn segment(
         .map(|(&(a, b), &c)| (a, b, c))
         .collect();
     occludes.sort_unstable();
-    let level = levels(count, &mean, &size, &occludes, &folds);
+    let level = levels(count, &mean, &size, &occludes, &folds, &border);
     Segments { id, level, size }
 }
 
@@ -410,10 +416,11 @@ fn levels(
     size: &[u32],
     occludes: &[(u32, u32, u32)],
     folds: &HashMap<(u32, u32), u32>,
+    border: &[u32],
 ) -> Vec<u32> {
     let behind = acyclic_behind(count, mean, size, occludes);
     let mut level = longest_chains(&behind);
-    attach_free(&mut level, &behind, size, folds);
+    attach_free(&mut level, &behind, size, folds, border);
     level
 }
 
@@ -468,8 +475,17 @@ fn longest_chains(behind: &[Vec<u32>]) -> Vec<u32> {
 }
 
 /// Segments that occlude nothing take the level of the larger segment they share the longest
-/// fold with, unless that puts them level with (or above) one in front of them.
-fn attach_free(level: &mut [u32], behind: &[Vec<u32>], size: &[u32], folds: &HashMap<(u32, u32), u32>) {
+/// fold with, unless that puts them level with (or above) one in front of them. A segment ringed
+/// by folds to occluders of one level (at least [`RINGED`] of its border) takes that level
+/// whatever their size: a lamp's face inside its rim, kept at the face's depth by the settle and cut from
+/// it by a fold, goes up with the rim.
+fn attach_free(
+    level: &mut [u32],
+    behind: &[Vec<u32>],
+    size: &[u32],
+    folds: &HashMap<(u32, u32), u32>,
+    border: &[u32],
+) {
     let count = behind.len();
     let occluder: Vec<bool> = behind.iter().map(|l| !l.is_empty()).collect();
     // What occludes each segment: a free segment never joins the level of one in front of it
@@ -481,14 +497,14 @@ fn attach_free(level: &mut [u32], behind: &[Vec<u32>], size: &[u32], folds: &Has
         }
     }
     let mut attached: Vec<Vec<(u32, u32)>> = vec![Vec::new(); count];
+    let mut partners: Vec<Vec<(u32, u32)>> = vec![Vec::new(); count];
     for (&(a, b), &c) in folds {
-        if size[b as usize] > size[a as usize] {
-            attached[a as usize].push((c, b));
-        } else {
-            attached[b as usize].push((c, a));
-        }
+        let (small, large) = if size[b as usize] > size[a as usize] { (a, b) } else { (b, a) };
+        attached[small as usize].push((c, large));
+        partners[a as usize].push((c, b));
+        partners[b as usize].push((c, a));
     }
-    for list in &mut attached {
+    for list in attached.iter_mut().chain(&mut partners) {
         list.sort_unstable_by(|x, y| y.cmp(x));
     }
     // A few passes let levels flow along chains of fold-attached free segments.
@@ -499,8 +515,9 @@ fn attach_free(level: &mut [u32], behind: &[Vec<u32>], size: &[u32], folds: &Has
                 continue;
             }
             let below_front = |l: u32| in_front[s].iter().all(|&f| level[f as usize] > l);
-            if let Some(&(_, other)) = attached[s].iter().find(|&&(_, o)| below_front(level[o as usize])) {
-                let l = level[other as usize];
+            let ringed = ringing_level(&partners[s], level, &occluder, border[s]).filter(|&l| below_front(l));
+            let attach = || attached[s].iter().find(|&&(_, o)| below_front(level[o as usize]));
+            if let Some(l) = ringed.or_else(|| attach().map(|&(_, o)| level[o as usize])) {
                 if level[s] != l {
                     level[s] = l;
                     changed = true;
@@ -511,6 +528,25 @@ fn attach_free(level: &mut [u32], behind: &[Vec<u32>], size: &[u32], folds: &Has
             break;
         }
     }
+}
+
+/// Share of a free segment's border (jumps and folds) that folds to segments of one level must
+/// reach for [`attach_free`] to count it as ringed by them.
+const RINGED: f64 = 0.75;
+
+/// The level whose occluders hold at least [`RINGED`] of `border` in fold links (`partners`: fold
+/// count and segment, in a fixed order), if any. Free partners do not count: their levels are
+/// not settled yet (noise leaves fields of small free pieces, each ringed by the others).
+fn ringing_level(partners: &[(u32, u32)], level: &[u32], occluder: &[bool], border: u32) -> Option<u32> {
+    let mut by_level: Vec<(u32, u32)> = Vec::new();
+    for &(c, o) in partners.iter().filter(|&&(_, o)| occluder[o as usize]) {
+        let l = level[o as usize];
+        match by_level.iter_mut().find(|(m, _)| *m == l) {
+            Some((_, sum)) => *sum += c,
+            None => by_level.push((l, c)),
+        }
+    }
+    by_level.into_iter().find(|&(_, sum)| sum > 0 && sum as f64 >= RINGED * border as f64).map(|(l, _)| l)
 }
 
 /// Strongly connected component of every node of a directed graph (Tarjan, iterative: segment

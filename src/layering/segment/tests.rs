@@ -8,7 +8,7 @@ use crate::mapping::{AnyMapping, MappingKind};
 #[test]
 fn far_occluder_of_a_nearer_on_average_surface_is_promoted() {
     let mean = [8.0, 23.0];
-    let level = levels(2, &mean, &[1000, 50], &[(1, 0, 30)], &HashMap::new());
+    let level = levels(2, &mean, &[1000, 50], &[(1, 0, 30)], &HashMap::new(), &[30, 30]);
     assert_eq!(level, vec![0, 1]);
 }
 
@@ -19,12 +19,45 @@ fn cycles_are_broken_by_mean_depth_only_inside_the_cycle() {
     // Means: 0 far (10 m), 1 middle (5 m), 2 near (2 m); 3 occludes 2 but is farther (12 m).
     let mean = [10.0, 5.0, 2.0, 12.0];
     let occ = [(1, 0, 9), (2, 1, 9), (0, 2, 9), (3, 2, 9)];
-    let level = levels(4, &mean, &[9; 4], &occ, &HashMap::new());
+    let level = levels(4, &mean, &[9; 4], &occ, &HashMap::new(), &[9; 4]);
     // Inside the cycle only near → far survive: 2 → 1 → 0 (0 → 2 dropped).
     assert_eq!(&level[..3], &[0, 1, 2]);
     assert_eq!(level[3], 3);
     let comp = strong_components(&[vec![1], vec![2], vec![0], vec![2]]);
     assert!(comp[0] == comp[1] && comp[1] == comp[2] && comp[3] != comp[0]);
+}
+
+/// A lamp's face (30 000 px) whose rim the settle kept at the lamp's depth as a ring of its own
+/// (2 700 px, a fold from the face, a jump to the ceiling) occludes nothing itself: ringed by its
+/// rim, it goes up with it although the rim is smaller. The floor a box stands on (its border
+/// mostly walls, which are free) does not follow the smaller box.
+#[test]
+fn a_face_ringed_by_its_rim_takes_the_rims_level() {
+    // 0 ceiling and walls, 1 rim, 2 lamp face, 3 floor, 4 box.
+    let mean = [3.0, 1.12, 1.10, 2.0, 1.5];
+    let size = [400_000, 2_700, 30_000, 100_000, 5_000];
+    let occ = [(1, 0, 900), (4, 0, 60)];
+    let folds = HashMap::from([((1, 2), 1_000), ((0, 3), 2_000), ((3, 4), 300)]);
+    // Borders: the lamp's is its rim; the floor's mostly walls.
+    let border = [2_960, 1_900, 1_000, 2_300, 360];
+    let level = levels(5, &mean, &size, &occ, &folds, &border);
+    assert_eq!(level, vec![0, 1, 1, 0, 1]);
+    // Without the ring all round (half its border to something else), the face stays.
+    let level = levels(5, &mean, &size, &occ, &folds, &[2_960, 1_900, 2_000, 2_300, 360]);
+    assert_eq!(level[2], 0);
+}
+
+/// Noise leaves fields of small free pieces on a surface, each mostly bordered by the others: they
+/// do not ring one another (their levels are not settled) but follow the surface they lie on.
+#[test]
+fn free_pieces_do_not_ring_one_another() {
+    // 0 wall, 1 object in front of it, 2 a patch folded to the object, 3 and 4 pieces on the patch.
+    let mean = [4.0, 2.0, 2.1, 2.1, 2.1];
+    let size = [100_000, 50_000, 5_000, 2, 1];
+    let folds = HashMap::from([((1, 2), 400), ((2, 3), 2), ((3, 4), 6)]);
+    let border = [900, 1_300, 402, 8, 6];
+    let level = levels(5, &mean, &size, &[(1, 0, 900)], &folds, &border);
+    assert_eq!(level, vec![0, 1, 1, 1, 1]);
 }
 
 /// A wall (100 000 px) with a 12-pixel speck of something farther behind it stays the
@@ -33,7 +66,7 @@ fn cycles_are_broken_by_mean_depth_only_inside_the_cycle() {
 fn a_speck_behind_a_surface_does_not_lift_it() {
     let mean = [4.0, 4.5, 2.0];
     let size = [100_000, 12, 5_000];
-    let level = levels(3, &mean, &size, &[(0, 1, 5), (2, 0, 40)], &HashMap::new());
+    let level = levels(3, &mean, &size, &[(0, 1, 5), (2, 0, 40)], &HashMap::new(), &[45, 5, 40]);
     assert_eq!(level[0], 0);
     assert_eq!(level[2], 1);
 }
