@@ -477,8 +477,8 @@ fn longest_chains(behind: &[Vec<u32>]) -> Vec<u32> {
 /// Segments that occlude nothing take the level of the larger segment they share the longest
 /// fold with, unless that puts them level with (or above) one in front of them. A segment ringed
 /// by folds to occluders of one level (at least [`RINGED`] of its border) takes that level
-/// whatever their size: a lamp's face inside its rim, kept at the face's depth by the settle and cut from
-/// it by a fold, goes up with the rim.
+/// whatever their size: a lamp's face inside its rim (kept at the face's depth by the settle, cut
+/// from the face by a fold) goes up with the rim.
 fn attach_free(
     level: &mut [u32],
     behind: &[Vec<u32>],

@@ -19,7 +19,7 @@ fn cycles_are_broken_by_mean_depth_only_inside_the_cycle() {
     // Means: 0 far (10 m), 1 middle (5 m), 2 near (2 m); 3 occludes 2 but is farther (12 m).
     let mean = [10.0, 5.0, 2.0, 12.0];
     let occ = [(1, 0, 9), (2, 1, 9), (0, 2, 9), (3, 2, 9)];
-    let level = levels(4, &mean, &[9; 4], &occ, &HashMap::new(), &[9; 4]);
+    let level = levels(4, &mean, &[9; 4], &occ, &HashMap::new(), &[18, 18, 27, 9]);
     // Inside the cycle only near → far survive: 2 → 1 → 0 (0 → 2 dropped).
     assert_eq!(&level[..3], &[0, 1, 2]);
     assert_eq!(level[3], 3);
