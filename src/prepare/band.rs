@@ -1,10 +1,9 @@
 //! Soft bands split at their colour edge (issue 51's 1-D cut across the band): along the depth's
 //! gradient through a pixel inside a soft step, the profile's band (the steps of one monotone run
-//! over [`TAIL`] of its steepest) is cut once, where the colours on either side best match each
-//! side's colour just past the band; each pixel takes its side's surface continued (a line in
-//! disparity through the side's first samples). Bands wider than the mode filter's disc settle so.
-//! Measured in docs/build.md ("Soft bands cut at their colour edge").
-
+//! over [`TAIL`] of its steepest) is cut once near its half-rise, where the colours on either side
+//! best match each side's colour just past the band; each pixel takes its side's surface continued
+//! (a line in disparity through the side's first samples). Bands wider than the mode filter's disc
+//! settle so. Measured in docs/build.md ("Soft bands cut at their colour edge").
 use rayon::prelude::*;
 
 use super::complete::SKY_LOG;
@@ -29,8 +28,15 @@ const JUMP: f32 = 0.0953;
 /// A pixel within this of a side (log depth, 3 %) is on it already.
 const TOL: f32 = 0.0296;
 /// Sides whose colours differ by less than this (square root of linear RGB) show no edge: the
-/// band is cut at its steepest depth step.
+/// band is cut where its log depth passes half its rise.
 const COLOUR_EDGE: f32 = 0.03;
+/// Pixels either side of the band's half-rise that its cut is sought within.
+const CUT_REACH: usize = 3;
+/// A pixel's colour misfit to a side is capped at this share of the squared distance between the
+/// sides' colours.
+const TRUNCATE: f32 = 0.1;
+/// Colour steps within this share of one another are equal.
+const STEP_TIE: f32 = 1e-3;
 /// Neighbours (of 8) that a moved pixel's new depth must be shared by, within [`TOL`].
 const ALIKE: usize = 2;
 /// Metres: a band whose sides land within a pixel of each other for an eye this far out is left.
@@ -233,19 +239,36 @@ impl<'a> Profile<'a> {
         };
         let (cn, cf) = (mean(&near_side), mean(&far_side));
         let d2 = |a: [f32; 3], b: [f32; 3]| (0..3).map(|ch| (a[ch] - b[ch]).powi(2)).sum::<f32>();
+        // Where the log depth passes half the band's rise: a blur's edge, wherever its steepest
+        // step in disparity leans. The cut is sought near it only.
+        let half = 0.5 * (l(i) + l(j + 1));
+        let mid = (i..=j).find(|&q| l(q + 1) > half).unwrap_or(j);
         // The cut after pixel m: pixels i..=m near, m + 1..=j + 1 far.
         let m = if d2(cn, cf).sqrt() < COLOUR_EDGE {
-            k
+            mid
         } else {
-            let (mut best, mut at) = (f32::INFINITY, k);
+            // A pixel's misfit is capped: a third colour (an edge stripe, a shaded rim) far from
+            // both sides costs the same on either, so it does not drag the cut onto its far edge.
+            let cap = TRUNCATE * d2(cn, cf);
+            let cost = |q: usize, side: [f32; 3]| d2(self.colour(q), side).min(cap);
+            // Equal costs go to the strongest colour step between neighbours, and equal steps (an
+            // edge the colour guide's 3 × 3 mean spreads over three) to the one nearest `mid`.
+            let colour_step = |m: usize| d2(self.colour(m), self.colour(m + 1));
+            let stronger = |m: usize, at: usize| {
+                let (s, t) = (colour_step(m), colour_step(at));
+                s > t * (1.0 + STEP_TIE) || (s >= t * (1.0 - STEP_TIE) && m.abs_diff(mid) < at.abs_diff(mid))
+            };
+            let eps = 1e-6 * cap;
+            let (lo, hi) = (mid.saturating_sub(CUT_REACH).max(i), (mid + CUT_REACH).min(j));
+            let (mut best, mut at) = (f32::INFINITY, mid);
             // Running cost: near-side misfit of pixels up to m plus far-side misfit after it.
-            let far_total: f32 = (i..=j + 1).map(|q| d2(self.colour(q), cf)).sum();
-            let (mut near_acc, mut far_acc) = (0f32, far_total);
-            for m in i..=j {
-                near_acc += d2(self.colour(m), cn);
-                far_acc -= d2(self.colour(m), cf);
-                if near_acc + far_acc < best {
-                    (best, at) = (near_acc + far_acc, m);
+            let (mut near_acc, mut far_acc) = (0f32, (i..=j + 1).map(|q| cost(q, cf)).sum::<f32>());
+            for m in i..=hi {
+                near_acc += cost(m, cn);
+                far_acc -= cost(m, cf);
+                let total = near_acc + far_acc;
+                if m >= lo && (total < best - eps || (total <= best + eps && stronger(m, at))) {
+                    (best, at) = (total.min(best), m);
                 }
             }
             at
@@ -354,6 +377,33 @@ mod tests {
         let moved = split_bands(&canvas(), &mut log, &colour);
         assert!(moved >= before / 2, "{moved} moved of {before}");
         assert!(off(&log) <= H, "{} pixels still more than 5 % off (of {before})", off(&log));
+    }
+
+    /// A mark of the background's colour on the object, beside its outline: a cut by colour alone
+    /// sends the mark and the strip of face outside it to the background. The cut is sought within
+    /// [`CUT_REACH`] of the depth's half-rise only, so they stay on the object.
+    #[test]
+    fn a_mark_inside_an_object_is_not_its_outline() {
+        let object = |x: usize| (80..140).contains(&x);
+        let mark = |x: usize| (128..137).contains(&x);
+        let exact: Vec<f32> =
+            (0..W * H).map(|p| if object(p % W) { 1.5f32.ln() } else { 4f32.ln() }).collect();
+        let guide: Vec<[f32; 3]> = (0..W * H)
+            .map(|p| match p % W {
+                x if mark(x) => [0.42, 0.5, 0.44],
+                x if object(x) => [0.8, 0.2, 0.2],
+                _ => [0.4, 0.5, 0.45],
+            })
+            .collect();
+        let mut log = blurred(&exact, 4.0);
+        let colour = super::super::mode::colour_mean(&Grid::new(&canvas()), &guide);
+        split_bands(&canvas(), &mut log, &colour);
+        let rows = 8..H - 8;
+        let off =
+            |x: usize| rows.clone().filter(|&y| (log[y * W + x] - exact[y * W + x]).abs() > 0.05).count();
+        for x in 128..140 {
+            assert!(off(x) <= 2, "column {x}: {} rows off the object", off(x));
+        }
     }
 
     /// A wall turning away between two corners keeps its slope to its ends: no band. A sharp
