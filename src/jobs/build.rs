@@ -228,9 +228,9 @@ pub fn build_arrays(
     Ok(built)
 }
 
-/// The layering's options for depth as `prepared`: `s`'s, soft when the depth was.
+/// The layering's options for depth as `prepared`: `s`'s, soft when the depth is not exact.
 fn layering_options(s: &BuildSettings, prepared: &PrepareReport) -> BuildOptions {
-    let soft_depth = s.options.soft_depth || prepared.soft();
+    let soft_depth = s.options.soft_depth || prepared.inexact();
     BuildOptions { soft_depth, ..s.options.clone() }
 }
 

@@ -63,8 +63,8 @@ pub struct BuildOptions {
     pub soft_edges: bool,
     /// The depth is soft (estimated, blurred or resized): its outlines keep small pieces of
     /// in-between depth, whose own planes the fill does not continue (the plane of their layer a
-    /// few pixels inside instead). [`crate::jobs::build_panorama`] sets it when `prepare` measured
-    /// the depth soft or refined it; exact depth builds as without it.
+    /// few pixels inside instead). [`crate::jobs::build_panorama`] sets it when the prepared depth
+    /// is not exact ([`crate::prepare::PrepareReport::inexact`]); exact depth builds as without it.
     pub soft_depth: bool,
     /// Extra fill band in pixels beyond the parallax band (reconstruction filters reach ~1-2 px).
     pub margin_px: f64,

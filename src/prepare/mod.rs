@@ -135,6 +135,14 @@ impl PrepareReport {
     pub fn soft(&self) -> bool {
         self.edges.is_soft() || self.snapped
     }
+
+    /// Whether the depth is other than exact at full resolution: soft, resampled onto the
+    /// colour's grid, completed where unknown, or smoothed. The build then distrusts small pieces
+    /// of its outlines ([`crate::layering::BuildOptions::soft_depth`]): resampling and completion
+    /// leave in-between depths along edges as a blur does.
+    pub fn inexact(&self) -> bool {
+        self.soft() || self.resized || self.completed_pixels > 0 || self.rim_pixels > 0 || self.smoothed
+    }
 }
 
 /// Errors of depth preparation; each names the file and the fix.
