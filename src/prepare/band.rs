@@ -3,7 +3,9 @@
 //! over [`TAIL`] of its steepest) is cut once near its half-rise, where the colours on either side
 //! best match each side's colour just past the band; each pixel takes its side's surface continued
 //! (a line in disparity through the side's first samples). Bands wider than the mode filter's disc
-//! settle so. Measured in docs/build.md ("Soft bands cut at their colour edge").
+//! settle so. Measured in docs/build.md ("Soft bands cut at their colour edge", "The band's cut
+//! near its half-rise").
+
 use rayon::prelude::*;
 
 use super::complete::SKY_LOG;
