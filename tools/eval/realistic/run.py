@@ -229,6 +229,9 @@ def upsample2(img):
 
 CAMERA_HEIGHT = {"room": 1.4, "outdoor": 1.6, "extreme": 1.6}  # the floor below the camera, m (scenes.py)
 DEGRADES = ("upsample2", "blurN", "low2", "low4", "low8", "mono", "relinv", "scanner", "lidar", "nearness8")
+# A kind's floor: the error its input carries at every pixel (scale drift, affine inverse, noise, 8-bit steps)
+# on exact full-resolution depth, with no edge to recover: the gap no preparation of its edges can close.
+FLOORS = ("mono-floor", "relinv-floor", "scanner-floor", "nearness8-floor")
 
 
 def inverse(depth):
@@ -296,6 +299,8 @@ def degrade(src, work, kind, scene):
     rng = np.random.default_rng(31)
     args, out_depth = [], None
     os.makedirs(work, exist_ok=True)
+    if kind.endswith("-floor"):
+        return floor(src, work, kind, scene, z)
     if kind == "upsample2":
         colour = {k: upsample2(v) for k, v in colour.items()}
         depth = {k: upsample2(v) for k, v in depth.items()}
@@ -338,6 +343,35 @@ def degrade(src, work, kind, scene):
                      {k: np.ascontiguousarray(v, np.float32) for k, v in ch.items()}).write(path)
         paths.append(path)
     return paths[0], paths[1], args
+
+
+def floor(src, work, kind, scene, z):
+    """FLOORS: `kind`'s per-pixel error on the exact depth at the colour's resolution, its edges exact."""
+    rng = np.random.default_rng(31)
+    colour, args = os.path.join(src, "colour.exr"), []
+    if kind == "mono-floor":
+        out_depth = z * drift(z.shape, 0.03, 7)
+    elif kind == "relinv-floor":
+        out_depth = 7.3 * inverse(z) + 0.21
+        args = ["--depth-kind", "inverse", "--camera-height", str(CAMERA_HEIGHT[scene])]
+    elif kind == "scanner-floor":
+        d = np.where(np.isfinite(z), z + rng.normal(0, 1, z.shape) * 0.0015 * z ** 2, 0)
+        path = os.path.join(work, f"input-{kind}-depth.png")
+        write_png(path, np.where((d > 65.0) | ~(z <= 65.0), 0, np.round(d * 1000)), 16)
+        return colour, path, ["--depth-scale", "0.001", "--unknown-depth", "sky"]
+    elif kind == "nearness8-floor":
+        fin = z[np.isfinite(z)]
+        near, far = float(np.percentile(fin, 1)), float(np.percentile(fin, 99))
+        v = np.clip((far - np.where(np.isfinite(z), z, far)) / (far - near), 0, 1)
+        path = os.path.join(work, f"input-{kind}-depth.jpg")
+        write_png(path, np.round(255 * v), 8)
+        return colour, path, ["--depth-kind", "nearness", f"--depth-range={near:.3f},{far:.3f}"]
+    else:
+        sys.exit(f"unknown --degrade {kind} ({', '.join(FLOORS)})")
+    path = os.path.join(work, f"input-{kind}-depth.exr")
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                 {"Z": np.ascontiguousarray(out_depth, np.float32)}).write(path)
+    return colour, path, args
 
 
 def build(pomc, colour, depth, out, extra=()):
@@ -506,7 +540,7 @@ def main():
     ap.add_argument("--build-args", default="", help="extra `pomc build` options for the scene (not the reference), "
                     "e.g. '--fill-colour nearest'")
     ap.add_argument("--tag", default="", help="results go to a work subdirectory of this name (compare options)")
-    ap.add_argument("--degrade", default="", help="build from a degraded input, one of " + ", ".join(DEGRADES) +
+    ap.add_argument("--degrade", default="", help="build from a degraded input, one of " + ", ".join(DEGRADES + FLOORS) +
                     " (docs/evaluation.md); the reference and the truth stay as they are")
     o = ap.parse_args()
     pomc, fix = binaries()
