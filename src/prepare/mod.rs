@@ -351,7 +351,10 @@ pub fn prepare_depth(
     let rim = peel_blends(&source, &mut depth);
     let resized = (sw, sh) != (mapping.width(), mapping.height());
     if resized {
-        depth = resize::resize(&depth, &source, mapping, guide());
+        // 8-bit codes step by up to a fifth of the depth (a web map over an outdoor range): their
+        // terraces would read as edges and their samples as mixes (docs/build.md).
+        let mixes = samples.format != SampleFormat::U8;
+        depth = resize::resize(&depth, &source, mapping, guide(), mixes);
     }
     let n = depth.len();
     let mut unknown: Vec<bool> = depth.par_iter().map(|d| d.is_nan()).collect();

@@ -1,9 +1,10 @@
 //! Depth of another resolution onto the colour's grid, guided by the colour (a joint bilateral
 //! upsampling that picks a surface rather than averaging across edges): the 4 × 4 depth samples
-//! around a pixel are split into surfaces by the build's continuity rule; the surface whose samples'
-//! colours (averaged over their footprints) are nearest the pixel's own colour, and nearest in
-//! space, is the pixel's, and its samples among the 2 × 2 nearest are interpolated bilinearly in
-//! inverse depth (planes stay planes). Where the window is one surface this is plain bilinear.
+//! around a pixel, less those that mix two sides of an edge ([`mixes`]), are split into surfaces
+//! by the build's continuity rule; the surface whose samples' colours (averaged over their
+//! footprints) are nearest the pixel's own colour, and nearest in space, is the pixel's, and its
+//! samples among the 2 × 2 nearest are interpolated bilinearly in inverse depth (planes stay
+//! planes). Where the window is one surface this is plain bilinear.
 
 use rayon::prelude::*;
 
@@ -51,11 +52,18 @@ impl Grid {
 }
 
 /// `depth` (`from`'s canvas, metres) resampled onto `to`'s canvas (both of one mapping kind),
-/// guided by `guide`, the colour on `to`'s canvas.
-pub(crate) fn resize(depth: &[f32], from: &AnyMapping, to: &AnyMapping, guide: &[[f32; 3]]) -> Vec<f32> {
+/// guided by `guide`, the colour on `to`'s canvas; mixed samples found when `find_mixes`.
+pub(crate) fn resize(
+    depth: &[f32],
+    from: &AnyMapping,
+    to: &AnyMapping,
+    guide: &[[f32; 3]],
+    find_mixes: bool,
+) -> Vec<f32> {
     let g = Grid::new(from, to);
     let cw = to.width();
     let sample_colour = footprint_colours(&g, from, to, guide);
+    let mixes = if find_mixes { mixes(&g, depth) } else { vec![false; depth.len()] };
     (0..guide.len())
         .into_par_iter()
         .map(|p| {
@@ -66,13 +74,51 @@ pub(crate) fn resize(depth: &[f32], from: &AnyMapping, to: &AnyMapping, guide: &
             if let Some(v) = win.one_surface() {
                 return v;
             }
-            let surface = surfaces(&win.d);
-            let chosen = if surface.iter().all(|&s| s == surface[5]) && surface[5] != NONE {
-                surface[5]
-            } else {
-                win.choose(&surface, guide[p], &sample_colour)
+            let mix: [bool; 16] = std::array::from_fn(|k| mixes[win.idx[k]]);
+            // Without its mixes; a window of nothing but mixes as it is.
+            let pick = |mix: &[bool; 16]| {
+                let surface = surfaces(&win.d, mix);
+                let chosen = if surface.iter().all(|&s| s == surface[5]) && surface[5] != NONE {
+                    surface[5]
+                } else {
+                    win.choose(&surface, guide[p], &sample_colour)
+                };
+                (chosen != NONE).then(|| win.depth_on(&surface, chosen))
             };
-            win.depth_on(&surface, chosen)
+            pick(&mix).or_else(|| pick(&[false; 16])).unwrap_or(f32::NAN)
+        })
+        .collect()
+}
+
+/// Per source sample, whether it is a mix across an edge: between a nearer and a farther
+/// neighbour along a row, column or diagonal, a jump from each, and on neither side's surface
+/// continued (an area-averaged sample, which the plane test would otherwise join to both sides
+/// as a slope; a slope's sample lies on its neighbours' line).
+fn mixes(g: &Grid, depth: &[f32]) -> Vec<bool> {
+    let (tw, th) = g.tile_d;
+    let jump = 1.0 + continuity::JUMP as f32;
+    // Whether the surface through `a` and then `b` continues to the sample (inverse depth is
+    // linear along a plane): a slope stepping by more than a step per sample is no edge.
+    let continues = |a: f32, b: f32, d: f32| {
+        let (ia, ib, id) = (1.0 / a, 1.0 / b, 1.0 / d);
+        (2.0 * ib - ia - id).abs() <= continuity::JUMP as f32 * id
+    };
+    (0..depth.len())
+        .into_par_iter()
+        .map(|s| {
+            let d = depth[s];
+            if !(d.is_finite() && d > 0.0) {
+                return false;
+            }
+            let (x, y) = (s % g.dw, s / g.dw);
+            let (ox, oy) = (x / tw * tw, y / th * th);
+            let (i, j) = ((x - ox) as i64, (y - oy) as i64);
+            let at = |di: i64, dj: i64| depth[g.index(ox, oy, i + di, j + dj)];
+            [(1, 0), (0, 1), (1, 1), (1, -1)].iter().any(|&(di, dj)| {
+                let (l1, l2, r1, r2) = (at(-di, -dj), at(-2 * di, -2 * dj), at(di, dj), at(2 * di, 2 * dj));
+                let between = |far: f32, near: f32| far > jump * d && d > jump * near;
+                (between(l1, r1) || between(r1, l1)) && !continues(l2, l1, d) && !continues(r2, r1, d)
+            })
         })
         .collect()
 }
@@ -195,10 +241,10 @@ const NONE: u8 = u8::MAX;
 
 /// The 4 × 4 window's samples labelled by surface (connected by the build's continuity rule along
 /// rows and columns of the window, the next sample out as the plane test's end); [`NONE`] for
-/// unknown samples. Labels are the index of a surface's first sample.
-fn surfaces(d: &[f32; 16]) -> [u8; 16] {
+/// unknown samples and `mix`es. Labels are the index of a surface's first sample.
+fn surfaces(d: &[f32; 16], mix: &[bool; 16]) -> [u8; 16] {
     let mut label: [u8; 16] =
-        std::array::from_fn(|k| if d[k].is_nan() || d[k] <= 0.0 { NONE } else { k as u8 });
+        std::array::from_fn(|k| if d[k].is_nan() || d[k] <= 0.0 || mix[k] { NONE } else { k as u8 });
     let at = |k: i32| (0..16).contains(&k).then(|| f64::from(d[k as usize]));
     // Links of the window: right and down neighbours.
     let mut links = Vec::with_capacity(24);
