@@ -441,7 +441,10 @@ fn check_input(input: &RgbdInput, o: &BuildOptions) -> Result<(), BuildError> {
 /// and its colour (stages `borders`, `fill colour`).
 fn fill_all(cx: &FillContext, count: usize, colour: FillColour, stages: &mut Stages) -> Vec<fill::Fill> {
     let mut fills: Vec<fill::Fill> = (0..count as u32).into_par_iter().map(|k| fill_layer(cx, k)).collect();
-    fill::yield_to_farther(&mut fills);
+    let yielded = fill::yield_to_farther(&mut fills);
+    fills.par_iter_mut().zip(yielded).enumerate().filter(|(_, (_, y))| *y).for_each(|(k, (f, _))| {
+        fill::keep_valid(cx, k as u32, f);
+    });
     stages.start("borders");
     fill::add_borders(cx, &mut fills);
     if colour != FillColour::Nearest {

@@ -204,9 +204,13 @@ pub(super) fn parts(
 /// continuous with, if there is one; a sliver pixel with no such layer (joined to its own by one
 /// link at most: an in-between depth a soft edge left beside an object) takes the layer and depth of
 /// its farthest finite neighbour beyond it, as a mixed pixel does ([`mixed_pixels_of`]). Passes until
-/// none moves (at most a few).
+/// none moves (at most a few). A break left after them (a pixel tied to its layer on two sides
+/// across a step: 8-bit depth's in-between codes) has its loose pixel taken to the far side all the
+/// same: the layer must validate.
 pub(super) fn repair_breaks(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [u32]) {
-    for _ in 0..4 {
+    let mut forced = false;
+    for pass in 0..REPAIR_PASSES + FORCED_PASSES {
+        forced |= pass >= REPAIR_PASSES;
         let layer = &*layer_of;
         let breaks = breaks(nb, depth, |p| (layer[p] != u32::MAX).then_some(layer[p]));
         if breaks.is_empty() {
@@ -223,30 +227,51 @@ pub(super) fn repair_breaks(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [
             )
         };
         // Per break, the loose pixel, the layer it moves to and, for a sliver, the depth it takes.
-        let moves: Vec<(usize, u32, Option<f32>)> = breaks
-            .iter()
-            .filter_map(|&(p, q)| {
-                let l = layer[p];
-                let ties = |r: usize| nb.all(r).filter(|&s| layer[s] == l && joined(r, s)).count();
-                let (tp, tq) = (ties(p), ties(q));
-                let (loose, loose_ties) = if tp <= tq { (p, tp) } else { (q, tq) };
-                let other = |s: &usize| layer[*s] != l && layer[*s] != u32::MAX;
-                let to = nb
-                    .all(loose)
-                    .filter(|s| other(s) && joined(loose, *s))
-                    .min_by(|&a, &b| {
-                        (depth[a] - depth[loose]).abs().total_cmp(&(depth[b] - depth[loose]).abs())
+        let plan = |forced: bool| -> Vec<(usize, u32, Option<f32>)> {
+            breaks
+                .iter()
+                .filter_map(|&(p, q)| {
+                    let l = layer[p];
+                    let ties = |r: usize| nb.all(r).filter(|&s| layer[s] == l && joined(r, s)).count();
+                    let (tp, tq) = (ties(p), ties(q));
+                    let (loose, loose_ties) = if tp <= tq { (p, tp) } else { (q, tq) };
+                    let other = |s: &usize| layer[*s] != l && layer[*s] != u32::MAX;
+                    let to = nb
+                        .all(loose)
+                        .filter(|s| other(s) && joined(loose, *s))
+                        .min_by(|&a, &b| {
+                            (depth[a] - depth[loose]).abs().total_cmp(&(depth[b] - depth[loose]).abs())
+                        })
+                        .map(|s| (loose, layer[s], None));
+                    let far_side = || {
+                        nb.all(loose)
+                            .filter(|s| other(s) && depth[*s].is_finite() && depth[*s] > depth[loose])
+                            .max_by(|&a, &b| depth[a].total_cmp(&depth[b]).then(b.cmp(&a)))
+                            .map(|s| (loose, layer[s], Some(depth[s])))
+                    };
+                    // Forced, with nothing farther: the nearest other layer, at its depth.
+                    let any_side = || {
+                        nb.all(loose)
+                            .filter(|s| other(s) && depth[*s] > 0.0)
+                            .min_by(|&a, &b| {
+                                (depth[a] - depth[loose]).abs().total_cmp(&(depth[b] - depth[loose]).abs())
+                            })
+                            .map(|s| (loose, layer[s], Some(depth[s])))
+                    };
+                    to.or_else(|| match (loose_ties <= 1, forced) {
+                        (true, _) => far_side(),
+                        (false, true) => far_side().or_else(any_side),
+                        (false, false) => None,
                     })
-                    .map(|s| (loose, layer[s], None));
-                let far_side = || {
-                    nb.all(loose)
-                        .filter(|s| other(s) && depth[*s].is_finite() && depth[*s] > depth[loose])
-                        .max_by(|&a, &b| depth[a].total_cmp(&depth[b]).then(b.cmp(&a)))
-                        .map(|s| (loose, layer[s], Some(depth[s])))
-                };
-                to.or_else(|| if loose_ties <= 1 { far_side() } else { None })
-            })
-            .collect();
+                })
+                .collect()
+        };
+        let mut moves = plan(forced);
+        if moves.is_empty() && !forced {
+            // Nothing the gentle rule moves: the forced passes take what is left.
+            forced = true;
+            moves = plan(true);
+        }
         if moves.is_empty() {
             return;
         }
@@ -259,16 +284,18 @@ pub(super) fn repair_breaks(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [
     }
 }
 
+/// Passes of [`repair_breaks`]'s gentle rule, then of its forced one.
+const REPAIR_PASSES: usize = 4;
+const FORCED_PASSES: usize = 2;
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mapping::{AnyMapping, MappingKind};
 
-    /// A sliver of in-between depth beside an object (a soft edge's remnant), in the object's layer
-    /// and continuous with no layer around it: it goes to the far side, as a mixed pixel does, and
-    /// the layer has no break left.
-    #[test]
-    fn a_sliver_with_no_layer_to_join_goes_to_the_far_side() {
+    /// A 32 × 16 canvas: a wall 4 m away (layer 0) and a 6 × 6 object 1 m away (layer 1) at
+    /// columns 10–15, rows 5–10. Returns the width, the neighbours, the depths and the layers.
+    fn object_on_wall() -> (usize, Neighbours, Vec<f32>, Vec<u32>) {
         let (w, h) = (32, 16);
         let nb = Neighbours::new(AnyMapping::new(MappingKind::Equirect, w, h).unwrap());
         let mut depth = vec![4.0f32; w * h];
@@ -279,6 +306,15 @@ mod tests {
                 layer_of[y * w + x] = 1;
             }
         }
+        (w, nb, depth, layer_of)
+    }
+
+    /// A sliver of in-between depth beside an object (a soft edge's remnant), in the object's layer
+    /// and continuous with no layer around it: it goes to the far side, as a mixed pixel does, and
+    /// the layer has no break left.
+    #[test]
+    fn a_sliver_with_no_layer_to_join_goes_to_the_far_side() {
+        let (w, nb, mut depth, mut layer_of) = object_on_wall();
         let sliver = 8 * w + 16;
         (depth[sliver], layer_of[sliver]) = (1.6, 1);
         let layer = |l: &[u32]| -> Vec<(usize, usize)> { breaks(&nb, &depth, |p| Some(l[p])) };
@@ -288,5 +324,27 @@ mod tests {
         assert!(breaks(&nb, &depth, |p| Some(layer_of[p])).is_empty());
         // The object is untouched.
         assert_eq!(layer_of.iter().filter(|&&l| l == 1).count(), 36);
+    }
+
+    /// A 2 × 2 block of in-between depth beside an object (8-bit depth's codes between its two
+    /// sides), in the object's layer: each pixel is tied to the block on three sides, so the gentle
+    /// rule moves none of it; the forced passes take the pixels at the step to the far side, and
+    /// the layer validates.
+    #[test]
+    fn a_block_tied_to_its_layer_across_a_step_still_leaves_no_break() {
+        let (w, nb, mut depth, mut layer_of) = object_on_wall();
+        for y in 7..9 {
+            for x in 16..18 {
+                (depth[y * w + x], layer_of[y * w + x]) = (1.6, 1);
+            }
+        }
+        let layer = |l: &[u32], d: &[f32]| breaks(&nb, d, |p| Some(l[p]));
+        assert_eq!(layer(&layer_of, &depth).len(), 2);
+        repair_breaks(&nb, &mut depth, &mut layer_of);
+        assert!(layer(&layer_of, &depth).is_empty());
+        for p in [7 * w + 16, 8 * w + 16] {
+            assert_eq!((layer_of[p], depth[p]), (0, 4.0));
+        }
+        assert_eq!(layer_of.iter().filter(|&&l| l == 1).count(), 38);
     }
 }

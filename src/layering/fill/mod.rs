@@ -321,8 +321,9 @@ fn claim_angle(
 /// is sky beyond the wall's edge, and a camera moved aside would see the wall there. A level plane
 /// is not cut (its horizon ends it where the truth does; the nearest seed would not). The farther
 /// layer's fill keeps the pixel, so no hole opens. `fills[k]` is layer `k`'s (larger is nearer),
-/// before [`add_borders`].
-pub fn yield_to_farther(fills: &mut [Fill]) {
+/// before [`add_borders`]. Returns, per layer, whether its fill lost pixels.
+pub fn yield_to_farther(fills: &mut [Fill]) -> Vec<bool> {
+    let before: Vec<usize> = fills.iter().map(|f| f.pixels.len()).collect();
     let mut nearest: HashMap<usize, f32> = HashMap::new();
     for i in 0..fills.len() {
         let (done, nearer) = fills.split_at_mut(i + 1);
@@ -340,6 +341,7 @@ pub fn yield_to_farther(fills: &mut [Fill]) {
             *a = a.min(f.angle);
         }
     }
+    fills.iter().zip(before).map(|(f, b)| f.pixels.len() < b).collect()
 }
 
 type Rivals = Vec<[u32; RIVALS]>;
@@ -469,7 +471,7 @@ pub fn add_borders(cx: &FillContext, fills: &mut [Fill]) {
 /// be a thin object's (a table leg's) continued far beyond it, and dropping all it claimed left
 /// a hole in the layer where the nearest seed's surface continues.
 fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill, mut own_plane: HashMap<usize, FillPixel>) {
-    let mut c = Continuity::new(cx, k, fill);
+    let mut c = Continuity::new(cx, k, fill, (cx.jump, cx.plane_tol));
     let mut dropped = c.drop_breaks(fill, &mut own_plane);
     if c.removed.is_empty() {
         return;
@@ -479,17 +481,32 @@ fn keep_continuous(cx: &FillContext, k: u32, fill: &mut Fill, mut own_plane: Has
     c.close_cracks(fill);
 }
 
+/// Drop the fill pixels of layer `k` that leave it discontinuous by `validate`'s rule
+/// ([`continuity::LAYER_JUMP`]), after [`yield_to_farther`] took some of its fill: a pair of
+/// filled pixels the build's own pass found one surface only through a plane test through a
+/// third pixel is a step once that pixel went to a farther layer. Of such a pair the nearer goes,
+/// as in [`keep_continuous`]; a farther layer's fill or surface shows there.
+pub fn keep_valid(cx: &FillContext, k: u32, fill: &mut Fill) {
+    if fill.pixels.is_empty() {
+        return;
+    }
+    let mut c = Continuity::new(cx, k, fill, (crate::continuity::LAYER_JUMP, crate::continuity::PLANAR));
+    c.drop_breaks(fill, &mut HashMap::new());
+}
+
 /// The layer's depth as [`keep_continuous`] edits it: its own pixels and its fill (NaN
 /// elsewhere), which pixels are filled, and the fill pixels removed so far.
 struct Continuity<'a, 'b> {
     cx: &'a FillContext<'b>,
+    /// The step and plane tolerance of [`continuous_with`] the layer is held to.
+    rule: (f64, f64),
     d: Vec<f32>,
     filled: Vec<bool>,
     removed: Vec<FillPixel>,
 }
 
 impl Continuity<'_, '_> {
-    fn new<'a, 'b>(cx: &'a FillContext<'b>, k: u32, fill: &Fill) -> Continuity<'a, 'b> {
+    fn new<'a, 'b>(cx: &'a FillContext<'b>, k: u32, fill: &Fill, rule: (f64, f64)) -> Continuity<'a, 'b> {
         let n = cx.nb.len();
         let mut d: Vec<f32> = (0..n)
             .into_par_iter()
@@ -500,7 +517,7 @@ impl Continuity<'_, '_> {
             d[f.pixel] = f.depth;
             filled[f.pixel] = true;
         }
-        Continuity { cx, d, filled, removed: Vec::new() }
+        Continuity { cx, rule, d, filled, removed: Vec::new() }
     }
 
     /// Move the pixels no longer filled out of `fill` (into `removed`).
@@ -524,8 +541,8 @@ impl Continuity<'_, '_> {
             b,
             || self.at(self.cx.nb.get_at(x, y, opposite(j))),
             || self.at(self.cx.nb.get2_at(x, y, j)),
-            self.cx.jump,
-            self.cx.plane_tol,
+            self.rule.0,
+            self.rule.1,
         )
     }
 

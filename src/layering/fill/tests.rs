@@ -442,3 +442,33 @@ fn from_soft_depth_seeds_on_small_pieces_of_an_outline_continue_their_layer() {
     assert!(soft >= 0.9, "from soft depth the fill continues the wall");
     assert!(exact < 0.5, "the cone's own planes leave the wall (else this test shows nothing)");
 }
+
+/// Two filled pixels of a layer side by side whose depths step by more than `validate`'s 50 % with
+/// nothing beside them to continue a plane (a third pixel that made them one surface went to a
+/// farther layer's fill): [`keep_valid`] drops the nearer; a pair within the step stays.
+#[test]
+fn a_fill_left_discontinuous_loses_its_nearer_pixel() {
+    let (m, w, n, nb) = equirect(64);
+    let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+    let depth = vec![f32::NAN; n];
+    let (normals, surface, layer_of) = (vec![Vec3::ZERO; n], vec![0u32; n], vec![1u32; n]);
+    let links = Links::compute(&nb, &depth, &EdgeOptions::default());
+    let rgb = [vec![0.5f32; n], vec![0.5f32; n], vec![0.5f32; n]];
+    let pdirs = PixelDirs::Full(dirs);
+    let cx = context(&nb, &pdirs, &depth, &normals, &layer_of, &links, &surface, &rgb);
+    let px = |pixel: usize, depth: f32| FillPixel {
+        pixel,
+        depth,
+        rgb: [0.5; 3],
+        surface: 0,
+        angle: 0.0,
+        level: false,
+    };
+    let (a, b) = (16 * w + 10, 16 * w + 11);
+    let (c, d) = (20 * w + 10, 20 * w + 11);
+    let mut fill = Fill { pixels: vec![px(a, 5.5), px(b, 3.5), px(c, 5.5), px(d, 4.0)], ..Fill::default() };
+    keep_valid(&cx, 0, &mut fill);
+    let mut kept: Vec<usize> = fill.pixels.iter().map(|f| f.pixel).collect();
+    kept.sort_unstable();
+    assert_eq!(kept, [a, c, d]);
+}
