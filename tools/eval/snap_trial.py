@@ -19,6 +19,8 @@ Methods:
 - `oracle-plane`: the bounds of taking any settled depth within R, and of each side's plane in
   disparity continued into the pixel.
 - `oracle-wide`: the bound of a side choice between the nearest and farthest settled depth within R.
+- `third`: in a strong step, a pixel in between whose colour matches neither side takes the near
+  side (`THIRD`: the colour distance, default 0.1).
 - `wmf`: a weighted mode filter (colour, distance and settledness weights) on pixels inside a step.
 - `segplane`: colour superpixels, a plane in disparity per superpixel from its settled pixels, the
   in-between pixels near steps take their superpixel's plane (see `segplane`; needs scikit-image).
@@ -43,6 +45,7 @@ SKY_LOG = np.log(1e4)
 SLOPE = float(os.environ.get("SNAP_SLOPE", "0"))  # 0: no slope test
 SETTLE_BY = os.environ.get("SETTLE_BY", "colour")
 CUT_SMOOTH = float(os.environ.get("CUT_SMOOTH", "0.3"))
+THIRD = float(os.environ.get("THIRD", "0.1"))
 
 
 def colour_of(src, work, kind):
@@ -93,6 +96,21 @@ def minmax(d, rgb, radius, jump, tol):
     df = np.linalg.norm(rgb - c_hi, axis=-1)
     out = np.where(band & (dn <= df), lo, np.where(band & (dn > df), hi, L))
     res = np.where(out >= SKY_LOG - 1e-6, np.inf, np.exp(out))
+    return np.where(np.isnan(d), np.nan, np.where(band, res, d)), band
+
+
+def third(d, rgb, radius, jump, tol):
+    """In a strong step (window range over `jump`), a pixel in between whose colour is far from both
+    sides' (more than THIRD, the 3 × 3 mean's square-root RGB distance) takes the near side: a
+    strip of its own colour along an occluding edge (a box's top face seen edge-on) is the
+    occluder's more often than what it hides."""
+    L = log_depth(d)
+    lo, hi, c_lo, c_hi = extremes(L, rgb, radius, disc=True)
+    band = (hi - lo > np.log(1 + jump)) & (L - lo > np.log(1 + tol)) & (hi - L > np.log(1 + tol))
+    dn = np.linalg.norm(rgb - c_lo, axis=-1)
+    df = np.linalg.norm(rgb - c_hi, axis=-1)
+    band &= (np.minimum(dn, df) > THIRD) & (hi < SKY_LOG - 1e-6)
+    res = np.where(lo >= SKY_LOG - 1e-6, np.inf, np.exp(lo))
     return np.where(np.isnan(d), np.nan, np.where(band, res, d)), band
 
 
@@ -592,6 +610,8 @@ def main():
                 out, moved = settle(prep, rgb, a.radius, a.tol, changed)
             elif a.method == "sideplane":
                 out, moved = side_plane(prep, rgb, a.radius, a.jump, a.tol)
+            elif a.method == "third":
+                out, moved = third(prep, rgb, a.radius, a.jump, a.tol)
             elif a.method == "wmf":
                 out, moved = wmf(prep, rgb, a.radius, a.jump, a.tol)
             elif a.method == "segplane":
