@@ -236,13 +236,13 @@ pub(super) fn repair_breaks(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [
                     let (tp, tq) = (ties(p), ties(q));
                     let (loose, loose_ties) = if tp <= tq { (p, tp) } else { (q, tq) };
                     let other = |s: &usize| layer[*s] != l && layer[*s] != u32::MAX;
-                    let to = nb
-                        .all(loose)
-                        .filter(|s| other(s) && joined(loose, *s))
-                        .min_by(|&a, &b| {
+                    // The neighbour in another layer nearest in depth among those `keep` accepts.
+                    let nearest = |keep: &dyn Fn(usize) -> bool| {
+                        nb.all(loose).filter(|s| other(s) && keep(*s)).min_by(|&a, &b| {
                             (depth[a] - depth[loose]).abs().total_cmp(&(depth[b] - depth[loose]).abs())
                         })
-                        .map(|s| (loose, layer[s], None));
+                    };
+                    let to = nearest(&|s| joined(loose, s)).map(|s| (loose, layer[s], None));
                     let far_side = || {
                         nb.all(loose)
                             .filter(|s| other(s) && depth[*s].is_finite() && depth[*s] > depth[loose])
@@ -250,14 +250,7 @@ pub(super) fn repair_breaks(nb: &Neighbours, depth: &mut [f32], layer_of: &mut [
                             .map(|s| (loose, layer[s], Some(depth[s])))
                     };
                     // Forced, with nothing farther: the nearest other layer, at its depth.
-                    let any_side = || {
-                        nb.all(loose)
-                            .filter(|s| other(s) && depth[*s] > 0.0)
-                            .min_by(|&a, &b| {
-                                (depth[a] - depth[loose]).abs().total_cmp(&(depth[b] - depth[loose]).abs())
-                            })
-                            .map(|s| (loose, layer[s], Some(depth[s])))
-                    };
+                    let any_side = || nearest(&|s| depth[s] > 0.0).map(|s| (loose, layer[s], Some(depth[s])));
                     to.or_else(|| match (loose_ties <= 1, forced) {
                         (true, _) => far_side(),
                         (false, true) => far_side().or_else(any_side),

@@ -82,18 +82,23 @@ def extremes(L, rgb, radius, disc):
     return lo, hi, c_lo, c_hi
 
 
-def minmax(d, rgb, radius, jump, tol):
+def in_step(d, rgb, radius, jump, tol):
+    """Log depth, the window's extremes, the pixels in between them in a step (range over `jump`,
+    more than `tol` from both ends) and each pixel's colour distance to the near and far side."""
     L = log_depth(d)
     lo, hi, c_lo, c_hi = extremes(L, rgb, radius, disc=True)
     band = (hi - lo > np.log(1 + jump)) & (L - lo > np.log(1 + tol)) & (hi - L > np.log(1 + tol))
+    return L, lo, hi, band, np.linalg.norm(rgb - c_lo, axis=-1), np.linalg.norm(rgb - c_hi, axis=-1)
+
+
+def minmax(d, rgb, radius, jump, tol):
+    L, lo, hi, band, dn, df = in_step(d, rgb, radius, jump, tol)
     # A step, not a slope: across a slope the window spans 2R times the local gradient; across a
     # blurred step far less (its sides are flat next to its ramp).
     g = np.maximum(np.abs(dq.shifted(L, 0, -1) - dq.shifted(L, 0, 1)),
                    np.abs(dq.shifted(L, -1, 0) - dq.shifted(L, 1, 0))) / 2
     if SLOPE > 0:
         band &= hi - lo < SLOPE * 2 * radius * g
-    dn = np.linalg.norm(rgb - c_lo, axis=-1)
-    df = np.linalg.norm(rgb - c_hi, axis=-1)
     out = np.where(band & (dn <= df), lo, np.where(band & (dn > df), hi, L))
     res = np.where(out >= SKY_LOG - 1e-6, np.inf, np.exp(out))
     return np.where(np.isnan(d), np.nan, np.where(band, res, d)), band
@@ -104,11 +109,7 @@ def third(d, rgb, radius, jump, tol):
     sides' (more than THIRD, the 3 × 3 mean's square-root RGB distance) takes the near side: a
     strip of its own colour along an occluding edge (a box's top face seen edge-on) is the
     occluder's more often than what it hides."""
-    L = log_depth(d)
-    lo, hi, c_lo, c_hi = extremes(L, rgb, radius, disc=True)
-    band = (hi - lo > np.log(1 + jump)) & (L - lo > np.log(1 + tol)) & (hi - L > np.log(1 + tol))
-    dn = np.linalg.norm(rgb - c_lo, axis=-1)
-    df = np.linalg.norm(rgb - c_hi, axis=-1)
+    _, lo, hi, band, dn, df = in_step(d, rgb, radius, jump, tol)
     band &= (np.minimum(dn, df) > THIRD) & (hi < SKY_LOG - 1e-6)
     res = np.where(lo >= SKY_LOG - 1e-6, np.inf, np.exp(lo))
     return np.where(np.isnan(d), np.nan, np.where(band, res, d)), band
