@@ -374,12 +374,16 @@ fn rivals(cx: &FillContext, k: u32, seeds: &[usize]) -> (Vec<u32>, Rivals) {
         queue.push_back((p as u32, i as u32));
     }
     let w = cx.nb.width();
+    // A pixel whose rivals are all found takes no more: its slot is flagged `FULL` so that the
+    // seeds spreading past it (most, once the fronts have passed) skip it on one lookup.
+    const FULL: u32 = 1 << 31;
     while let Some((p, s)) = queue.pop_front() {
         let (x, y) = (p as usize % w, p as usize / w);
         let (surface, normal) = planes[s as usize];
         for j in 0..8 {
             let Some(q) = cx.nb.get_at(x, y, j) else { continue };
-            if slot_of[q] == OUT {
+            // `OUT`, or `FULL`.
+            if slot_of[q] != NONE && slot_of[q] >= FULL {
                 continue;
             }
             if slot_of[q] == NONE {
@@ -397,12 +401,17 @@ fn rivals(cx: &FillContext, k: u32, seeds: &[usize]) -> (Vec<u32>, Rivals) {
             }
             let Some(free) = r.iter().position(|&t| t == NONE) else { continue };
             r[free] = s;
+            if free == RIVALS - 1 {
+                slot_of[q] |= FULL;
+            }
             queue.push_back((q as u32, s));
         }
     }
     slot_of.par_iter_mut().for_each(|s| {
         if *s == OUT {
             *s = NONE;
+        } else if *s != NONE {
+            *s &= !FULL;
         }
     });
     // Seeds are not hidden: their own slots, the last one where a pixel is listed twice.
