@@ -21,6 +21,9 @@ Methods:
 - `oracle-wide`: the bound of a side choice between the nearest and farthest settled depth within R.
 - `third`: in a strong step, a pixel in between whose colour matches neither side takes the near
   side (`THIRD`: the colour distance, default 0.1).
+- `ramp`: `third`'s candidates kept only where the pixel lies in a short blurred ramp (≤ 6 px between
+  kinks, along 2 of 4 lines, a colour edge across it) and no side's disparity continued linearly
+  predicts it (a real slope); see docs/build.md, seventeenth session.
 - `wmf`: a weighted mode filter (colour, distance and settledness weights) on pixels inside a step.
 - `segplane`: colour superpixels, a plane in disparity per superpixel from its settled pixels, the
   in-between pixels near steps take their superpixel's plane (see `segplane`; needs scikit-image).
@@ -113,6 +116,114 @@ def third(d, rgb, radius, jump, tol):
     band &= (np.minimum(dn, df) > THIRD) & (hi < SKY_LOG - 1e-6)
     res = np.where(lo >= SKY_LOG - 1e-6, np.inf, np.exp(lo))
     return np.where(np.isnan(d), np.nan, np.where(band, res, d)), band
+
+
+RAMP = dict(W=6, E=0.05, KINK=2.0, NDIR=2, FMIN=0.2, GATE=1.0, UNIF=1.3, CE=0.1, PASSES=1)
+RAMP.update({k: float(v) for k, v in (a.split("=") for a in os.environ.get("RAMP", "").split(",") if a)})
+RAMP_DIRS = ((0, 1), (1, 0), (1, 1), (1, -1))
+
+
+def _along(a, ys, xs, uy, ux, k):
+    """`a` at (ys, xs) + k·(uy, ux) (k a number or an array): the seam wraps, the poles clamp."""
+    h, w = a.shape
+    return a[np.clip(ys + k * uy, 0, h - 1), (xs + k * ux) % w]
+
+
+def ramp(d, rgb, radius, jump, tol):
+    """Ramp, not slope (issue 51): in a strong step (the disc's range over `jump`), a pixel more than
+    `tol` inside both ends is a blurred ramp, and takes a side, when
+    - along at least NDIR of the four lines through it (row, column, two diagonals) whose own range
+      over ±`radius` is over `jump`, it sits in a short run of in-between pixels (at most W) that ends
+      on the near side (within `tol` of the line's nearest) one way and on the far side the other way,
+      at a log-depth fraction FMIN..1−FMIN between them, with disparity changing over KINK times
+      faster across the run than over the 3 px beyond either end, visibly off both ends (their
+      parallax for an eye 0.5 m out over GATE pixels), and with colours beyond the two ends more than
+      CE apart (an occlusion edge, not a textured surface);
+    - and it is not on a slope: along no line with range over `jump` does one side's disparity
+      (least squares over 3..6 px out) continued linearly predict the pixel's within E, nor do four
+      pixels in a row through it or its neighbour step evenly in disparity (largest step at most UNIF
+      times the smallest, all one sign: a slanted face between an edge and a crease).
+    The side: a pixel whose colour is far from both window extremes' (over THIRD) takes the near
+    side (the nearest value on the near end's half of the first qualifying line), otherwise the
+    side whose colour is nearer (the farthest on the far end's half). PASSES: repeat on the result."""
+    out = d
+    moved = np.zeros(d.shape, bool)
+    for _ in range(int(RAMP["PASSES"])):
+        out, m = _ramp_pass(out, rgb, radius, jump, tol)
+        moved |= m
+    return out, moved
+
+
+def _ramp_pass(d, rgb, radius, jump, tol):
+    p = RAMP
+    R, W = radius, int(p["W"])
+    L, lo, hi, band, dn, df = in_step(d, rgb, R, jump, tol)
+    band &= hi < SKY_LOG - 1e-6  # the far side not the sky
+    third = np.minimum(dn, df) > THIRD
+    inv = dq.inverse(np.where(np.isnan(d), np.inf, d))
+    ys, xs = np.nonzero(band)
+    n = len(ys)
+    t = np.log(1 + tol)
+    ang = 2 * np.pi / d.shape[1]
+    Lp, ip = L[ys, xs], inv[ys, xs]
+    nsand = np.zeros(n, int)
+    slope = np.zeros(n, bool)
+    val = np.full(n, np.nan)
+    tt = np.arange(3, 7, dtype=float)
+    A = np.stack([tt, np.ones_like(tt)], 1)
+    pick_far = ~third[ys, xs] & (df[ys, xs] < dn[ys, xs])
+    for uy, ux in RAMP_DIRS:
+        prof = np.stack([_along(L, ys, xs, uy, ux, k) for k in range(-R, R + 1)], 1)
+        lo_u, hi_u = prof.min(1), prof.max(1)
+        strong = hi_u - lo_u > np.log(1 + jump)
+        ends = {}
+        for s in (1, -1):
+            kk, typ = np.zeros(n, int), np.zeros(n, int)  # first px out at a side; 1 near, 2 far
+            for k in range(1, R + 1):
+                v = prof[:, R + s * k]
+                isn, isf = v <= lo_u + t, v >= hi_u - t
+                new = (kk == 0) & (isn | isf)
+                kk[new], typ[new] = k, np.where(isn[new], 1, 2)
+            ends[s] = (kk, typ)
+        (kp, tp), (km, tm) = ends[1], ends[-1]
+        sand = strong & (kp > 0) & (km > 0) & (tp * tm == 2) & (kp + km - 1 <= W)
+        f = (Lp - lo_u) / np.maximum(hi_u - lo_u, 1e-9)
+        sand &= (f >= p["FMIN"]) & (f <= 1 - p["FMIN"])
+        g_run = np.abs(_along(inv, ys, xs, uy, ux, kp) - _along(inv, ys, xs, uy, ux, -km)) / (kp + km)
+        g_p = np.abs(_along(inv, ys, xs, uy, ux, kp + 3) - _along(inv, ys, xs, uy, ux, kp)) / 3
+        g_m = np.abs(_along(inv, ys, xs, uy, ux, -km - 3) - _along(inv, ys, xs, uy, ux, -km)) / 3
+        sand &= g_run > p["KINK"] * np.maximum(g_p, g_m)
+        inear, ifar = np.exp(-lo_u), np.where(hi_u >= SKY_LOG - 1e-6, 0.0, np.exp(-hi_u))
+        sand &= ((ip - ifar) * dq.EYE > p["GATE"] * ang) & ((inear - ip) * dq.EYE > p["GATE"] * ang)
+        ca = np.stack([_along(rgb[..., c], ys, xs, uy, ux, kp + 1) for c in range(3)], 1)
+        cb = np.stack([_along(rgb[..., c], ys, xs, uy, ux, -km - 1) for c in range(3)], 1)
+        sand &= np.linalg.norm(ca - cb, axis=1) > p["CE"]
+        nside = np.where(tp == 1, prof[:, R + 1:].min(1), prof[:, :R].min(1))
+        fside = np.where(tp == 2, prof[:, R + 1:].max(1), prof[:, :R].max(1))
+        val = np.where(sand & (nsand == 0), np.where(pick_far, fside, nside), val)
+        nsand += sand
+        # Slope: one side's disparity 3..6 px out, continued linearly, predicts the pixel's.
+        on = np.zeros(n, bool)
+        for s in (1, -1):
+            iv = np.stack([_along(inv, ys, xs, uy * s, ux * s, k) for k in tt.astype(int)], 1)
+            coef = np.linalg.lstsq(A, iv.T, rcond=None)[0]
+            on |= np.abs(coef[1] - ip) <= p["E"] * np.maximum(ip, 1e-9)
+        # Slope: four pixels in a row through the pixel or its neighbour step evenly in disparity.
+        q = np.stack([_along(inv, ys, xs, uy, ux, k) for k in range(-4, 5)], 1)
+        st_all = np.diff(q, axis=1)
+        for a in range(6):
+            st = st_all[:, a:a + 3]
+            same = np.all(st > 0, 1) | np.all(st < 0, 1)
+            mx, mn = np.abs(st).max(1), np.abs(st).min(1)
+            on |= same & (mx <= p["UNIF"] * mn) & (mx > 1e-3 * np.maximum(ip, 1e-9))
+        slope |= on & strong
+    ok = (nsand >= p["NDIR"]) & ~slope
+    moved = np.zeros(d.shape, bool)
+    moved[ys[ok], xs[ok]] = True
+    out = d.copy()
+    v = val[ok]
+    out[ys[ok], xs[ok]] = np.where(v >= SKY_LOG - 1e-6, np.inf, np.exp(v))
+    return out, moved
 
 
 def settle(d, rgb, radius, tol, moved):
@@ -613,6 +724,8 @@ def main():
                 out, moved = side_plane(prep, rgb, a.radius, a.jump, a.tol)
             elif a.method == "third":
                 out, moved = third(prep, rgb, a.radius, a.jump, a.tol)
+            elif a.method == "ramp":
+                out, moved = ramp(prep, rgb, a.radius, a.jump, a.tol)
             elif a.method == "wmf":
                 out, moved = wmf(prep, rgb, a.radius, a.jump, a.tol)
             elif a.method == "segplane":
@@ -622,7 +735,7 @@ def main():
             dt = time.time() - t0
             before = dq.flying(prep, truth)[0].mean() * 100
             after = dq.flying(out, truth)[0].mean() * 100
-            cells.append(f"{before:.2f} → **{after:.2f}** ({moved.mean() * 100:.2f}, {dt:.1f} s)")
+            cells.append(f"{before:.2f} → **{after:.2f}** ({moved.mean() * 100:.2f} %, {int(moved.sum())} px, {dt:.1f} s)")
         print(f"| `{kind}` | {' | '.join(cells)} |", flush=True)
 
 
