@@ -246,7 +246,7 @@ pub(crate) fn mode_filter(nb: &Neighbours, log: &mut [f32], colour: &[[f32; 3]])
 
 /// Per pixel, the least and greatest of `src` over the square of radius [`RADIUS`] around it as
 /// [`Grid::at`] reaches it (a row pass, then a column pass over the rows' results).
-fn square_range(g: &Grid, src: &[f32]) -> (Vec<f32>, Vec<f32>) {
+pub(super) fn square_range(g: &Grid, src: &[f32]) -> (Vec<f32>, Vec<f32>) {
     if g.face == 0 {
         return square_range_equirect(g, src);
     }

@@ -57,8 +57,8 @@ pub struct DepthArgs {
     #[arg(long, value_name = "X,Y,METRES", value_parser = parse_known_distance)]
     pub known_distance: Option<KnownDistance>,
     /// Settle soft depth edges onto colour edges and smooth depth noise: auto (mode's filter when
-    /// the edges measure soft; noise smoothed when noisy), mode (the filter on any depth), on (the
-    /// older snap), off.
+    /// the edges measure soft; noise smoothed when noisy), mode (the filter on any depth), ramps
+    /// (mode, then short blurred ramps to a side), on (the older snap), off.
     #[arg(long, value_parser = choice::<Refine>(), default_value = "auto")]
     pub refine: Refine,
     /// What unknown depth means: complete (a surface, completed from around it) or sky (nothing there).
