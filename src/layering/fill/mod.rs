@@ -110,10 +110,16 @@ pub fn parallax_band(r: f64, near: f64, far: f64) -> f64 {
 /// floor), with room to spare for the faces a rounded-off crease adds.
 const RIVALS: usize = 5;
 
+/// Cosine of the largest angle between a rival seed and the pixel that weighs it (45°). The
+/// rivals that win lie within 30° of their pixel on the 4096 room and in all but one layer of a
+/// 12-megapixel photo, while a search through the whole occluder flooded most of the canvas once
+/// per surface (docs/benchmarks.md, eighteenth session).
+const RIVAL_COS: f32 = std::f32::consts::FRAC_1_SQRT_2;
+
 /// Fill layer `k` behind its occluders.
 ///
 /// Every hidden pixel within the parallax band takes the nearest seed (breadth-first). A second
-/// search, not limited to the band, finds for every hidden pixel the nearest seeds of up to
+/// search, not limited to the band (but to 45°), finds for every hidden pixel the nearest seeds of up to
 /// `RIVALS` other surfaces around the same occluder: where a floor meets a wall, or two walls
 /// meet, behind a box, the pixel takes the plane the crease puts it on (`pick_surface`) even
 /// when that plane shows only far away (above the box).
@@ -347,7 +353,7 @@ pub fn yield_to_farther(fills: &mut [Fill]) -> Vec<bool> {
 type Rivals = Vec<[u32; RIVALS]>;
 
 /// (2) The rival surfaces of layer `k` from its jump seeds: for each hidden pixel's slot, the
-/// nearest seeds of other surfaces through the whole occluder.
+/// nearest seeds of other surfaces through the occluder, within 45° ([`RIVAL_COS`]).
 fn rivals(cx: &FillContext, k: u32, seeds: &[usize]) -> (Vec<u32>, Rivals) {
     let n = cx.nb.len();
     // Directions only (the infinity layer): there is no plane to continue, so no rival to
@@ -355,7 +361,7 @@ fn rivals(cx: &FillContext, k: u32, seeds: &[usize]) -> (Vec<u32>, Rivals) {
     if !seeds.iter().any(|&p| cx.depth[p].is_finite()) {
         return (vec![NONE; n], Vec::new());
     }
-    // (2) Rival surfaces: nearest seeds of other surfaces through the whole occluder. Slots are
+    // (2) Rival surfaces: nearest seeds of other surfaces through the occluder. Slots are
     // kept for hidden pixels only (compact index), the seeds being their own first rival. While
     // searching, a pixel's slot also tells whether it is hidden (`OUT`: not), one lookup instead
     // of three, and the slots hold seed indices, whose surfaces and normals sit in a small table
@@ -374,6 +380,7 @@ fn rivals(cx: &FillContext, k: u32, seeds: &[usize]) -> (Vec<u32>, Rivals) {
         queue.push_back((p as u32, i as u32));
     }
     let w = cx.nb.width();
+    let seed_dirs: Vec<Vec3> = seeds.iter().map(|&p| cx.dirs.at(p)).collect();
     // A pixel whose rivals are all found takes no more: its slot is flagged `FULL` so that the
     // seeds spreading past it (most, once the fronts have passed) skip it on one lookup.
     const FULL: u32 = 1 << 31;
@@ -384,6 +391,9 @@ fn rivals(cx: &FillContext, k: u32, seeds: &[usize]) -> (Vec<u32>, Rivals) {
             let Some(q) = cx.nb.get_at(x, y, j) else { continue };
             // `OUT`, or `FULL`.
             if slot_of[q] != NONE && slot_of[q] >= FULL {
+                continue;
+            }
+            if cx.dirs.at(q).dot(seed_dirs[s as usize]) < RIVAL_COS {
                 continue;
             }
             if slot_of[q] == NONE {

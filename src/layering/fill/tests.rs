@@ -472,3 +472,25 @@ fn a_fill_left_discontinuous_loses_its_nearer_pixel() {
     kept.sort_unstable();
     assert_eq!(kept, [a, c, d]);
 }
+
+/// Rivals are weighed within 45° of their seed only: behind a nearer layer that hides a whole
+/// band of the sphere, a pixel 30° from the wall's one seed has it as a rival, one 60° away has
+/// none (the search once flooded every hidden pixel of the canvas).
+#[test]
+fn rivals_are_searched_within_45_degrees() {
+    let (m, w, n, nb) = equirect(128);
+    let dirs: Vec<Vec3> = (0..n).map(|p| m.pixel_dir(p % w, p / w).as_vec3()).collect();
+    // Layer 0 is one column of wall (x 0), the rest a nearer layer 1 m away.
+    let layer_of: Vec<u32> = (0..n).map(|p| u32::from(p % w != 0)).collect();
+    let depth: Vec<f32> = (0..n).map(|p| if p % w == 0 { 3.0 } else { 1.0 }).collect();
+    let b = Planes::of(nb, dirs, depth, layer_of, vec![0u32; n], vec![Vec3::X; n]);
+    let cx = b.cx();
+    let seed = (w / 4) * w; // On the equator.
+    let (slot_of, rivals) = rivals(&cx, 0, &[seed]);
+    let pixel = 360.0 / w as f64;
+    let at = |deg: f64| (w / 4) * w + (deg / pixel).round() as usize;
+    let holds = |p: usize| slot_of[p] != NONE && rivals[slot_of[p] as usize].contains(&(seed as u32));
+    assert!(holds(at(30.0)), "30° away");
+    assert!(!holds(at(60.0)), "60° away");
+    assert!(!holds(at(180.0)), "opposite");
+}
