@@ -107,6 +107,11 @@ pub(super) fn colour_mean(g: &Grid, guide: &[[f32; 3]]) -> Vec<[f32; 3]> {
         .collect()
 }
 
+/// Squared distance between two guide colours.
+pub(super) fn colour_distance(a: [f32; 3], b: [f32; 3]) -> f32 {
+    (0..3).map(|i| (a[i] - b[i]).powi(2)).sum()
+}
+
 /// Disparity of a log depth, 0 for the sky.
 pub(super) fn inverse(l: f32) -> f32 {
     if l >= SKY_LOG - 1e-3 {

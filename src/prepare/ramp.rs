@@ -8,7 +8,7 @@
 use rayon::prelude::*;
 
 use super::complete::SKY_LOG;
-use super::mode::{inverse, square_range, Grid, RADIUS};
+use super::mode::{colour_distance, inverse, square_range, Grid, RADIUS};
 
 /// A step: the disc's nearest and farthest depths more than this ratio apart (log, `ln 1.5`).
 const JUMP: f32 = 0.405_465_1;
@@ -68,7 +68,8 @@ fn ramp_side(g: &Grid, log: &[f32], colour: &[[f32; 3]], p: usize) -> Option<f32
             if dx * dx + dy * dy > r * r {
                 continue;
             }
-            let q = g.at(x, y, dx, dy)?;
+            // Off a cube's face: not in the disc.
+            let Some(q) = g.at(x, y, dx, dy) else { continue };
             let v = log[q];
             if v < lo {
                 (lo, c_lo) = (v, colour[q]);
@@ -83,8 +84,8 @@ fn ramp_side(g: &Grid, log: &[f32], colour: &[[f32; 3]], p: usize) -> Option<f32
         return None;
     }
     let c = colour[p];
-    let (dn, df) = (distance(c, c_lo), distance(c, c_hi));
-    let pick_far = dn.min(df) <= THIRD && df < dn;
+    let (dn, df) = (colour_distance(c, c_lo), colour_distance(c, c_hi));
+    let pick_far = dn.min(df) <= THIRD * THIRD && df < dn;
     let ip = inverse(lp);
     let pixel = g.pixel_angle();
     let (mut lines, mut side, mut slope) = (0usize, None, false);
@@ -133,12 +134,12 @@ fn ramp_side(g: &Grid, log: &[f32], colour: &[[f32; 3]], p: usize) -> Option<f32
         if run <= KINK * ((a3 - a).abs() / 3.0).max((b3 - b).abs() / 3.0) {
             continue;
         }
-        let (near, far) = (lo_u.exp().recip(), if hi_u >= SKY_LOG - 1e-3 { 0.0 } else { (-hi_u).exp() });
+        let (near, far) = (inverse(lo_u), inverse(hi_u));
         if !((ip - far) * EYE > pixel && (near - ip) * EYE > pixel) {
             continue;
         }
         let (Some(qa), Some(qb)) = (at(kp + 1), at(-km - 1)) else { continue };
-        if distance(colour[qa], colour[qb]) <= COLOUR_EDGE {
+        if colour_distance(colour[qa], colour[qb]) <= COLOUR_EDGE * COLOUR_EDGE {
             continue;
         }
         lines += 1;
@@ -181,10 +182,6 @@ fn is_slope(ip: f32, inv_at: &dyn Fn(isize) -> Option<f32>) -> bool {
         let (mx, mn) = st.iter().fold((0f32, f32::INFINITY), |(a, b), s| (a.max(s.abs()), b.min(s.abs())));
         one_sign && mx <= EVEN * mn && mx > 1e-3 * scale
     })
-}
-
-fn distance(a: [f32; 3], b: [f32; 3]) -> f32 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
 #[cfg(test)]

@@ -11,6 +11,7 @@ use rayon::prelude::*;
 use crate::continuity;
 use crate::mapping::{opposite, Neighbours};
 use crate::prepare::complete::SKY_LOG;
+use crate::prepare::mode::colour_distance;
 
 /// Replace the specks of `log` (log depth; within 1e-3 of the sky's, [`SKY_LOG`], is infinitely far) smaller than
 /// `max` pixels. Returns the pixels changed.
@@ -101,8 +102,4 @@ fn fill(nb: &Neighbours, log: &mut [f32], guide: &[[f32; 3]], speck: &mut [bool]
         }
         left.retain(|&p| speck[p]);
     }
-}
-
-fn colour_distance(a: [f32; 3], b: [f32; 3]) -> f32 {
-    (0..3).map(|i| (a[i] - b[i]).powi(2)).sum()
 }

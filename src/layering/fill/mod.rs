@@ -119,10 +119,10 @@ const RIVAL_COS: f32 = std::f32::consts::FRAC_1_SQRT_2;
 /// Fill layer `k` behind its occluders.
 ///
 /// Every hidden pixel within the parallax band takes the nearest seed (breadth-first). A second
-/// search, not limited to the band (but to 45°), finds for every hidden pixel the nearest seeds of up to
-/// `RIVALS` other surfaces around the same occluder: where a floor meets a wall, or two walls
-/// meet, behind a box, the pixel takes the plane the crease puts it on (`pick_surface`) even
-/// when that plane shows only far away (above the box).
+/// search, not limited to the band (only to 45° from each seed), finds for every hidden pixel the
+/// nearest seeds of up to `RIVALS` other surfaces around the same occluder: where a floor meets a
+/// wall, or two walls meet, behind a box, the pixel takes the plane the crease puts it on
+/// (`pick_surface`) even when that plane shows only far away (above the box).
 pub fn fill_layer(cx: &FillContext, k: u32) -> Fill {
     // Seeds across a jump first; seeds along a fold only (the floor a box stands on) reach what
     // the former leave.
